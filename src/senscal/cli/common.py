@@ -1,0 +1,122 @@
+"""Helpers shared by the command modules: options, loading, output."""
+
+from __future__ import annotations
+
+import json
+import sys
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Iterable, Iterator, Optional, Sequence, TypeVar
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+from typing_extensions import Annotated
+
+from senscal._result import to_jsonable
+from senscal.errors import InputError
+from senscal.io import Recording, read_recording
+
+T = TypeVar("T")
+
+console = Console(highlight=False)
+err_console = Console(stderr=True, highlight=False)
+
+# Options every command that reads recordings shares (same words everywhere).
+TimeColumnOpt = Annotated[str, typer.Option("--time-column", help="Name of the time column (seconds).")]
+FsOpt = Annotated[Optional[float], typer.Option("--fs", help="Sample rate in Hz for files without a time column.")]
+NamesOpt = Annotated[Optional[str], typer.Option("--names", help="Column names for a text file without header, comma separated.")]
+JsonOpt = Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON result on stdout.")]
+
+
+def split_names(text: str | None) -> list[str] | None:
+    """Split ``"a,b,c"`` into names (None stays None)."""
+    if text is None:
+        return None
+    names = [s.strip() for s in text.split(",") if s.strip()]
+    if not names:
+        raise InputError(f"expected comma-separated names, got {text!r}")
+    return names
+
+
+def parse_floats(text: str, what: str) -> list[float]:
+    """Parse ``"1,2.5,3"`` into floats with a clear error."""
+    try:
+        return [float(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise InputError(f"{what} must be comma-separated numbers, got {text!r}") from None
+
+
+def parse_relative(text: str, what: str) -> float:
+    """Parse ``"0.2%"`` (percent) or ``"0.002"`` (fraction) into a fraction."""
+    s = text.strip()
+    try:
+        value = float(s[:-1]) / 100.0 if s.endswith("%") else float(s)
+    except ValueError:
+        raise InputError(f"{what} must be a number or a percentage like 0.2%, got {text!r}") from None
+    if value < 0:
+        raise InputError(f"{what} must not be negative, got {text!r}")
+    return value
+
+
+def load(path: Path | str, *, time_column: str = "t", fs: float | None = None,
+         names: str | None = None, channels: Sequence[str] | None = None,
+         allow_nan: bool = False) -> Recording:
+    """Read a recording for a command (errors are one-line SenscalErrors)."""
+    return read_recording(path, time_column=time_column, fs=fs, names=split_names(names),
+                          channels=channels, allow_nan=allow_nan)
+
+
+def print_json(obj: Any) -> None:
+    """Print ``obj`` as indented JSON on stdout."""
+    sys.stdout.write(json.dumps(to_jsonable(obj), indent=2) + "\n")
+
+
+def write_json(obj: Any, path: Path | str) -> Path:
+    """Write ``obj`` as JSON to ``path`` (folders created)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(to_jsonable(obj), indent=2) + "\n")
+    return path
+
+
+def table(title: str, columns: Sequence[str], rows: Iterable[Sequence[Any]]) -> Table:
+    """A Rich table with right-aligned numeric columns."""
+    tab = Table(title=title, title_justify="left")
+    for i, c in enumerate(columns):
+        tab.add_column(c, justify="left" if i == 0 else "right")
+    for r in rows:
+        tab.add_row(*[fmt(v) for v in r])
+    return tab
+
+
+def fmt(v: Any, digits: int = 6) -> str:
+    """Format a number for a table (strings pass through)."""
+    if v is None:
+        return "-"
+    if isinstance(v, str):
+        return v
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return str(v)
+    return f"{f:.{digits}g}"
+
+
+@contextmanager
+def progress_bar(description: str, total: int | None, *, disable: bool = False) -> Iterator[Any]:
+    """A Rich progress bar on stderr (so ``--json`` stdout stays clean)."""
+    prog = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    console=err_console, transient=True, disable=disable or not err_console.is_terminal)
+    with prog:
+        task = prog.add_task(description, total=total)
+        yield lambda n=1: prog.advance(task, n)
+
+
+def track(items: Sequence[T], description: str) -> Iterator[T]:
+    """Iterate with a progress bar on stderr."""
+    with progress_bar(description, len(items)) as advance:
+        for item in items:
+            yield item
+            advance()

@@ -1,0 +1,6 @@
+"""Reading and writing recordings (CSV, Parquet, HDF5, TDMS, NPZ)."""
+
+from senscal.io.readers import FORMATS, read_recording, write_recording
+from senscal.io.recording import Recording, check_finite, check_time
+
+__all__ = ["Recording", "read_recording", "write_recording", "check_finite", "check_time", "FORMATS"]

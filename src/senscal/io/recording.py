@@ -1,0 +1,239 @@
+"""The one in-memory type for a recording: named channels on a time base."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+
+from senscal.errors import DataError, InputError, TooFewSamplesError, UnknownChannelError
+
+__all__ = ["Recording", "check_finite", "check_time"]
+
+
+def _first_bad(mask: np.ndarray) -> int:
+    return int(np.flatnonzero(mask)[0])
+
+
+def check_finite(name: str, values: np.ndarray, *, source: str | None = None, allow_nan: bool = False) -> None:
+    """Raise :class:`DataError` naming the channel and first bad row.
+
+    Parameters
+    ----------
+    name : str
+        Channel name used in the message.
+    values : ndarray
+        1-D samples.
+    source : str, optional
+        File name used in the message.
+    allow_nan : bool
+        When true, NaN is accepted as "missing" but +/-inf still is not.
+    """
+    bad = np.isinf(values) if allow_nan else ~np.isfinite(values)
+    if bad.any():
+        row = _first_bad(bad)
+        where = f" in {source}" if source else ""
+        kind = "NaN" if np.isnan(values[row]) else "inf"
+        raise DataError(
+            f"channel '{name}'{where} has {kind} at sample {row} (and {int(bad.sum()) - 1} more); "
+            "remove or interpolate the bad samples before calibrating"
+        )
+
+
+def check_time(t: np.ndarray, *, source: str | None = None, name: str = "t") -> None:
+    """Raise :class:`DataError` unless ``t`` is finite and strictly increasing."""
+    where = f" in {source}" if source else ""
+    if not np.all(np.isfinite(t)):
+        row = _first_bad(~np.isfinite(t))
+        raise DataError(f"time column '{name}'{where} is not finite at sample {row}; fix the time stamps")
+    if t.size > 1:
+        d = np.diff(t)
+        if np.any(d <= 0):
+            row = _first_bad(d <= 0) + 1
+            what = "duplicate" if d[row - 1] == 0 else "non-monotonic (goes backwards)"
+            raise DataError(
+                f"time column '{name}'{where} is {what} at sample {row} "
+                f"(t={t[row - 1]!r} then {t[row]!r}); time stamps must strictly increase"
+            )
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Named channels sampled on one time base.
+
+    Parameters
+    ----------
+    channels : mapping of str to array_like
+        Channel name -> 1-D samples (converted to float64), all the same length.
+    t : array_like, optional
+        Time stamps in seconds, strictly increasing.  Give ``t`` or ``fs``.
+    fs : float, optional
+        Sample rate in Hz of a uniform record that starts at ``t0``.
+    t0 : float
+        Start time in seconds when ``fs`` is given (default 0).
+    units : mapping of str to str, optional
+        Unit of each channel (e.g. ``"m/s^2"``, ``"V"``).
+    metadata : mapping, optional
+        Free-form information (sensor, operator, file properties).
+    source : str, optional
+        Where the recording came from (file path), used in messages.
+    allow_nan : bool
+        Accept NaN as missing samples (inf is always refused).
+
+    Notes
+    -----
+    Time is never re-zeroed: ``time`` is exactly what the file said.
+    """
+
+    channels: Mapping[str, np.ndarray]
+    t: np.ndarray | None = None
+    fs: float | None = None
+    t0: float = 0.0
+    units: Mapping[str, str] = field(default_factory=dict)
+    metadata: Mapping[str, Any] = field(default_factory=dict)
+    source: str | None = None
+    allow_nan: bool = False
+
+    def __post_init__(self) -> None:
+        chans: dict[str, np.ndarray] = {}
+        n = None
+        for name, values in dict(self.channels).items():
+            try:
+                arr = np.array(values, dtype=np.float64, copy=True)
+            except (TypeError, ValueError) as exc:
+                raise DataError(f"channel '{name}' holds non-numeric values; keep only numbers in data columns") from exc
+            if arr.ndim != 1:
+                raise InputError(f"channel '{name}' must be 1-D, got shape {arr.shape}")
+            if n is None:
+                n = arr.size
+            elif arr.size != n:
+                raise InputError(f"channel '{name}' has {arr.size} samples but others have {n}; channels must share one time base")
+            check_finite(name, arr, source=self.source, allow_nan=self.allow_nan)
+            arr.setflags(write=False)
+            chans[str(name)] = arr
+        if not chans:
+            raise InputError(f"recording{' ' + self.source if self.source else ''} has no data channels")
+        object.__setattr__(self, "channels", MappingProxyType(chans))
+        if (self.t is None) == (self.fs is None):
+            raise InputError("give exactly one of t (time stamps) or fs (sample rate)")
+        if self.t is not None:
+            t = np.array(self.t, dtype=np.float64, copy=True)
+            if t.ndim != 1 or t.size != n:
+                raise InputError(f"time vector has {t.size} samples but channels have {n}")
+            check_time(t, source=self.source)
+            t.setflags(write=False)
+            object.__setattr__(self, "t", t)
+        else:
+            fs = float(self.fs)  # type: ignore[arg-type]
+            if not np.isfinite(fs) or fs <= 0:
+                raise InputError(f"sample rate must be a positive number of Hz, got {self.fs!r}")
+            object.__setattr__(self, "fs", fs)
+        object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
+        object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+
+    # -- basic facts ---------------------------------------------------------
+    @property
+    def names(self) -> list[str]:
+        """Channel names in file order."""
+        return list(self.channels)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples per channel."""
+        return next(iter(self.channels.values())).size
+
+    @property
+    def time(self) -> np.ndarray:
+        """Time stamps in seconds (built from ``fs`` and ``t0`` if needed)."""
+        if self.t is not None:
+            return self.t
+        return self.t0 + np.arange(self.n_samples) / self.fs
+
+    @property
+    def is_uniform(self) -> bool:
+        """True when samples are equally spaced (within 1e-6 of the spacing)."""
+        if self.fs is not None or self.n_samples < 3:
+            return True
+        d = np.diff(self.t)
+        # Time stamps far from zero carry rounding jitter of ~1e-16 * |t|.
+        tol = 1e-6 * float(np.mean(d)) + 4e-16 * float(np.max(np.abs(self.t)))
+        return bool(np.ptp(d) <= tol)
+
+    @property
+    def sample_rate(self) -> float:
+        """Sample rate in Hz (``fs``, or 1 / median spacing of ``t``)."""
+        if self.fs is not None:
+            return self.fs
+        if self.n_samples < 2:
+            raise TooFewSamplesError("a single sample has no sample rate")
+        return float(1.0 / np.median(np.diff(self.t)))
+
+    @property
+    def duration(self) -> float:
+        """Span from first to last sample in seconds."""
+        t = self.time
+        return float(t[-1] - t[0]) if t.size else 0.0
+
+    # -- access --------------------------------------------------------------
+    def _check_names(self, names: Iterable[str]) -> list[str]:
+        names = list(names)
+        for name in names:
+            if name not in self.channels:
+                where = f" in {self.source}" if self.source else ""
+                raise UnknownChannelError(
+                    f"no channel '{name}'{where}; channels are: {', '.join(self.names)}"
+                )
+        return names
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        self._check_names([name])
+        return self.channels[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.channels
+
+    def data(self, names: Sequence[str] | None = None) -> np.ndarray:
+        """Channels stacked as an array of shape (n_channels, n_samples)."""
+        names = self.names if names is None else self._check_names(names)
+        return np.stack([self.channels[n] for n in names])
+
+    def unit(self, name: str) -> str:
+        """Unit of a channel ('' when unknown)."""
+        self._check_names([name])
+        return self.units.get(name, "")
+
+    def select(self, names: Sequence[str]) -> "Recording":
+        """A recording holding only the named channels."""
+        names = self._check_names(names)
+        return self._replace(channels={n: self.channels[n] for n in names},
+                             units={n: self.units[n] for n in names if n in self.units})
+
+    def slice(self, start: int, stop: int | None = None) -> "Recording":
+        """Samples ``start:stop`` of every channel (time base kept)."""
+        sl = slice(start, stop)
+        chans = {n: v[sl] for n, v in self.channels.items()}
+        if self.t is not None:
+            return self._replace(channels=chans, t=self.t[sl])
+        first = range(self.n_samples)[sl]
+        t0 = self.t0 + (first.start if len(first) else 0) / self.fs
+        return self._replace(channels=chans, t0=t0)
+
+    def _replace(self, **changes: Any) -> "Recording":
+        kw = dict(channels=self.channels, t=self.t, fs=self.fs, t0=self.t0, units=self.units,
+                  metadata=self.metadata, source=self.source, allow_nan=self.allow_nan)
+        kw.update(changes)
+        return Recording(**kw)
+
+    def require_samples(self, n: int, what: str) -> None:
+        """Raise :class:`TooFewSamplesError` unless at least ``n`` samples exist."""
+        if self.n_samples < n:
+            where = f" {self.source}" if self.source else ""
+            raise TooFewSamplesError(
+                f"recording{where} has {self.n_samples} samples but {what} needs at least {n}; record longer"
+            )
+
+    def __repr__(self) -> str:
+        base = f"fs={self.fs:g} Hz" if self.fs is not None else f"t=[{self.time[0]:g} .. {self.time[-1]:g}] s"
+        return f"Recording({len(self.channels)} channels x {self.n_samples} samples, {base}, channels={self.names})"

@@ -1,0 +1,1 @@
+"""Reports: plots, calibration certificates and the demo index page."""

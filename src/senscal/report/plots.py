@@ -1,0 +1,44 @@
+"""Matplotlib helpers that never touch global pyplot state.
+
+Figures are built with :class:`matplotlib.figure.Figure` directly (no GUI
+backend, safe in worker processes) and saved as PNG or inlined as SVG.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+from pathlib import Path
+
+from matplotlib.figure import Figure
+
+__all__ = ["new_figure", "save_figure", "svg_inline", "png_data_uri"]
+
+
+def new_figure(nrows: int = 1, ncols: int = 1, *, width: float = 8.0, height: float = 4.5, **kw):
+    """Return ``(fig, axes)`` without pyplot (``axes`` squeezed like pyplot)."""
+    fig = Figure(figsize=(width, height), layout="constrained")
+    axes = fig.subplots(nrows, ncols, **kw)
+    return fig, axes
+
+
+def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
+    """Save a figure (format from the extension: .png, .svg, .pdf)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    return path
+
+
+def svg_inline(fig: Figure) -> str:
+    """The figure as an ``<svg>`` element for a self-contained HTML page."""
+    buf = io.StringIO()
+    fig.savefig(buf, format="svg")
+    text = buf.getvalue()
+    return text[text.index("<svg"):]
+
+
+def png_data_uri(path: str | Path) -> str:
+    """A ``data:`` URI for a PNG file, to embed it in HTML."""
+    data = Path(path).read_bytes()
+    return "data:image/png;base64," + base64.b64encode(data).decode()

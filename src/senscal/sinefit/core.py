@@ -1,0 +1,637 @@
+"""Least-squares sine fitting: three-parameter, four-parameter, multi-harmonic.
+
+Model (time ``t`` exactly as given, phase in radians)::
+
+    y = A sin(2 pi f t + phi) + C  [+ sum_k A_k sin(2 pi k f t + phi_k)]  [+ D (t - t_ref)]
+
+References
+----------
+.. [1] IEEE Std 1057-2017, Standard for Digitizing Waveform Recorders, 4.1
+   (three- and four-parameter sine fit).
+.. [2] Yang et al., "Sinusoidal excitation calibration with a least-squares
+   sine fit with offset", Transducer and Microsystem Technologies, 2014
+   (seed 000; ``shared/METHODS.md`` section 1a).
+.. [3] Qin Chaojun, "Three-parameter cosine fit in double-centrifuge dynamic
+   calibration of linear accelerometers" (seed 003; METHODS.md section 4).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg
+
+from senscal._result import ResultMixin, to_jsonable
+from senscal.errors import ConvergenceError, DataError, InputError, TooFewSamplesError
+
+__all__ = ["SineFit", "fit_sine", "wrap_phase"]
+
+TWO_PI = 2.0 * math.pi
+
+
+def wrap_phase(phase):
+    """Wrap angles in radians to the interval (-pi, pi]."""
+    out = np.pi - np.mod(np.pi - np.asarray(phase, dtype=float), TWO_PI)
+    return out if np.ndim(out) else float(out)
+
+
+@dataclass(frozen=True)
+class SineFit(ResultMixin):
+    """Result of :func:`fit_sine` for one channel or a batch of channels.
+
+    Every quantity has the batch shape ``y.shape[:-1]`` (a scalar for one
+    channel).  Uncertainties are standard uncertainties (k=1) from the
+    residual variance with ``N - p`` degrees of freedom, propagated through
+    the full parameter covariance.
+
+    Attributes
+    ----------
+    frequency : float or ndarray
+        Fundamental frequency in Hz (given or estimated).
+    amplitude : float or ndarray
+        Peak amplitude of the fundamental, in the unit of ``y``.
+    phase : float or ndarray
+        Phase of the fundamental at ``t = 0`` in radians, in (-pi, pi].
+    offset : float or ndarray
+        Constant term in the unit of ``y`` (at ``t_ref`` when drift is fitted).
+    u_frequency, u_amplitude, u_phase, u_offset : float or ndarray
+        Standard uncertainties (0 for a given frequency).
+    covariance : ndarray
+        Covariance of ``parameter_names``, shape (..., p, p).
+    parameter_names : tuple of str
+        Order of the covariance: amplitude, phase, offset, [drift],
+        [frequency], then ``amplitude_k``, ``phase_k`` for k = 2..K.
+    harmonic_amplitudes, harmonic_phases : ndarray
+        Shape (..., K): amplitude and phase (rad, at t = 0) of harmonic k=1..K.
+    u_harmonic_amplitudes, u_harmonic_phases : ndarray
+        Their standard uncertainties.
+    thd : float, ndarray or None
+        Total harmonic distortion ``sqrt(sum_{k>=2} A_k^2) / A_1`` (ratio),
+        None when only the fundamental was fitted.
+    drift, u_drift : float, ndarray or None
+        Linear drift of the offset in unit/s, None unless requested.
+    t_ref : float
+        Time (s) at which ``offset`` holds when drift is fitted (record centre).
+    residual_rms : float or ndarray
+        RMS of the residuals (weighted RMS with weights).
+    snr_db : float or ndarray
+        ``10 log10((A^2 / 2) / residual_rms^2)``.
+    n_samples, dof : int
+        Samples used and degrees of freedom ``N - p``.
+    converged : bool or ndarray
+        False only if the frequency iteration hit its limit.
+    iterations : int or ndarray
+        Gauss-Newton iterations (0 for a known frequency).
+    frequency_estimated : bool
+        True when the frequency was estimated.
+    """
+
+    frequency: Any
+    amplitude: Any
+    phase: Any
+    offset: Any
+    u_frequency: Any
+    u_amplitude: Any
+    u_phase: Any
+    u_offset: Any
+    covariance: np.ndarray
+    parameter_names: tuple[str, ...]
+    harmonic_amplitudes: np.ndarray
+    harmonic_phases: np.ndarray
+    u_harmonic_amplitudes: np.ndarray
+    u_harmonic_phases: np.ndarray
+    thd: Any
+    drift: Any
+    u_drift: Any
+    t_ref: float
+    residual_rms: Any
+    snr_db: Any
+    n_samples: int
+    dof: int
+    converged: Any
+    iterations: Any
+    frequency_estimated: bool
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Batch shape (``()`` for one channel)."""
+        return np.shape(self.amplitude)
+
+    @property
+    def harmonics(self) -> int:
+        """Number of harmonics fitted (1 = fundamental only)."""
+        return int(np.shape(self.harmonic_amplitudes)[-1])
+
+    @property
+    def angular_frequency(self):
+        """``2 pi f`` in rad/s."""
+        return TWO_PI * np.asarray(self.frequency) if np.ndim(self.frequency) else TWO_PI * float(self.frequency)
+
+    def channel(self, index) -> "SineFit":
+        """The result of one channel of a batch (``index`` into the batch shape)."""
+        if not self.shape:
+            raise InputError("this result holds a single channel; there is nothing to index")
+
+        def pick(v):
+            if v is None or isinstance(v, (str, tuple, bool)) or np.ndim(v) == 0:
+                return v
+            x = np.asarray(v)[index]
+            return x.item() if np.ndim(x) == 0 else x
+
+        kw = {}
+        for name in self.__dataclass_fields__:
+            v = getattr(self, name)
+            kw[name] = v if name in ("parameter_names", "t_ref", "n_samples", "dof", "frequency_estimated") else pick(v)
+        return SineFit(**kw)
+
+    def evaluate(self, t) -> np.ndarray:
+        """Model values at times ``t`` (s), shape ``batch + t.shape``."""
+        t = np.asarray(t, dtype=float)
+        w = np.asarray(self.angular_frequency)[..., None]
+        amps = np.asarray(self.harmonic_amplitudes)
+        phs = np.asarray(self.harmonic_phases)
+        out = np.asarray(self.offset, dtype=float)[..., None] + np.zeros(t.shape)
+        for k in range(amps.shape[-1]):
+            out = out + amps[..., k, None] * np.sin((k + 1) * w * t + phs[..., k, None])
+        if self.drift is not None:
+            out = out + np.asarray(self.drift)[..., None] * (t - self.t_ref)
+        return out if out.shape[:-1] else out.reshape(t.shape)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dict; phases also given in degrees."""
+        d = {k: to_jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
+        d["phase_deg"] = to_jsonable(np.degrees(self.phase))
+        d["u_phase_deg"] = to_jsonable(np.degrees(self.u_phase))
+        return d
+
+
+# ---------------------------------------------------------------------------
+# Input checking
+# ---------------------------------------------------------------------------
+
+def _time_base(n: int, t, fs) -> tuple[np.ndarray | None, float, float, float, bool]:
+    """Return (t or None, t_mid, dt, first, uniform)."""
+    if t is not None and fs is not None:
+        raise InputError("give either t (time stamps, s) or fs (sample rate, Hz), not both")
+    if t is None and fs is None:
+        raise InputError("give the time stamps t (s) or the sample rate fs (Hz)")
+    if t is None:
+        fs = float(fs)
+        if not math.isfinite(fs) or fs <= 0:
+            raise InputError(f"sample rate fs must be a positive number of Hz, got {fs!r}")
+        dt = 1.0 / fs
+        return None, 0.5 * (n - 1) * dt, dt, 0.0, True
+    t = np.asarray(t, dtype=np.float64)
+    if t.ndim != 1 or t.size != n:
+        raise InputError(f"t must be 1-D with one time stamp per sample ({n}), got shape {t.shape}")
+    from senscal.io.recording import check_time
+
+    check_time(t)
+    d = np.diff(t)
+    dt_mean = (t[-1] - t[0]) / (n - 1) if n > 1 else 1.0
+    uniform = bool(np.ptp(d) <= 1e-6 * dt_mean + 4e-16 * np.max(np.abs(t))) if n > 2 else True
+    return t, 0.5 * (t[0] + t[-1]), dt_mean, float(t[0]), uniform
+
+
+def _check_y(y) -> np.ndarray:
+    y = np.asarray(y, dtype=np.float64)
+    if y.ndim == 0:
+        raise InputError("y must hold samples along its last axis")
+    bad = ~np.isfinite(y)
+    if bad.any():
+        idx = np.argwhere(bad)[0]
+        ch = tuple(int(i) for i in idx[:-1])
+        where = f"channel {ch if len(ch) > 1 else ch[0]} " if ch else ""
+        raise DataError(f"{where}has NaN or inf at sample {int(idx[-1])}; remove or interpolate bad samples before fitting")
+    return y
+
+
+# ---------------------------------------------------------------------------
+# Linear part: fixed frequency
+# ---------------------------------------------------------------------------
+
+def _design(tau: np.ndarray, w: float, harmonics: int, drift: bool) -> np.ndarray:
+    cols = []
+    for k in range(1, harmonics + 1):
+        cols.append(np.sin(k * w * tau))
+        cols.append(np.cos(k * w * tau))
+    cols.append(np.ones_like(tau))
+    if drift:
+        cols.append(tau)
+    return np.stack(cols, axis=1)
+
+
+def _lstsq_many(a: np.ndarray, y2: np.ndarray, sw: np.ndarray | None):
+    """Weighted LS for many right-hand sides: coefs (C, p), rss (C,), inv normal matrix (p, p)."""
+    aw = a if sw is None else a * sw[:, None]
+    yw = y2.T if sw is None else y2.T * sw[:, None]
+    u, s, vt = np.linalg.svd(aw, full_matrices=False)
+    _check_rank(s)
+    coef = ((vt.T / s) @ (u.T @ yw)).T
+    resid = yw - aw @ coef.T
+    rss = np.einsum("ij,ij->j", resid, resid)
+    ginv = (vt.T / s**2) @ vt
+    return coef, rss, ginv
+
+
+def _check_rank(s: np.ndarray) -> None:
+    if s[-1] <= s[0] * 1e-10:
+        raise DataError(
+            "the record is too short (or the frequency too low) to tell the sine from the offset/drift: "
+            "the fit matrix is singular; record at least one full period"
+        )
+
+
+def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harmonics: int, drift: bool):
+    """Known frequency, uniform time, no weights: the compiled one-pass path."""
+    import numba as nb
+
+    from senscal.sinefit import _kernels as kern
+
+    basis = kern.harmonic_basis(n, w * dt, w * tau0, harmonics)
+    tau = tau0 + np.arange(n) * dt if drift else np.empty(0)
+    p = 2 * harmonics + 1 + int(drift)
+    # Normal matrix from the same basis the projections use.
+    a_rows = np.empty((p, n))
+    a_rows[: 2 * harmonics] = basis
+    a_rows[2 * harmonics] = 1.0
+    if drift:
+        a_rows[2 * harmonics + 1] = tau
+    gram = a_rows @ a_rows.T
+    del a_rows
+    # Scale to unit diagonal so the condition number means something.
+    sc = 1.0 / np.sqrt(np.diag(gram))
+    gs = gram * sc[:, None] * sc[None, :]
+    ev = np.linalg.eigvalsh(gs)
+    _check_rank(np.sqrt(np.maximum(ev[::-1], 0.0)))
+    cho = scipy.linalg.cho_factor(gs)
+    pilot = y2[:, 0].copy()
+    yc = np.ascontiguousarray(y2)
+    aty, yy = kern.project(yc, basis, tau, drift, pilot, int(nb.get_num_threads()))
+    coef = scipy.linalg.cho_solve(cho, (aty * sc).T).T * sc
+    rss = yy - np.einsum("ij,ij->i", coef, aty)
+    # Cancellation guard: where the residual is a tiny fraction of the signal
+    # energy, recompute it exactly in a second pass.
+    coef[:, 2 * harmonics] += pilot
+    redo = np.flatnonzero(rss < 1e-9 * np.maximum(yy, 1e-300))
+    if redo.size:
+        rss[redo] = kern.residual_ss(yc, basis, tau, drift, coef, redo)
+    rss = np.maximum(rss, 0.0)
+    ginv = scipy.linalg.cho_solve(cho, np.eye(p)) * sc[:, None] * sc[None, :]
+    return coef, rss, ginv
+
+
+# ---------------------------------------------------------------------------
+# Frequency estimation
+# ---------------------------------------------------------------------------
+
+def _initial_frequency(yc: np.ndarray, t: np.ndarray | None, dt: float, first: float) -> float:
+    """Interpolated-DFT estimate (Hann window, three-bin interpolation), in Hz."""
+    n = yc.size
+    if t is not None:
+        grid = first + np.arange(n) * dt
+        yc = np.interp(grid, t, yc)
+    yc = yc - yc.mean()
+    win = np.hanning(n)
+    spec = np.abs(np.fft.rfft(yc * win))
+    spec[0] = 0.0
+    k = int(np.argmax(spec))
+    if k == 0 or spec[k] == 0.0:
+        raise ConvergenceError("no sinusoid found in the record (flat spectrum); check the channel or give --freq")
+    if 1 <= k < spec.size - 1:
+        a, b, c = spec[k - 1], spec[k], spec[k + 1]
+        delta = 2.0 * (c - a) / (a + 2.0 * b + c)
+    else:
+        delta = 0.0
+    return (k + delta) / (n * dt)
+
+
+def _fit_unknown(y1: np.ndarray, tau: np.ndarray, sw: np.ndarray | None, f0: float, harmonics: int,
+                 drift: bool, max_iter: int):
+    """Four-parameter (IEEE 1057) Gauss-Newton fit with step halving."""
+    w = TWO_PI * f0
+
+    def linear(wv):
+        a = _design(tau, wv, harmonics, drift)
+        coef, rss, _ = _lstsq_many(a, y1[None, :], sw)
+        return coef[0], rss[0]
+
+    coef, rss = linear(w)
+    converged = False
+    it = 0
+    span = tau[-1] - tau[0]
+    for it in range(1, max_iter + 1):
+        a = _design(tau, w, harmonics, drift)
+        jw = np.zeros_like(tau)
+        for k in range(1, harmonics + 1):
+            sk, ck = a[:, 2 * k - 2], a[:, 2 * k - 1]
+            jw += k * tau * (coef[2 * k - 2] * ck - coef[2 * k - 1] * sk)
+        full = np.column_stack([a, jw])
+        sol, _, _ = _lstsq_many(full, y1[None, :], sw)
+        dw = float(sol[0, -1])
+        # A step beyond a quarter of a DFT bin is not trusted: cap it.
+        cap = 0.5 * math.pi / span
+        dw = max(-cap, min(cap, dw))
+        step = 1.0
+        while True:
+            new_coef, new_rss = linear(w + step * dw)
+            if new_rss <= rss * (1 + 1e-12) or step < 1e-6:
+                break
+            step *= 0.5
+        if new_rss > rss * (1 + 1e-12):
+            # No descent possible: at the minimum to rounding.
+            converged = True
+            break
+        w += step * dw
+        coef, rss = new_coef, new_rss
+        # Stop rule: the step is negligible against the frequency's own
+        # standard uncertainty (or against rounding).
+        sigma2 = rss / max(tau.size - full.shape[1], 1)
+        _, _, ginv = _lstsq_many(full, y1[None, :], sw)
+        u_w = math.sqrt(max(sigma2 * ginv[-1, -1], 0.0))
+        if abs(step * dw) <= max(1e-4 * u_w, 8e-16 * abs(w)):
+            converged = True
+            break
+    return w, coef, rss, converged, it
+
+
+# ---------------------------------------------------------------------------
+# Transformation to amplitude / phase with covariance
+# ---------------------------------------------------------------------------
+
+def _transform(coef, cov_lin, w, harmonics, drift, t_mid, with_freq):
+    """Map [s1, c1, ..., sK, cK, offset, (drift), (dw)] to the reported parameters.
+
+    Returns values (q,), covariance (q, q), names.
+    """
+    p = coef.size
+    names = ["amplitude", "phase", "offset"]
+    if drift:
+        names.append("drift")
+    if with_freq:
+        names.append("frequency")
+    for k in range(2, harmonics + 1):
+        names += [f"amplitude_{k}", f"phase_{k}"]
+    q = len(names)
+    jac = np.zeros((q, p))
+    vals = np.zeros(q)
+    ioff = 2 * harmonics
+    ifr = ioff + 1 + int(drift)
+    # Offset: the constant column; with drift it is the value at t_ref = t_mid.
+    vals[2] = coef[ioff]
+    jac[2, ioff] = 1.0
+    row = 3
+    if drift:
+        vals[row] = coef[ioff + 1]
+        jac[row, ioff + 1] = 1.0
+        row += 1
+    if with_freq:
+        vals[row] = w / TWO_PI
+        jac[row, ifr] = 1.0 / TWO_PI
+        row += 1
+    for k in range(1, harmonics + 1):
+        s, c = coef[2 * k - 2], coef[2 * k - 1]
+        amp = math.hypot(s, c)
+        ia, ip = (0, 1) if k == 1 else (row, row + 1)
+        vals[ia] = amp
+        # Phase at t = 0 from the phase at the centre time (tau = t - t_mid).
+        vals[ip] = math.atan2(c, s) - k * w * t_mid
+        if amp > 0:
+            jac[ia, 2 * k - 2] = s / amp
+            jac[ia, 2 * k - 1] = c / amp
+            jac[ip, 2 * k - 2] = -c / amp**2
+            jac[ip, 2 * k - 1] = s / amp**2
+        if with_freq:
+            jac[ip, ifr] = -k * t_mid
+        if k > 1:
+            row += 2
+    cov = jac @ cov_lin @ jac.T
+    return vals, cov, tuple(names)
+
+
+# ---------------------------------------------------------------------------
+# Public entry point
+# ---------------------------------------------------------------------------
+
+def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, harmonics: int = 1,
+             weights=None, drift: bool = False, max_iter: int = 100) -> SineFit:
+    """Least-squares fit of ``y = A sin(2 pi f t + phi) + C`` (+ harmonics, drift).
+
+    Parameters
+    ----------
+    y : array_like, shape (..., N)
+        Samples; leading axes are channels fitted at once on a shared time base.
+    t : array_like, shape (N,), optional
+        Time stamps in seconds (strictly increasing; not re-zeroed).
+    fs : float, optional
+        Sample rate in Hz for uniform samples starting at t = 0 (give t or fs).
+    freq : float, optional
+        Known frequency in Hz: the closed-form three-parameter fit.  When
+        omitted the frequency is estimated per channel (interpolated DFT,
+        then Gauss-Newton: the four-parameter fit).
+    harmonics : int
+        Number of harmonics ``K`` (1 = fundamental only); harmonic ``k`` has
+        frequency ``k f``.
+    weights : array_like, shape (N,) or (..., N), optional
+        Relative weights of the samples (e.g. inverse variances); the scale of
+        the uncertainties still comes from the weighted residuals.
+    drift : bool
+        Also fit a linear drift of the offset, ``D (t - t_ref)`` with ``t_ref``
+        the record's centre time.
+    max_iter : int
+        Iteration limit of the frequency estimation.
+
+    Returns
+    -------
+    SineFit
+        Amplitudes, phases (rad, at t = 0), offset, frequency (Hz) with their
+        standard uncertainties and covariance, residual RMS, SNR, THD.
+
+    Raises
+    ------
+    DataError
+        NaN/inf in ``y`` or in ``t``, non-increasing time stamps, or a record
+        too short to separate the sine from the offset.
+    TooFewSamplesError
+        Fewer samples than parameters + 1.
+    InputError
+        Frequency at or above the Nyquist frequency, bad arguments.
+    ConvergenceError
+        The frequency iteration found no sinusoid or did not converge.
+
+    Notes
+    -----
+    With a known frequency the fit is linear least squares in the basis
+    ``sin(k w tau), cos(k w tau), 1`` on the centred time ``tau = t - t_mid``
+    (centring keeps the basis nearly orthogonal, so the normal matrix is well
+    conditioned even for ``t0 = 1e5 s``); no explicit inverse is formed for
+    the solution.  Uniform, unweighted batches use a compiled one-pass kernel;
+    everything else uses an SVD of the (weighted) design matrix.
+    """
+    y = _check_y(y)
+    harmonics = int(harmonics)
+    if harmonics < 1:
+        raise InputError(f"harmonics must be >= 1, got {harmonics}")
+    n = y.shape[-1]
+    batch = y.shape[:-1]
+    tvec, t_mid, dt, first, uniform = _time_base(n, t, fs)
+    p = 2 * harmonics + 1 + int(drift) + int(freq is None)
+    if n <= p:
+        raise TooFewSamplesError(f"{n} samples cannot fit {p} parameters; the fit needs at least {p + 1} samples")
+    nyquist = 0.5 / dt
+    if freq is not None:
+        freq = float(freq)
+        if not math.isfinite(freq) or freq <= 0:
+            raise InputError(f"frequency must be a positive number of Hz, got {freq!r}")
+        if harmonics * freq >= nyquist:
+            what = f"harmonic {harmonics} at {harmonics * freq:g} Hz" if harmonics > 1 else f"frequency {freq:g} Hz"
+            raise InputError(f"{what} is at or above the Nyquist frequency {nyquist:g} Hz; sample faster or fit fewer harmonics")
+    sw = None
+    per_channel_w = False
+    if weights is not None:
+        wts = np.asarray(weights, dtype=np.float64)
+        if wts.shape == (n,):
+            pass
+        elif wts.shape == y.shape:
+            per_channel_w = True
+        else:
+            raise InputError(f"weights must have shape ({n},) or {y.shape}, got {wts.shape}")
+        if not np.all(np.isfinite(wts)) or np.any(wts < 0) or not np.any(wts > 0):
+            raise InputError("weights must be finite, non-negative and not all zero")
+        sw = np.sqrt(wts)
+
+    y2 = y.reshape(-1, n)
+    nch = y2.shape[0]
+    tau = (tvec - t_mid) if tvec is not None else (np.arange(n) - 0.5 * (n - 1)) * dt
+    q_names = None
+    vals = []
+    covs = []
+    rsss = np.empty(nch)
+    conv = np.ones(nch, dtype=bool)
+    iters = np.zeros(nch, dtype=int)
+    freqs = np.empty(nch)
+
+    if freq is not None:
+        w = TWO_PI * freq
+        if sw is None and uniform:
+            coef, rss, ginv = _fast_uniform(y2, n, dt, float(tau[0]), w, harmonics, drift)
+            coef_all = coef
+            ginv_all = [ginv] * nch
+        elif per_channel_w:
+            sw2 = sw.reshape(-1, n)
+            coef_all = np.empty((nch, p))
+            rss = np.empty(nch)
+            ginv_all = []
+            a = _design(tau, w, harmonics, drift)
+            for i in range(nch):
+                c, r, g = _lstsq_many(a, y2[i:i + 1], sw2[i])
+                coef_all[i], rss[i] = c[0], r[0]
+                ginv_all.append(g)
+        else:
+            a = _design(tau, w, harmonics, drift)
+            coef_all, rss, ginv = _lstsq_many(a, y2, sw)
+            ginv_all = [ginv] * nch
+        rsss[:] = rss
+        freqs[:] = freq
+        dof = n - p
+        for i in range(nch):
+            cov_lin = ginv_all[i] * (rss[i] / dof)
+            v, c, q_names = _transform(coef_all[i], cov_lin, w, harmonics, drift, t_mid, False)
+            vals.append(v)
+            covs.append(c)
+    else:
+        dof = n - p
+        sw2 = sw.reshape(-1, n) if per_channel_w else None
+        for i in range(nch):
+            swi = sw2[i] if per_channel_w else sw
+            f0 = _initial_frequency(y2[i], tvec, dt, first)
+            if harmonics * f0 >= nyquist:
+                raise InputError(
+                    f"estimated harmonic {harmonics} at {harmonics * f0:g} Hz is above the Nyquist frequency "
+                    f"{nyquist:g} Hz; fit fewer harmonics"
+                )
+            w, coef, rss, ok, it = _fit_unknown(y2[i], tau, swi, f0, harmonics, drift, max_iter)
+            if not ok:
+                raise ConvergenceError(
+                    f"frequency estimate did not converge in {max_iter} iterations"
+                    f"{' for channel ' + str(i) if nch > 1 else ''}; give the frequency with freq=/--freq"
+                )
+            if w <= 0:
+                raise ConvergenceError("frequency estimate went to zero or below; the record holds no clear sinusoid; give --freq")
+            a = _design(tau, w, harmonics, drift)
+            jw = np.zeros_like(tau)
+            for k in range(1, harmonics + 1):
+                jw += k * tau * (coef[2 * k - 2] * a[:, 2 * k - 1] - coef[2 * k - 1] * a[:, 2 * k - 2])
+            full = np.column_stack([a, jw])
+            _, _, ginv = _lstsq_many(full, y2[i:i + 1], swi)
+            cov_lin = ginv * (rss / dof)
+            coef_ext = np.append(coef, 0.0)
+            v, c, q_names = _transform(coef_ext, cov_lin, w, harmonics, drift, t_mid, True)
+            vals.append(v)
+            covs.append(c)
+            rsss[i] = rss
+            conv[i] = ok
+            iters[i] = it
+            freqs[i] = w / TWO_PI
+
+    vals_a = np.array(vals)
+    cov_a = np.array(covs)
+    names = q_names
+    idx = {nm: j for j, nm in enumerate(names)}
+    u = np.sqrt(np.maximum(np.diagonal(cov_a, axis1=1, axis2=2), 0.0))
+    amp_idx = [idx["amplitude"]] + [idx[f"amplitude_{k}"] for k in range(2, harmonics + 1)]
+    ph_idx = [idx["phase"]] + [idx[f"phase_{k}"] for k in range(2, harmonics + 1)]
+    h_amp = vals_a[:, amp_idx]
+    h_ph = wrap_phase(vals_a[:, ph_idx])
+    u_h_amp = u[:, amp_idx]
+    u_h_ph = u[:, ph_idx]
+    # Weighted RMS so that uniform weights give the plain RMS.
+    if sw is None:
+        res_ms = rsss / n
+    else:
+        wsum = (sw.reshape(-1, n) ** 2).sum(axis=1) if per_channel_w else np.full(nch, float((sw**2).sum()))
+        res_ms = rsss / wsum
+    res_rms = np.sqrt(res_ms)
+    with np.errstate(divide="ignore"):
+        snr = 10.0 * np.log10((h_amp[:, 0] ** 2 / 2.0) / res_ms)
+    thd = None
+    if harmonics > 1:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            thd = np.sqrt((h_amp[:, 1:] ** 2).sum(axis=1)) / h_amp[:, 0]
+    u_freq = u[:, idx["frequency"]] if "frequency" in idx else np.zeros(nch)
+
+    def shaped(a):
+        a = np.asarray(a)
+        out = a.reshape(batch + a.shape[1:])
+        return out.item() if out.ndim == 0 else out
+
+    return SineFit(
+        frequency=shaped(freqs),
+        amplitude=shaped(h_amp[:, 0]),
+        phase=shaped(h_ph[:, 0]),
+        offset=shaped(vals_a[:, idx["offset"]]),
+        u_frequency=shaped(u_freq),
+        u_amplitude=shaped(u[:, idx["amplitude"]]),
+        u_phase=shaped(u[:, idx["phase"]]),
+        u_offset=shaped(u[:, idx["offset"]]),
+        covariance=cov_a.reshape(batch + cov_a.shape[1:]),
+        parameter_names=names,
+        harmonic_amplitudes=h_amp.reshape(batch + (harmonics,)),
+        harmonic_phases=np.asarray(h_ph).reshape(batch + (harmonics,)),
+        u_harmonic_amplitudes=u_h_amp.reshape(batch + (harmonics,)),
+        u_harmonic_phases=u_h_ph.reshape(batch + (harmonics,)),
+        thd=None if thd is None else shaped(thd),
+        drift=shaped(vals_a[:, idx["drift"]]) if drift else None,
+        u_drift=shaped(u[:, idx["drift"]]) if drift else None,
+        t_ref=float(t_mid),
+        residual_rms=shaped(res_rms),
+        snr_db=shaped(snr),
+        n_samples=int(n),
+        dof=int(dof),
+        converged=shaped(conv),
+        iterations=shaped(iters),
+        frequency_estimated=freq is None,
+    )
