@@ -1,0 +1,41 @@
+"""``senscal demo``: every job on simulated truth, one report."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from typing_extensions import Annotated
+
+from senscal.cli.app import app
+from senscal.cli.common import console, err_console, fmt, table
+
+
+@app.command("demo")
+def demo_cmd(
+    out: Annotated[Path, typer.Option("--out", help="Folder for the outputs and index.html.")] = Path("senscal-demo"),
+    seed: Annotated[int, typer.Option("--seed", help="Random seed of the simulations.")] = 1,
+    only: Annotated[Optional[List[str]], typer.Option("--only", help="Run only this job (repeatable).")] = None,
+) -> None:
+    """Run every job on simulated data with known truth and write a report."""
+    from senscal.demo import run_demo
+
+    def start(mod):
+        err_console.print(f"[bold]running[/bold] {getattr(mod, 'TITLE', mod.__name__)} ...")
+
+    def done(sec):
+        console.rule(sec.title)
+        console.print(sec.summary)
+        if sec.rows:
+            console.print(table("truth vs estimate (u: standard, k=1)", ["quantity", "truth", "estimate", "u", "unit"],
+                                [[r["quantity"], r.get("truth"), r.get("estimate"), r.get("uncertainty"), r.get("unit", "")]
+                                 for r in sec.rows]))
+        for t in sec.tables:
+            console.print(table(t["title"], t["columns"], t["rows"]))
+        for f in sec.files:
+            console.print(f"  wrote {out / f}")
+
+    _, index = run_demo(out, seed=seed, only=only, on_start=start, on_done=done)
+    console.print(f"\n[bold]Report:[/bold] {index.resolve()}  (open it in a browser)")
+    _ = fmt

@@ -1,0 +1,35 @@
+"""``senscal simulate sine``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+from typing_extensions import Annotated
+
+from senscal.cli.app import simulate_app
+from senscal.cli.common import console
+from senscal.io import write_recording
+from senscal.simulate import simulate_sine, write_truth
+
+
+@simulate_app.command("sine")
+def simulate_sine_cmd(
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
+    channels: Annotated[int, typer.Option("--channels", help="Number of channels.")] = 4,
+    fs: Annotated[float, typer.Option("--fs", help="Sample rate in Hz.")] = 1000.0,
+    duration: Annotated[float, typer.Option("--duration", help="Record length in s.")] = 2.0,
+    freq: Annotated[float, typer.Option("--freq", help="Frequency in Hz.")] = 12.5,
+    noise: Annotated[float, typer.Option("--noise", help="Noise standard deviation.")] = 0.05,
+) -> None:
+    """A noisy multi-channel sine recording (sine.csv) and its truth (sine_truth.json)."""
+    from senscal.errors import InputError
+
+    if channels < 1 or duration <= 0 or fs <= 0 or noise < 0:
+        raise InputError("channels >= 1, duration > 0, fs > 0 and noise >= 0 are required")
+    rec, truth = simulate_sine(n_channels=channels, fs=fs, duration=duration, frequency=freq, noise=noise, seed=seed)
+    p = write_recording(rec, out / "sine.csv")
+    q = write_truth(truth, out / "sine_truth.json")
+    console.print(f"wrote {p} and {q}")
