@@ -22,7 +22,7 @@ from senscal.triaxial.estimators import (
 )
 from senscal.triaxial.models import MODELS, TriaxialCalibration
 
-__all__ = ["TriaxialResult", "calibrate", "METHODS"]
+__all__ = ["TriaxialResult", "calibrate", "METHODS", "raw_scale"]
 
 METHODS = ("auto", "lms", "linear", "ellipsoid", "ml")
 ANGLES = ("alpha", "beta", "gamma")
@@ -98,6 +98,14 @@ class TriaxialResult(ResultMixin):
         """A parameter's standard uncertainty (NaN if none)."""
         v = self.parameters[name]["u"]
         return math.nan if v is None else float(v)
+
+
+def raw_scale(raw_norm: np.ndarray, field: float) -> float:
+    """1, or the common factor that brings raw magnitudes to the field when they are in other units (counts)."""
+    med = float(np.median(raw_norm))
+    if med > 0 and abs(med / field - 1.0) > 0.5:
+        return field / med
+    return 1.0
 
 
 def _nominal_theta(model, k0, b0, f0, field, plane, r_plane):
@@ -365,11 +373,17 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         scale_note = ("field magnitude estimated from the data: the overall scale is arbitrary (gains are relative "
                       "to the Z axis and the field is in Z-axis units)") if chosen != "planar" else (
             "planar model: the in-plane field magnitude is estimated and the in-plane scale is arbitrary "
-            f"(K{'xyz'[j]} = 1); the {'XYZ'[plan['normal_axis']]} axis is left uncorrected")
+            f"(K{'xyz'[j]} = 1); the {'XYZ'[plan['normal_axis']]} axis is left uncorrected, and the in-plane offsets "
+            "include the constant out-of-plane field leaking through the non-orthogonality (e.g. Bx + "
+            "Kx sin(alpha) cos(gamma) Hz)")
     else:
         scale_note = None
     raw_norm = np.hypot(hu2[i], hu2[j]) if chosen == "planar" else np.linalg.norm(hu2, axis=0)
-    before = dg.norm_error_stats(raw_norm, fit.field)
+    factor = raw_scale(raw_norm, fit.field)
+    before = dg.norm_error_stats(raw_norm * factor, fit.field)
+    if factor != 1.0:
+        before["note"] = (f"raw readings are not in field units: 'before' uses them multiplied by one common "
+                          f"factor {factor:.6g} (the ratio of field to median raw magnitude)")
     after = dg.norm_error_stats(norms(fit.calibration, hu2), fit.field)
     plaus_params = {n: (v["value"] if v["value"] is not None else math.nan) for n, v in params.items()}
     if chosen == "planar":
