@@ -336,12 +336,24 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
             alg, start = None, analyses[chosen][1]
         if method == "ellipsoid":
             return alg, None
-        return fit_ml(hh, chosen, field=field, plane=pl, start=start, unit=unit, channels=channels), None
+        prior = None
+        if weak:
+            # Forced model with directions the data cannot see: pin them weakly
+            # at the nominal point (a noise unit per plausible range) so the fit
+            # converges; they are reported as unknown below.
+            names_ = analyses[chosen][0]
+            sc = dg.physical_scales(names_, f0 if chosen != "planar" else r_plane, k0 if chosen != "planar" else 1.0)
+            wt = np.array([1.0 / s_ if n in weak else 0.0 for n, s_ in zip(names_, sc)])
+            prior = (analyses[chosen][1], wt)
+            start = analyses[chosen][1]
+        return fit_ml(hh, chosen, field=field, plane=pl, start=start, unit=unit, channels=channels,
+                      prior=prior), None
 
     def norms(cal: TriaxialCalibration, hh: np.ndarray) -> np.ndarray:
         c = cal.apply(hh)
         return np.hypot(c[i], c[j]) if chosen == "planar" else np.linalg.norm(c, axis=0)
 
+    weak = {p for g in analyses[chosen][2]["groups"] for p in g["parameters"]}
     fit, ls = run_fit(hu)
     outl = np.array([], int)
     if outlier_sigma is not None:
@@ -360,7 +372,6 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         hu2 = hu
 
     # -- after fitting ---------------------------------------------------------
-    weak = {p for g in analyses[chosen][2]["groups"] for p in g["parameters"]}
     units = _param_units(fit.names, unit)
     u_all = fit.uncertainties
     params = {}

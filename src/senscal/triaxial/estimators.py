@@ -317,7 +317,7 @@ def fit_algebraic(h: np.ndarray, model: str = "full", *, field: float | None = N
 
 def fit_ml(h: np.ndarray, model: str = "full", *, field: float | None = None,
            plane: tuple[int, int] | None = None, start: np.ndarray | None = None, unit: str = "",
-           channels=("x", "y", "z")) -> ModelFit:
+           channels=("x", "y", "z"), prior: tuple[np.ndarray, np.ndarray] | None = None) -> ModelFit:
     """Maximum-likelihood fit on the field magnitude (Gauss-Newton / Levenberg-Marquardt).
 
     Parameters
@@ -328,6 +328,11 @@ def fit_ml(h: np.ndarray, model: str = "full", *, field: float | None = None,
         As :func:`fit_algebraic`.
     start : ndarray, optional
         Starting parameters; default the algebraic fit.
+    prior : (ndarray, ndarray), optional
+        ``(centre, weight)``: adds pseudo-residuals ``weight * (theta - centre)``
+        (weight 0 = free).  Used to pin directions the data cannot determine
+        so that the rest of the fit converges; those parameters must then not
+        be reported as measured.
 
     Returns
     -------
@@ -342,8 +347,14 @@ def fit_ml(h: np.ndarray, model: str = "full", *, field: float | None = None,
                                  f"{len(names)} samples, got {h.shape[1]}; record more orientations")
     theta0 = fit_algebraic(h, model, field=field, plane=plane).values if start is None else np.asarray(start, float)
 
-    def fun(th):
-        return residuals(model, th, h, field, plane)
+    if prior is None:
+        def fun(th):
+            return residuals(model, th, h, field, plane)
+    else:
+        c0, wt = (np.asarray(a, float) for a in prior)
+
+        def fun(th):
+            return np.concatenate([residuals(model, th, h, field, plane), wt * (th - c0)])
 
     sol = optimize.least_squares(fun, theta0, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12,
                                  max_nfev=200 * (len(names) + 1))
@@ -351,7 +362,7 @@ def fit_ml(h: np.ndarray, model: str = "full", *, field: float | None = None,
         raise ConvergenceError(f"maximum-likelihood fit of the {model} model did not converge ({sol.message}); "
                                "try --method ellipsoid or a simpler --model")
     theta = sol.x
-    r = fun(theta)
+    r = fun(theta)[: h.shape[1]]
     dof = r.size - len(names)
     cov = _covariance(_jacobian(fun, theta), float(r @ r), dof)
     _, _, f = unpack(model, theta, field, plane)

@@ -43,6 +43,7 @@ def plot_calibration(h_raw: np.ndarray, h_corrected: np.ndarray, field: float, p
         a.plot(h_corrected[p], h_corrected[q], ".", ms=2.5, alpha=0.6, label="corrected")
         a.plot(field * np.cos(th), field * np.sin(th), "k-", lw=0.6, label="|H| = F")
         a.set_aspect("equal", adjustable="datalim")
+        a.locator_params(nbins=4)
         a.set_xlabel(f"{'XYZ'[p]} ({unit})" if unit else "XYZ"[p])
         a.set_ylabel(f"{'XYZ'[q]} ({unit})" if unit else "XYZ"[q])
     axes[0, 0].legend(loc="upper right", fontsize=7)
