@@ -12,7 +12,8 @@ from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (
-    FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, print_json, split_names, table, write_json,
+    FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, print_json, progress_bar, split_names, table,
+    write_json,
 )
 from senscal.errors import InputError
 
@@ -103,8 +104,9 @@ def calibrate_cmd(
             raise InputError(f"found {st.n_poses} static poses in {file}; a calibration needs many (>= 9 for the "
                              "full model): hold the sensor still longer in more orientations or adjust --static-window")
         h = st.means
-    res = calibrate(h, field=field, method=method, model=model, lr=lr, epochs=epochs, strict=strict,
-                    outlier_sigma=outlier_sigma if outlier_sigma > 0 else None, unit=unit, channels=chans)
+    with progress_bar("calibrating", None):
+        res = calibrate(h, field=field, method=method, model=model, lr=lr, epochs=epochs, strict=strict,
+                        outlier_sigma=outlier_sigma if outlier_sigma > 0 else None, unit=unit, channels=chans)
     doc = calibrate_document(res, file=file, channels=chans, static=st)
     if out is not None:
         write_json(doc, out)

@@ -157,6 +157,11 @@ def identifiability(jac: np.ndarray, names, scales: np.ndarray, sigma: float) ->
     if js.shape[0] == 0:
         return {"groups": [{"parameters": list(names), "reason": "no usable samples"}], "condition": math.inf,
                 "rank": 0, "n_params": len(names)}
+    # Only V is needed: reduce a tall matrix to its p x p triangle first (a
+    # full U would be N x N).  With fewer rows than parameters, the full V
+    # holds the null space.
+    if js.shape[0] > js.shape[1]:
+        js = np.linalg.qr(js, mode="r")  # same singular values and V, p x p
     _, s, vt = np.linalg.svd(js, full_matrices=True)
     s_full = np.zeros(len(names))
     s_full[: s.size] = s

@@ -151,11 +151,11 @@ def residuals(model: str, theta: np.ndarray, h: np.ndarray, field: float | None,
     """
     m, b, f = unpack(model, theta, field, plane)
     ax = _axes(model, plane)
-    m = m[np.ix_(ax, ax)]
-    u = np.linalg.solve(m, h[ax] - b[ax, None])
+    minv = np.linalg.inv(m[np.ix_(ax, ax)])
+    u = minv @ (h[ax] - b[ax, None])
     r = np.sqrt(np.einsum("ij,ij->j", u, u))
     n = u / np.where(r > 0, r, 1.0)
-    w = np.linalg.solve(m.T, n)  # M^-T n
+    w = minv.T @ n  # M^-T n
     return (r - f) / np.sqrt(np.einsum("ij,ij->j", w, w))
 
 
