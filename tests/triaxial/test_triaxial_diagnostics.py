@@ -116,3 +116,18 @@ def test_sphere_coverage_fraction():
     assert sphere_coverage(v)["fraction"] == 1.0
     v[2] = np.abs(v[2])  # upper hemisphere only: half of the equal-area cells
     assert sphere_coverage(v)["fraction"] == 0.5
+
+
+def test_seed_linear_design_on_planar_protocol():
+    """The seed's own estimator matrix: rank-deficient on one level turn, well conditioned on a sphere."""
+    rec, _ = simulate_magnetometer(motion="planar", seed=13)
+    res = calibrate(rec.data(), field=F, method="linear", model="full")
+    lin = res.conditioning["linear_design"]
+    assert lin["rank"] < lin["n_params"] and lin["condition"] > 1e3
+    pairs = [frozenset(g["parameters"]) for g in lin["groups"]]
+    assert frozenset({"alpha", "Bx"}) in pairs and frozenset({"beta", "By"}) in pairs
+    for name in ("alpha", "Bx", "beta", "By"):
+        assert res.parameters[name]["value"] is None
+    rec, _ = simulate_magnetometer(motion="sphere", n=200, seed=13)
+    res = calibrate(rec.data(), field=F, method="linear")
+    assert res.conditioning["linear_design"]["rank"] == 8 and res.conditioning["linear_design"]["condition"] < 10

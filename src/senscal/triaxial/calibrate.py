@@ -18,7 +18,7 @@ from senscal._result import ResultMixin
 from senscal.errors import DegenerateGeometryError, DiagnosticError, InputError, TooFewSamplesError
 from senscal.triaxial import diagnostics as dg
 from senscal.triaxial.estimators import (
-    PAIR_ANGLE, ModelFit, fit_algebraic, fit_linear, fit_lms, fit_ml, param_names,
+    PAIR_ANGLE, ModelFit, _design, _linear_problem, fit_algebraic, fit_linear, fit_lms, fit_ml, param_names,
 )
 from senscal.triaxial.models import MODELS, TriaxialCalibration
 
@@ -117,6 +117,15 @@ def _nominal_theta(model, k0, b0, f0, field, plane, r_plane):
         return np.array(([k0] if field else []) + list(b0) + ([] if field else [f0]))
     i, j = plane
     return np.array([1.0, 0.0, b0[i], b0[j], r_plane])
+
+
+def _column_condition(d: np.ndarray) -> float:
+    """Condition number of a design matrix with its columns scaled to unit norm."""
+    nrm = np.linalg.norm(d, axis=0)
+    if np.any(nrm == 0):
+        return math.inf
+    sv = np.linalg.svd(np.linalg.qr(d / nrm, mode="r") if d.shape[0] > d.shape[1] else d / nrm, compute_uv=False)
+    return float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
 
 
 def _model_design(model: str, x: np.ndarray, names, plane) -> np.ndarray:
@@ -281,6 +290,16 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     conditioning = {m: {"condition": a[2]["condition"], "rank": a[2]["rank"], "n_params": a[2]["n_params"]}
                     for m, a in analyses.items()}
     conditioning["noise_floor"] = sigma0
+    # The estimators' own matrices: the seed's linearised design (LMS / linear)
+    # and the algebraic ellipsoid design, columns scaled to unit norm.
+    def linear_analysis(mdl):
+        xl, _, lnames, ls_scale = _linear_problem(hu, field, mdl)
+        return xl, lnames, dg.identifiability(xl, lnames, dg.physical_scales(lnames, 1.0), sigma0 / ls_scale)
+
+    xl, lnames, lin_info = linear_analysis("full")
+    conditioning["linear_design"] = {"condition": _column_condition(xl), "rank": lin_info["rank"],
+                                     "n_params": len(lnames), "groups": lin_info["groups"]}
+    conditioning["ellipsoid_design"] = {"condition": _column_condition(_design("full", xs)), "n_params": 9}
     unidentifiable = list(analyses["full"][2]["groups"])
 
     # -- which model? ----------------------------------------------------------
@@ -353,7 +372,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         c = cal.apply(hh)
         return np.hypot(c[i], c[j]) if chosen == "planar" else np.linalg.norm(c, axis=0)
 
-    weak = {p for g in analyses[chosen][2]["groups"] for p in g["parameters"]}
+    weak_groups = linear_analysis(chosen)[2]["groups"] if linear_method else analyses[chosen][2]["groups"]
+    weak = {p for g in weak_groups for p in g["parameters"]}
     fit, ls = run_fit(hu)
     outl = np.array([], int)
     if outlier_sigma is not None:
