@@ -113,3 +113,19 @@ def test_ellipsoid_and_ml_agree(sphere):
     for n in m.parameters:
         assert abs(a.value(n) - m.value(n)) < 2 * m.u(n)
         assert a.u(n) > 0
+
+
+def test_invariances_order_and_units(sphere):
+    """Reading order does not matter; data and field in other units (x c) give the same angles, offsets x c."""
+    rec, _ = sphere
+    h = rec.data()[:, :200]
+    a = calibrate(h, field=F)
+    perm = np.random.default_rng(3).permutation(h.shape[1])
+    b = calibrate(h[:, perm], field=F)
+    c = 1e-9  # nT -> T
+    t = calibrate(h * c, field=F * c)
+    for n in a.parameters:
+        assert b.value(n) == pytest.approx(a.value(n), rel=1e-6, abs=1e-9 * a.u(n) + 1e-15)
+        k = c if n.startswith("B") else 1.0
+        assert t.value(n) == pytest.approx(a.value(n) * k, rel=1e-6, abs=1e-3 * a.u(n) * k)
+        assert t.u(n) == pytest.approx(a.u(n) * k, rel=1e-4)

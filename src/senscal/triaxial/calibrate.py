@@ -173,13 +173,15 @@ def _noise_floor(h: np.ndarray, b0: np.ndarray, r0: float, plane: tuple[int, int
     return max(0.5 * rho * float(np.sqrt(res @ res / dof)) * r0, 1e-9 * r0)
 
 
-def _param_units(names, unit: str) -> dict[str, str]:
+def _param_units(names, unit: str, field_known: bool) -> dict[str, str]:
     out = {}
     for n in names:
         if n in ANGLES:
             out[n] = "rad"
-        elif n.startswith("K") or n.startswith("dK"):
+        elif n.startswith("dK") or (n.startswith("K") and not field_known):
             out[n] = "1"
+        elif n.startswith("K"):
+            out[n] = f"{unit or 'sensor unit'} per field unit"
         else:
             out[n] = unit
     return out
@@ -392,7 +394,7 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         hu2 = hu
 
     # -- after fitting ---------------------------------------------------------
-    units = _param_units(fit.names, unit)
+    units = _param_units(fit.names, unit, field is not None and chosen != "planar")
     u_all = fit.uncertainties
     params = {}
     for n, v, u in zip(fit.names, fit.values, u_all):
@@ -420,8 +422,10 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     if chosen == "planar":
         plaus_params[f"K{'xyz'[j]}"] = 1.0
         plaus_params.setdefault("Kz", 1.0)
+    # Raw counts carry the converter's zero in their offsets: only judge offsets
+    # of data already in field units.
     plaus = dg.plausibility(plaus_params, fit.field, max_angle_deg=max_angle_deg, gain_ratio=gain_ratio,
-                            max_offset=max_offset)
+                            max_offset=max_offset if factor == 1.0 else None)
     lms_cmp = None
     if ls is not None:
         d = {}

@@ -209,12 +209,13 @@ def robust_outliers(e: np.ndarray, k: float) -> np.ndarray:
 
 
 def plausibility(params: dict[str, float], field: float, *, max_angle_deg: float = 5.0,
-                 gain_ratio: tuple[float, float] = (0.8, 1.25), max_offset: float = 0.5) -> list[str]:
+                 gain_ratio: tuple[float, float] = (0.8, 1.25), max_offset: float | None = 0.5) -> list[str]:
     """Physical-range checks on fitted parameters (angles in rad).
 
     Returns one message per failed check: angle beyond ``max_angle_deg``,
     gain ratio (Kx/Kz, Ky/Kz, or 1+dK) outside ``gain_ratio``, offset larger
-    than ``max_offset`` of the axis full response ``K F``.
+    than ``max_offset`` of the axis full response ``K F`` (None: offsets not
+    judged, e.g. raw counts whose offsets hold the converter's zero).
     """
     issues = []
     for n in ("alpha", "beta", "gamma"):
@@ -235,7 +236,7 @@ def plausibility(params: dict[str, float], field: float, *, max_angle_deg: float
     k_common = params.get("K", kz)
     for ax in "xyz":
         b = params.get(f"B{ax}")
-        if b is not None and np.isfinite(b):
+        if max_offset is not None and b is not None and np.isfinite(b):
             full = abs(gains.get(ax, k_common)) * field
             if abs(b) > max_offset * full:
                 issues.append(f"offset B{ax} = {b:.4g} exceeds {max_offset:g} of the axis response to the field "
