@@ -54,10 +54,10 @@ def test_real_xsens_accelerometer_session():
     assert res.model == "full" and not res.plausibility
     corr_means = res.calibration.apply(st.means)
     spread_after = float(np.std(np.linalg.norm(corr_means, axis=0), ddof=1))
-    # Before: one common scale for all axes (nominal conversion), offsets at mid-scale.
-    raw = np.linalg.norm(st.means, axis=0)
-    raw = raw * g_local / np.median(raw)
-    spread_before = float(np.std(raw, ddof=1))
+    # Before: the nominal conversion (mid-range zero per axis, one common scale).
+    assert "nominal conversion" in res.norm_error_before["note"]
+    spread_before = res.norm_error_before["std"]
+    assert res.norm_error_after["std"] == pytest.approx(spread_after, rel=1e-6)
     # Single-pose noise: |g| of the corrected samples within each pose, and its pose-mean standard error.
     sample_std = np.array([np.std(np.linalg.norm(res.calibration.apply(counts[:, a:b]), axis=0), ddof=1)
                            for a, b in zip(st.starts, st.stops)])
@@ -65,7 +65,7 @@ def test_real_xsens_accelerometer_session():
     print(f"\nposes {st.n_poses}; |g| spread before {spread_before:.4g} m/s^2 ({100 * spread_before / g_local:.3g} %), "
           f"after {spread_after:.3g} m/s^2 ({100 * spread_after / g_local:.3g} %); single-sample |g| noise "
           f"{np.median(sample_std):.3g} m/s^2, pose-mean noise {mean_noise:.3g} m/s^2")
-    assert spread_before > 30 * spread_after
+    assert spread_before > 30 * spread_after  # 1.1 % -> 0.01 % on this recording
     # Cannot beat the noise of the pose means; the remaining spread is within a few times it.
     assert mean_noise < spread_after < 6 * mean_noise
     assert spread_after < np.median(sample_std)

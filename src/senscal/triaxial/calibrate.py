@@ -22,7 +22,7 @@ from senscal.triaxial.estimators import (
 )
 from senscal.triaxial.models import MODELS, TriaxialCalibration
 
-__all__ = ["TriaxialResult", "calibrate", "METHODS", "raw_scale"]
+__all__ = ["TriaxialResult", "calibrate", "METHODS", "nominal_raw"]
 
 METHODS = ("auto", "lms", "linear", "ellipsoid", "ml")
 ANGLES = ("alpha", "beta", "gamma")
@@ -100,12 +100,29 @@ class TriaxialResult(ResultMixin):
         return math.nan if v is None else float(v)
 
 
-def raw_scale(raw_norm: np.ndarray, field: float) -> float:
-    """1, or the common factor that brings raw magnitudes to the field when they are in other units (counts)."""
-    med = float(np.median(raw_norm))
-    if med > 0 and abs(med / field - 1.0) > 0.5:
-        return field / med
-    return 1.0
+def nominal_raw(h: np.ndarray, field: float) -> tuple[np.ndarray, str | None]:
+    """Raw readings for the 'before' figures.
+
+    Readings already in field units are returned as they are.  Readings in
+    other units (ADC counts: median magnitude more than 50 % off the field)
+    get the nominal conversion a user would apply without calibration: the
+    mid-range of each axis as zero and one common scale factor.
+
+    Returns
+    -------
+    h : ndarray, shape like ``h``
+    note : str or None
+        Says what was done, when anything was.
+    """
+    h = np.asarray(h, float)
+    med = float(np.median(np.linalg.norm(h, axis=0)))
+    if med > 0 and abs(med / field - 1.0) <= 0.5:
+        return h, None
+    zero = 0.5 * (h.max(axis=1) + h.min(axis=1))
+    c = h - zero[:, None]
+    k = field / float(np.median(np.linalg.norm(c, axis=0)))
+    return c * k, (f"raw readings are not in field units: 'before' uses the nominal conversion (mid-range of each "
+                   f"axis as zero, one common factor {k:.6g})")
 
 
 def _nominal_theta(model, k0, b0, f0, field, plane, r_plane):
@@ -411,12 +428,10 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
             "Kx sin(alpha) cos(gamma) Hz)")
     else:
         scale_note = None
-    raw_norm = np.hypot(hu2[i], hu2[j]) if chosen == "planar" else np.linalg.norm(hu2, axis=0)
-    factor = raw_scale(raw_norm, fit.field)
-    before = dg.norm_error_stats(raw_norm * factor, fit.field)
-    if factor != 1.0:
-        before["note"] = (f"raw readings are not in field units: 'before' uses them multiplied by one common "
-                          f"factor {factor:.6g} (the ratio of field to median raw magnitude)")
+    raw, raw_note = nominal_raw(hu2[[i, j]] if chosen == "planar" else hu2, fit.field)
+    before = dg.norm_error_stats(np.linalg.norm(raw, axis=0), fit.field)
+    if raw_note:
+        before["note"] = raw_note
     after = dg.norm_error_stats(norms(fit.calibration, hu2), fit.field)
     plaus_params = {n: (v["value"] if v["value"] is not None else math.nan) for n, v in params.items()}
     if chosen == "planar":
@@ -425,7 +440,7 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     # Raw counts carry the converter's zero in their offsets: only judge offsets
     # of data already in field units.
     plaus = dg.plausibility(plaus_params, fit.field, max_angle_deg=max_angle_deg, gain_ratio=gain_ratio,
-                            max_offset=max_offset if factor == 1.0 else None)
+                            max_offset=max_offset if raw_note is None else None)
     lms_cmp = None
     if ls is not None:
         d = {}

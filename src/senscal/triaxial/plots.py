@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from senscal.report.plots import new_figure, save_figure
-from senscal.triaxial.calibrate import raw_scale
+from senscal.triaxial.calibrate import nominal_raw
 
 __all__ = ["plot_calibration"]
 
@@ -29,9 +29,7 @@ def plot_calibration(h_raw: np.ndarray, h_corrected: np.ndarray, field: float, p
     -------
     Path
     """
-    n_raw = np.linalg.norm(h_raw, axis=0)
-    k = raw_scale(n_raw, field)
-    raw = h_raw * k
+    raw, note = nominal_raw(h_raw, field)
     fig, axes = new_figure(2, 3, width=11.0, height=7.0)
     gs = axes[1, 0].get_gridspec()
     for a in axes[1]:
@@ -39,7 +37,7 @@ def plot_calibration(h_raw: np.ndarray, h_corrected: np.ndarray, field: float, p
     axn = fig.add_subplot(gs[1, :])
     th = np.linspace(0, 2 * np.pi, 200)
     for a, (p, q) in zip(axes[0], ((0, 1), (0, 2), (1, 2))):
-        a.plot(raw[p], raw[q], ".", ms=2.5, alpha=0.6, label="raw" + (f" x {k:.3g}" if k != 1 else ""))
+        a.plot(raw[p], raw[q], ".", ms=2.5, alpha=0.6, label="raw" + (" (nominal conversion)" if note else ""))
         a.plot(h_corrected[p], h_corrected[q], ".", ms=2.5, alpha=0.6, label="corrected")
         a.plot(field * np.cos(th), field * np.sin(th), "k-", lw=0.6, label="|H| = F")
         a.set_aspect("equal", adjustable="datalim")
