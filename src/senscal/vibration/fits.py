@@ -205,7 +205,7 @@ def cut_whole_revolutions(angle_deg, t) -> AngleSync:
     return AngleSync(start, stop, revs, direction, float(lr.slope), float(lr.stderr))
 
 
-def fit_against_angle(y, angle_deg) -> SineFit:
+def fit_against_angle(y, angle_deg, *, harmonics: int = 1) -> SineFit:
     """Three-parameter fit of an output against the turntable angle.
 
     Model ``y = A sin(psi + phi) + C`` with ``psi`` the unwrapped angle in rad
@@ -218,6 +218,8 @@ def fit_against_angle(y, angle_deg) -> SineFit:
         Output samples of an already cut record.
     angle_deg : array_like, shape (N,)
         Turntable angle in degrees over the same samples.
+    harmonics : int
+        Harmonics of the revolution fitted with the fundamental.
 
     Returns
     -------
@@ -226,4 +228,4 @@ def fit_against_angle(y, angle_deg) -> SineFit:
     """
     a = np.unwrap(np.asarray(angle_deg, dtype=float), period=360.0)
     psi = np.radians(a if a[-1] >= a[0] else -a)
-    return fit_sine(y, psi, freq=1.0 / TWO_PI)
+    return fit_sine(y, psi, freq=1.0 / TWO_PI, harmonics=harmonics)

@@ -99,7 +99,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
                    static_sensitivity: float | None = None, initial_phase: float | None = None,
                    u_input: float = 0.0, u_reference_sensitivity: float = 0.0,
                    u_static_sensitivity: float = 0.0, u_input_phase: float = 0.0, drift: bool = False,
-                   source: str = "", unit: str = "V/(m/s^2)") -> ResponsePoint:
+                   harmonics: int = 1, source: str = "", unit: str = "V/(m/s^2)") -> ResponsePoint:
     """Sensitivity, normalised sensitivity, phase and phase delay at one frequency.
 
     Three ways to know the input:
@@ -142,6 +142,12 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         Type B standard uncertainty of the input phase in rad.
     drift : bool
         Also fit a linear offset drift.
+    harmonics : int
+        Harmonics fitted with the fundamental on known-input records (1 =
+        fundamental only).  A nonlinear sensor puts harmonics in its output;
+        fitting them keeps them out of the residual, so the fundamental's
+        uncertainty stays the noise's (the fundamental itself is orthogonal to
+        them over whole revolutions).
     source : str
         Label stored with the result.
     unit : str
@@ -189,14 +195,14 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         if angle_deg is not None:
             sync = cut_whole_revolutions(angle_deg, t)
             sl = slice(sync.start, sync.stop)
-            fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl])
+            fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics)
             f, u_f = sync.frequency, sync.u_frequency
             # The axis sees a0 cos(angle) = a0 sin(angle + pi/2).
             delay = float(wrap_phase(fit.phase - 0.5 * math.pi))
             u_delay_fit = float(fit.u_phase)
             method = "known input, angle-synchronised"
         else:
-            fit = fit_sine(y, t, freq=freq, drift=drift)
+            fit = fit_sine(y, t, freq=freq, drift=drift, harmonics=harmonics)
             f, u_f = float(fit.frequency), float(fit.u_frequency)
             delay = None if initial_phase is None else float(wrap_phase(fit.phase - initial_phase))
             u_delay_fit = float(fit.u_phase)
