@@ -43,7 +43,11 @@ class PairFit(ResultMixin):
         phase_difference, frequency)``, including the effect of the shared
         frequency estimate on both fits.
     reference, output : SineFit
-        The two fits (the output fit is at the reference's frequency).
+        The two fits (the output fit is at the reference's frequency; its
+        ``u_phase`` is conditional on that frequency).
+    u_output_phase : float
+        Standard uncertainty of the output's phase at t = 0 including the
+        shared frequency's uncertainty (rad).
     """
 
     frequency: float
@@ -53,6 +57,7 @@ class PairFit(ResultMixin):
     covariance: np.ndarray
     reference: SineFit
     output: SineFit
+    u_output_phase: float
 
     @property
     def u_frequency(self) -> float:
@@ -114,8 +119,11 @@ def fit_pair(reference, output, t, *, freq: float | None = None, drift: bool = F
         cz[:2, :2] = cov_r
         cz[2:, 2:] = cov_o
         jac = np.array([[1, 0, 0, 0], [0, 0, 1, 0], [0, -1, 0, 1], [0, 0, 0, 0]], dtype=float)
+        d_ph = 0.0
     cov = jac @ cz @ jac.T
-    return PairFit(f, float(fr.amplitude), float(fo.amplitude), float(wrap_phase(fo.phase - fr.phase)), cov, fr, fo)
+    u_out_ph = math.sqrt(cov_o[1, 1] + d_ph**2 * cov[3, 3])
+    return PairFit(f, float(fr.amplitude), float(fo.amplitude), float(wrap_phase(fo.phase - fr.phase)), cov, fr, fo,
+                   u_out_ph)
 
 
 @dataclass(frozen=True)

@@ -185,7 +185,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         comps_b = [("reference sensitivity", "B", u_reference_sensitivity * s)]
         f, u_f = pf.frequency, pf.u_frequency
         u_amp = math.sqrt(pf.covariance[1, 1])
-        phase, u_phase = float(pf.output.phase), float(pf.output.u_phase)
+        phase, u_phase = float(pf.output.phase), pf.u_output_phase
         delay, u_delay_fit = pf.phase_difference, math.sqrt(pf.covariance[2, 2])
         method, n, snr = "back-to-back", pf.output.n_samples, float(pf.output.snr_db)
     else:
