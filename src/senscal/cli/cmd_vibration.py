@@ -11,7 +11,7 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, load, parse_floats, parse_relative,
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, parse_floats, parse_relative,
                                 print_json, table, track)
 from senscal.errors import InputError
 
@@ -51,7 +51,7 @@ def _save_plot(fig, path: Path | None) -> None:
         from senscal.report.plots import save_figure
 
         save_figure(fig, path)
-        console.print(f"plot written to {path}")
+        err_console.print(f"plot written to {path}")
 
 
 def _k2(u):
