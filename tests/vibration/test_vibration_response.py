@@ -140,3 +140,25 @@ def test_bad_inputs_raise_clear_errors():
     with pytest.raises(TooFewSamplesError, match="fewer than one whole"):
         response_point(r["output"][:60], r.time[:60], input_amplitude=100.0, angle_deg=r["angle"][:60])
     del short
+
+
+def test_repeats_are_combined_with_type_a_from_their_spread():
+    from senscal.vibration import combine_repeats
+
+    recs, truth = simulate_centrifuge(frequencies=(1.0, 1.0, 1.0, 1.0, 5.0), seed=17, min_duration=5.0)
+    pts = [response_point(r["output"], r.time, input_amplitude=100.0, angle_deg=r["angle"], static_sensitivity=0.05,
+                          u_input=0.001) for r in recs]
+    reps = combine_repeats(pts)
+    assert [g.n_repeats for g in reps] == [4, 1]
+    g = reps[0]
+    tr = truth["points"][0]
+    assert abs(g.normalized_sensitivity - tr["normalized_sensitivity"]) < g.normalized_budget.expanded
+    assert abs(g.phase_delay - math.radians(tr["phase_delay_deg"])) < g.phase_delay_budget.expanded
+    u_fits = [p.normalized_budget.component("output fit (type A)").standard_uncertainty for p in pts[:4]]
+    ua = g.normalized_budget.component("type A (spread of repeats / fits)").standard_uncertainty
+    assert ua >= math.sqrt(sum(u * u for u in u_fits)) / 4 * (1 - 1e-12)
+    # the type B input component does not average down
+    assert g.normalized_budget.component("input amplitude").standard_uncertainty == pytest.approx(
+        0.001 * g.normalized_sensitivity, rel=1e-9)
+    # a single record passes through unchanged in value
+    assert reps[1].normalized_sensitivity == pytest.approx(pts[4].normalized_sensitivity, rel=1e-15)

@@ -189,7 +189,7 @@ def response_cmd(
     sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated",
 ) -> None:
     """Accelerometer frequency response: sensitivity, S_i/S0, phase delay with GUM budgets."""
-    from senscal.vibration import frequency_response
+    from senscal.vibration import combine_repeats, frequency_response
 
     _check_input(input_amplitude, reference, reference_sensitivity, angle)
     if initial_phase_deg is not None and (angle is not None or reference is not None):
@@ -219,6 +219,15 @@ def response_cmd(
         "unit": unit, "static_sensitivity": static_sensitivity, "coverage_factor": 2.0,
         "method": resp.points[0].method,
     }
+    reps = combine_repeats(resp.points)
+    if len(reps) < len(resp.points):
+        doc["repeats"] = [{"frequency_hz": g.frequency, "n_repeats": g.n_repeats, "files": list(g.sources),
+                           "sensitivity": g.sensitivity, "u_sensitivity": g.u_sensitivity,
+                           "sensitivity_std": g.sensitivity_std, "normalized_sensitivity": g.normalized_sensitivity,
+                           "u_normalized_sensitivity": g.u_normalized_sensitivity,
+                           "phase_delay_deg": _deg(g.phase_delay), "u_phase_delay_deg": _deg(g.u_phase_delay),
+                           "sensitivity_budget": g.sensitivity_budget, "normalized_budget": g.normalized_budget,
+                           "phase_delay_budget": g.phase_delay_budget} for g in reps]
     if report is not None:
         from senscal.report.certificate import write_certificate
 
@@ -249,6 +258,12 @@ def response_cmd(
              _u2(p["U_normalized_sensitivity"]), p["phase_delay_deg"], _u2(p["U_phase_delay_deg"])] for p in doc["points"]]
     console.print(table(f"Frequency response ({unit}; U = expanded, k=2)",
                         ["f (Hz)", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)"], rows))
+    if "repeats" in doc:
+        rows = [[g["frequency_hz"], g["n_repeats"], g["sensitivity"], _u2(_k2(g["u_sensitivity"])),
+                 g["normalized_sensitivity"], _u2(_k2(g["u_normalized_sensitivity"])), g["phase_delay_deg"],
+                 _u2(_k2(g["u_phase_delay_deg"]))] for g in doc["repeats"]]
+        console.print(table("Repeats combined (type A from their spread; U = expanded, k=2)",
+                            ["f (Hz)", "n", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)"], rows))
     if report is not None:
         console.print(f"certificate written to {report}")
 

@@ -11,16 +11,17 @@ References
 .. [3] ISO 16063-21:2003, calibration by comparison to a reference transducer.
 """
 
-from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_budget
+from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget
 from senscal.vibration.fits import AngleSync, PairFit, cut_whole_revolutions, fit_against_angle, fit_pair
 from senscal.vibration.linearity import AmplitudeLinearity, LinearityPoint, amplitude_linearity
-from senscal.vibration.response import FrequencyResponse, ResponsePoint, frequency_response, response_point
+from senscal.vibration.response import (FrequencyResponse, RepeatedPoint, ResponsePoint, combine_repeats,
+                                        frequency_response, response_point)
 from senscal.vibration.velocity import VelocityCalibration, VelocityPoint, velocity_calibration, velocity_point
 
 __all__ = [
-    "BudgetComponent", "UncertaintyBudget", "make_budget",
+    "BudgetComponent", "UncertaintyBudget", "make_budget", "mean_with_budget",
     "AngleSync", "PairFit", "cut_whole_revolutions", "fit_against_angle", "fit_pair",
     "AmplitudeLinearity", "LinearityPoint", "amplitude_linearity",
-    "FrequencyResponse", "ResponsePoint", "frequency_response", "response_point",
+    "FrequencyResponse", "RepeatedPoint", "ResponsePoint", "combine_repeats", "frequency_response", "response_point",
     "VelocityCalibration", "VelocityPoint", "velocity_calibration", "velocity_point",
 ]

@@ -15,10 +15,12 @@ import math
 from dataclasses import dataclass
 from typing import Sequence
 
+import numpy as np
+
 from senscal._result import ResultMixin
 from senscal.errors import InputError
 
-__all__ = ["BudgetComponent", "UncertaintyBudget", "make_budget", "COVERAGE_FACTOR"]
+__all__ = ["BudgetComponent", "UncertaintyBudget", "make_budget", "mean_with_budget", "COVERAGE_FACTOR"]
 
 COVERAGE_FACTOR = 2.0
 
@@ -110,3 +112,48 @@ def make_budget(quantity: str, value: float, unit: str, components: Sequence[tup
     uc = math.sqrt(sum(c.standard_uncertainty ** 2 for c in comps))
     return UncertaintyBudget(quantity, float(value), unit, tuple(comps), uc, float(coverage_factor),
                              float(coverage_factor) * uc)
+
+
+def mean_with_budget(values: Sequence[float], u_fit: Sequence[float], relative_b: Sequence[tuple[str, float]],
+                     quantity: str, unit: str, absolute_b: Sequence[tuple[str, float]] = ()
+                     ) -> tuple[float, float, UncertaintyBudget]:
+    """Mean of repeated results (repeats, or points of a flat response) with a GUM budget.
+
+    Type A is the larger of the experimental standard deviation of the mean
+    ``s / sqrt(n)`` (GUM 4.2.3) and the fits' own ``sqrt(sum u_i^2) / n``:
+    both estimate the same random error, so adding them would count it twice,
+    and with few repeats ``s`` alone can come out implausibly small.  Type B
+    components are relative and common to all repeats, so averaging does not
+    reduce them.
+
+    Parameters
+    ----------
+    values : sequence of float
+        Results of the repeats, in ``unit``.
+    u_fit : sequence of float
+        Their type A standard uncertainties from the fits, in ``unit``.
+    relative_b : sequence of (source, relative u)
+        Type B components as fractions of the value.
+    quantity, unit : str
+    absolute_b : sequence of (source, u)
+        Type B components in ``unit``.
+
+    Returns
+    -------
+    mean : float
+    std : float
+        Experimental standard deviation of the values (0 for one value).
+    budget : UncertaintyBudget
+    """
+    v = np.asarray(values, dtype=float)
+    n = v.size
+    if n == 0:
+        raise InputError(f"no values to average for {quantity}")
+    mean = float(v.mean())
+    std = float(v.std(ddof=1)) if n > 1 else 0.0
+    u_mean_fit = float(np.sqrt(np.sum(np.square(u_fit)))) / n
+    u_a = max(std / math.sqrt(n), u_mean_fit)
+    comps = [("type A (spread of repeats / fits)", "A", u_a)]
+    comps += [(src, "B", rel * abs(mean)) for src, rel in relative_b]
+    comps += [(src, "B", u) for src, u in absolute_b]
+    return mean, std, make_budget(quantity, mean, unit, comps)

@@ -21,10 +21,11 @@ import numpy as np
 from senscal._result import ResultMixin
 from senscal.errors import InputError
 from senscal.sinefit import fit_sine, wrap_phase
-from senscal.vibration.budget import UncertaintyBudget, make_budget
+from senscal.vibration.budget import UncertaintyBudget, make_budget, mean_with_budget
 from senscal.vibration.fits import AngleSync, cut_whole_revolutions, fit_against_angle, fit_pair
 
-__all__ = ["ResponsePoint", "FrequencyResponse", "response_point", "frequency_response"]
+__all__ = ["ResponsePoint", "FrequencyResponse", "RepeatedPoint", "response_point", "frequency_response",
+           "combine_repeats"]
 
 
 @dataclass(frozen=True)
@@ -276,3 +277,100 @@ def frequency_response(points: Sequence[ResponsePoint], *, unit: str = "V/(m/s^2
         raise InputError("give at least one frequency point")
     pts = tuple(sorted(points, key=lambda p: p.frequency))
     return FrequencyResponse(pts, unit, static_sensitivity)
+
+
+@dataclass(frozen=True)
+class RepeatedPoint(ResultMixin):
+    """Repeated records at one frequency combined (GUM type A from their spread).
+
+    Attributes
+    ----------
+    frequency : float
+        Mean frequency of the repeats, Hz.
+    n_repeats : int
+    sources : tuple of str
+    sensitivity, u_sensitivity, sensitivity_std : float
+        Mean, combined standard uncertainty of the mean, experimental standard
+        deviation of the repeats.
+    normalized_sensitivity, u_normalized_sensitivity : float or None
+    phase_delay, u_phase_delay : float or None
+        rad.
+    sensitivity_budget, normalized_budget, phase_delay_budget : UncertaintyBudget or None
+    """
+
+    frequency: float
+    n_repeats: int
+    sources: tuple[str, ...]
+    sensitivity: float
+    u_sensitivity: float
+    sensitivity_std: float
+    normalized_sensitivity: float | None
+    u_normalized_sensitivity: float | None
+    phase_delay: float | None
+    u_phase_delay: float | None
+    sensitivity_budget: UncertaintyBudget
+    normalized_budget: UncertaintyBudget | None
+    phase_delay_budget: UncertaintyBudget | None
+
+
+def _mean_of(budgets: Sequence[UncertaintyBudget], quantity: str, relative: bool):
+    """Combine per-repeat budgets: type A from the spread, type B carried over."""
+    first = budgets[0]
+    a_src = [c for c in first.components if c.kind == "A"][0].source
+    u_fit = [b.component(a_src).standard_uncertainty for b in budgets]
+    vals = [b.value for b in budgets]
+    bs = [(c.source, c.standard_uncertainty / abs(first.value) if relative else c.standard_uncertainty)
+          for c in first.components if c.kind == "B"]
+    _, std, bud = mean_with_budget(vals, u_fit, bs if relative else [], quantity, first.unit,
+                                   absolute_b=[] if relative else bs)
+    return bud, std
+
+
+def combine_repeats(points: Sequence[ResponsePoint], *, rel_tol: float = 1e-3) -> tuple[RepeatedPoint, ...]:
+    """Group records at the same frequency and combine them (mean, spread, budget).
+
+    Parameters
+    ----------
+    points : sequence of ResponsePoint
+    rel_tol : float
+        Frequencies within this relative tolerance are repeats of one point.
+
+    Returns
+    -------
+    tuple of RepeatedPoint
+        One per distinct frequency, sorted by frequency.  Type A of each mean
+        is the larger of ``s / sqrt(n)`` over the repeats and the fits' own
+        uncertainty of the mean (see :func:`~senscal.vibration.budget.mean_with_budget`).
+
+    References
+    ----------
+    .. [1] JCGM 100:2008 (GUM) 4.2 (type A evaluation from repeated observations).
+    """
+    groups: list[list[ResponsePoint]] = []
+    for p in sorted(points, key=lambda q: q.frequency):
+        if groups and abs(p.frequency - groups[-1][0].frequency) <= rel_tol * groups[-1][0].frequency:
+            groups[-1].append(p)
+        else:
+            groups.append([p])
+    out = []
+    for g in groups:
+        sb, s_std = _mean_of([p.sensitivity_budget for p in g], "sensitivity", True)
+        nb = None
+        if all(p.normalized_budget is not None for p in g):
+            nb, _ = _mean_of([p.normalized_budget for p in g], "normalized sensitivity", True)
+        db = None
+        if all(p.phase_delay_budget is not None for p in g):
+            # average phases around the first one so a +/-pi wrap cannot split the mean
+            ref = g[0].phase_delay
+            wrapped = [make_budget("phase delay", ref + float(wrap_phase(p.phase_delay - ref)), "rad",
+                                   [(c.source, c.kind, c.standard_uncertainty) for c in p.phase_delay_budget.components])
+                       for p in g]
+            db, _ = _mean_of(wrapped, "phase delay", False)
+        out.append(RepeatedPoint(
+            frequency=float(np.mean([p.frequency for p in g])), n_repeats=len(g), sources=tuple(p.source for p in g),
+            sensitivity=sb.value, u_sensitivity=sb.combined, sensitivity_std=s_std,
+            normalized_sensitivity=None if nb is None else nb.value,
+            u_normalized_sensitivity=None if nb is None else nb.combined,
+            phase_delay=None if db is None else db.value, u_phase_delay=None if db is None else db.combined,
+            sensitivity_budget=sb, normalized_budget=nb, phase_delay_budget=db))
+    return tuple(out)

@@ -18,7 +18,7 @@ import numpy as np
 from senscal._result import ResultMixin
 from senscal.errors import InputError
 from senscal.sinefit import wrap_phase
-from senscal.vibration.budget import UncertaintyBudget, make_budget
+from senscal.vibration.budget import UncertaintyBudget, make_budget, mean_with_budget
 from senscal.vibration.fits import fit_pair
 
 __all__ = ["VelocityPoint", "VelocityCalibration", "velocity_point", "velocity_calibration"]
@@ -156,32 +156,6 @@ class VelocityCalibration(ResultMixin):
     unit: str
 
 
-def mean_with_budget(values: Sequence[float], u_fit: Sequence[float], u_b_rel: float, quantity: str,
-                     unit: str) -> tuple[float, float, UncertaintyBudget]:
-    """Mean of repeated results with a GUM budget.
-
-    Type A is the larger of the experimental standard deviation of the mean
-    ``s / sqrt(n)`` (GUM 4.2.3) and the fits' own ``sqrt(sum u_i^2) / n``:
-    both estimate the same random error, so adding them would count it twice,
-    and with few points ``s`` alone can come out implausibly small.
-    Type B is a relative component common to all points (not reduced by
-    averaging).
-
-    Returns
-    -------
-    mean, std, budget
-    """
-    v = np.asarray(values, dtype=float)
-    n = v.size
-    mean = float(v.mean())
-    std = float(v.std(ddof=1)) if n > 1 else 0.0
-    u_mean_fit = float(np.sqrt(np.sum(np.square(u_fit)))) / n
-    u_a = max(std / math.sqrt(n), u_mean_fit)
-    budget = make_budget(quantity, mean, unit, [("type A (spread of points / fits)", "A", u_a),
-                                                ("reference (type B)", "B", u_b_rel * abs(mean))])
-    return mean, std, budget
-
-
 def velocity_calibration(points: Sequence[VelocityPoint], *, u_position: float = 0.0,
                          unit: str = "V/(m/s)") -> VelocityCalibration:
     """Mean sensitivity, spread and combined uncertainty over frequency points.
@@ -203,5 +177,6 @@ def velocity_calibration(points: Sequence[VelocityPoint], *, u_position: float =
     if not points:
         raise InputError("give at least one velocity calibration point")
     u_a = [p.budget.component("sine fits").standard_uncertainty for p in points]
-    mean, std, budget = mean_with_budget([p.sensitivity for p in points], u_a, u_position, "mean sensitivity", unit)
+    mean, std, budget = mean_with_budget([p.sensitivity for p in points], u_a, [("position reference", u_position)],
+                                         "mean sensitivity", unit)
     return VelocityCalibration(tuple(points), mean, std, budget.combined, budget, unit)
