@@ -109,3 +109,10 @@ def test_demo_sinefit_only(cli, tmp_path):
     assert (tmp_path / "index.html").exists()
     html = (tmp_path / "index.html").read_text()
     assert "Sine fit" in html and "data:image/png;base64" in html
+
+
+@pytest.mark.parametrize("args", [["fit"], ["fit", "x.csv", "--bogus"], ["nosuch"], ["fit", "x.csv", "--freq", "abc"]])
+def test_usage_errors_exit_2_without_traceback(cli, args):
+    r = cli(*args)
+    assert r.code == 2
+    assert "Traceback" not in r.err
