@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import functools
 import glob
 import io
 import json
@@ -129,6 +130,15 @@ def batch_jobs() -> list[str]:
     return names
 
 
+@functools.lru_cache(maxsize=1)
+def _root_command():
+    import typer
+
+    from senscal.cli import load_commands
+
+    return typer.main.get_command(load_commands())
+
+
 def run_one(command: Sequence[str], file: str, options: Sequence[str]) -> BatchRow:
     """Run one job on one file in this process; never raises for a job failure.
 
@@ -141,12 +151,8 @@ def run_one(command: Sequence[str], file: str, options: Sequence[str]) -> BatchR
     options : sequence of str
         The job's own options (as on its command line), ``--json`` added here.
     """
-    import typer
-
-    from senscal.cli import load_commands
-
     t0 = time.perf_counter()
-    root = typer.main.get_command(load_commands())
+    root = _root_command()
     args = [*command, file, *options, "--json"]
     out = io.StringIO()
     err = io.StringIO()

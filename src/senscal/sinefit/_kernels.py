@@ -18,8 +18,7 @@ _ANCHOR = 512   # samples between exact re-anchoring of the recurrence
 _BLOCK = 2048   # samples per cache block in the projection
 
 
-@nb.njit(cache=True, parallel=True, fastmath=False)
-def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
+def _harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
     """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics.
 
     Returns an array of shape (2*harmonics, n).
@@ -43,8 +42,7 @@ def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.nda
     return out
 
 
-@nb.njit(cache=True, parallel=True, fastmath=False)
-def project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, pilot: np.ndarray, nthreads: int):
+def _project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, pilot: np.ndarray, nthreads: int):
     """One pass: ``A^T (y - pilot)`` and ``sum((y - pilot)^2)`` per channel.
 
     The design matrix ``A`` has the rows of ``basis``, then a constant row,
@@ -124,8 +122,7 @@ def _row_fundamental(yr, b0, b1, pv):
     return a0, a1, a2, sq
 
 
-@nb.njit(cache=True, parallel=True)
-def project_fundamental(y: np.ndarray, basis: np.ndarray, pilot: np.ndarray):
+def _project_fundamental(y: np.ndarray, basis: np.ndarray, pilot: np.ndarray):
     """:func:`project` specialised to the fundamental with offset (p = 3).
 
     One streaming pass per channel; block partial sums (``_BLOCK * 8``
@@ -145,3 +142,20 @@ def project_fundamental(y: np.ndarray, basis: np.ndarray, pilot: np.ndarray):
             aty[c, 2] += a2
             yy[c] += sq
     return aty, yy
+
+
+# Threads pay only on large arrays; on small ones (and on a busy machine)
+# the serial build is much faster than waking the thread pool.
+project_fundamental = nb.njit(cache=True, parallel=True)(_project_fundamental)
+project_parallel = nb.njit(cache=True, parallel=True)(_project)
+project_serial = nb.njit(cache=True)(_project)
+harmonic_basis_parallel = nb.njit(cache=True, parallel=True)(_harmonic_basis)
+harmonic_basis_serial = nb.njit(cache=True)(_harmonic_basis)
+
+
+def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
+    """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics, shape (2K, n)."""
+    fn = harmonic_basis_parallel if n * harmonics >= PARALLEL_MIN_SAMPLES // 4 else harmonic_basis_serial
+    return fn(n, float(w_dt), float(tau0_w), int(harmonics))
+project_fundamental_serial = nb.njit(cache=True)(_project_fundamental)
+PARALLEL_MIN_SAMPLES = 1 << 20

@@ -278,10 +278,12 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
         _check_rank(np.array([1.0, 0.0]))
     pilot = y2[:, 0].copy()
     yc = np.ascontiguousarray(y2)
+    big = yc.size >= kern.PARALLEL_MIN_SAMPLES and yc.shape[0] > 1
     if harmonics == 1 and not drift:
-        aty, yy = kern.project_fundamental(yc, basis, pilot)
+        aty, yy = (kern.project_fundamental if big else kern.project_fundamental_serial)(yc, basis, pilot)
     else:
-        aty, yy = kern.project(yc, basis, tau, drift, pilot, int(nb.get_num_threads()))
+        proj = kern.project_parallel if big else kern.project_serial
+        aty, yy = proj(yc, basis, tau, drift, pilot, int(nb.get_num_threads()) if big else 1)
     if not (np.all(np.isfinite(aty)) and np.all(np.isfinite(yy))):
         # NaN/inf poisons the sums: locate it for the message.
         _check_y(y2, full=True)
