@@ -11,7 +11,7 @@ from pykalman import KalmanFilter as PKKalman
 from scipy.stats import multivariate_normal
 
 from senscal.errors import DataError, InputError
-from senscal.kalman import StateSpaceModel, fixed_lag_smoother, kalman_filter, rts_smoother
+from senscal.kalman import StateSpaceModel, fixed_lag_smoother, kalman_filter, log_likelihood, rts_smoother
 
 RTOL = 1e-9
 
@@ -279,3 +279,12 @@ def test_invalid_measurements():
         kalman_filter(model, np.zeros((1, 10)), np.zeros((1, 10)))
     with pytest.raises(InputError, match="gate"):
         kalman_filter(model, np.zeros((1, 10)), gate=-1.0)
+
+
+def test_log_likelihood_only_pass_equals_filter():
+    rng = np.random.default_rng(10)
+    model = cv_model()
+    y = simulate(model, 2000, rng)
+    assert log_likelihood(model, y) == pytest.approx(kalman_filter(model, y).loglik, rel=1e-13)
+    y[1, 5] = np.nan
+    assert log_likelihood(model, y) == pytest.approx(kalman_filter(model, y).loglik, rel=1e-13)

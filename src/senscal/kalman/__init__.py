@@ -10,8 +10,9 @@ time-invariant models, many independent series at once (y of shape
 (S, m, T)).
 """
 
-from senscal.kalman.core import KalmanResult, SmootherResult, fixed_lag_smoother, kalman_filter, rts_smoother
+from senscal.kalman.core import (KalmanResult, SmootherResult, fixed_lag_smoother, kalman_filter, log_likelihood,
+                                 rts_smoother)
 from senscal.kalman.model import StateSpaceModel
 
 __all__ = ["StateSpaceModel", "KalmanResult", "SmootherResult", "kalman_filter", "rts_smoother",
-           "fixed_lag_smoother"]
+           "fixed_lag_smoother", "log_likelihood"]

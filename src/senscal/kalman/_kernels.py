@@ -39,16 +39,22 @@ def _sym(P):
 
 
 @nb.njit(cache=True)
-def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss,
+def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                   xf, Pf, xp_out, Pp_out, v_out, S_out, e_out, rej):
     """Kalman filter of one series; fills the output arrays in place.
 
     Shapes: F (1|T, n, n), B (1|T, n, k), H (1|T, m, n), Q (1|T, n, n),
     R (1|T, m, m), x0 (n,), P0 (n, n), y (T, m) with NaN = missing,
-    u (T, k) (time-major, contiguous rows). Outputs time-major: xf, xp_out (T, n); Pf, Pp_out (T, n, n);
-    v_out, e_out (T, m); S_out (T, m, m); rej (T,) bool.
+    u (T, k) (time-major, contiguous rows).  Outputs time-major: xf, xp_out
+    (T, n); Pf, Pp_out (T, n, n); v_out, e_out (T, m); S_out (T, m, m);
+    rej (T,) bool.  With ``store`` False nothing but ``rej`` is written (the
+    likelihood-only pass of parameter estimation).
 
-    Returns (loglik, index at which the steady-state gain was frozen or -1).
+    Small fixed-size loops on preallocated buffers: at n, m <= 10 they beat
+    BLAS calls, whose per-call overhead and allocations would dominate.
+
+    Returns (loglik, index at which the steady-state gain was frozen, -1 if
+    never, or -2 if an innovation covariance was not positive definite).
     """
     n = F.shape[1]
     m = H.shape[1]
@@ -58,92 +64,169 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss,
     P = P0.copy()
     xp = np.empty(n)
     Pp = np.empty((n, n))
-    loglik = 0.0
-    eye = np.eye(n)
-    hold = 0
-    ss_from = -1
     Pp_prev = np.zeros((n, n))
-    t = 0
-    while t < T:
+    tmp = np.empty((n, n))
+    IKH = np.empty((n, n))
+    PHt = np.empty((n, m))
+    Kg = np.empty((n, m))
+    KR = np.empty((n, m))
+    S = np.empty((m, m))
+    L = np.zeros((m, m))
+    v = np.empty(m)
+    es = np.empty(m)
+    obs = np.empty(m, dtype=np.int64)
+    loglik = 0.0
+    hold = 0
+    for t in range(T):
+        # ---- predict
         if t == 0:
             xp[:] = x0
             Pp[:, :] = P0
         else:
             Ft = _at(F, t)
-            xp[:] = Ft @ x
-            if k > 0:
-                xp += _at(B, t) @ u[t - 1]
-            Pp[:, :] = Ft @ P @ Ft.T + _at(Q, t)
-            _sym(Pp)
-        xp_out[t] = xp
-        Pp_out[t] = Pp
+            Bt = _at(B, t)
+            Qt = _at(Q, t)
+            for i in range(n):
+                acc = 0.0
+                for j in range(n):
+                    acc += Ft[i, j] * x[j]
+                for j in range(k):
+                    acc += Bt[i, j] * u[t - 1, j]
+                xp[i] = acc
+            for i in range(n):
+                for j in range(n):
+                    acc = 0.0
+                    for l in range(n):
+                        acc += Ft[i, l] * P[l, j]
+                    tmp[i, j] = acc
+            for i in range(n):
+                for j in range(i + 1):
+                    acc = Qt[i, j]
+                    for l in range(n):
+                        acc += tmp[i, l] * Ft[j, l]
+                    Pp[i, j] = acc
+            for i in range(n):
+                for j in range(i + 1, n):
+                    Pp[i, j] = Pp[j, i]
+        # ---- innovation
         Ht = _at(H, t)
         Rt = _at(R, t)
-        S = Ht @ Pp @ Ht.T + Rt
-        _sym(S)
-        S_out[t] = S
-        yt = y[t]
-        v = yt - Ht @ xp
-        v_out[t] = v
-        obs = np.empty(m, dtype=np.int64)
+        for i in range(n):
+            for a in range(m):
+                acc = 0.0
+                for j in range(n):
+                    acc += Pp[i, j] * Ht[a, j]
+                PHt[i, a] = acc
+        for a in range(m):
+            for b in range(a + 1):
+                acc = Rt[a, b]
+                for i in range(n):
+                    acc += Ht[a, i] * PHt[i, b]
+                S[a, b] = acc
+                S[b, a] = acc
         mo = 0
-        for i in range(m):
-            if not math.isnan(yt[i]):
-                obs[mo] = i
+        for a in range(m):
+            acc = y[t, a]
+            for j in range(n):
+                acc -= Ht[a, j] * xp[j]
+            v[a] = acc
+            if not math.isnan(acc):
+                obs[mo] = a
                 mo += 1
-        for i in range(m):
-            e_out[t, i] = np.nan
+        if store:
+            xp_out[t] = xp
+            Pp_out[t] = Pp
+            v_out[t] = v
+            S_out[t] = S
+            for a in range(m):
+                e_out[t, a] = np.nan
         if mo == 0:
             x[:] = xp
             P[:, :] = Pp
-            xf[t] = xp
-            Pf[t] = Pp
-            t += 1
+            if store:
+                xf[t] = x
+                Pf[t] = P
             continue
-        obs = obs[:mo]
-        Hs = np.empty((mo, n))
-        Rs = np.empty((mo, mo))
-        Ss = np.empty((mo, mo))
-        vs = np.empty(mo)
+        # ---- Cholesky of the observed block, whitened innovation
         for a in range(mo):
-            Hs[a] = Ht[obs[a]]
-            vs[a] = v[obs[a]]
-            for b in range(mo):
-                Rs[a, b] = Rt[obs[a], obs[b]]
-                Ss[a, b] = S[obs[a], obs[b]]
-        L = np.linalg.cholesky(Ss)
-        # Whitened innovation: forward substitution L e = v.
-        es = np.empty(mo)
-        for a in range(mo):
-            acc = vs[a]
-            for b in range(a):
-                acc -= L[a, b] * es[b]
-            es[a] = acc / L[a, a]
+            for b in range(a + 1):
+                acc = S[obs[a], obs[b]]
+                for c in range(b):
+                    acc -= L[a, c] * L[b, c]
+                if a == b:
+                    if not acc > 0.0:
+                        return np.nan, -2
+                    L[a, a] = math.sqrt(acc)
+                else:
+                    L[a, b] = acc / L[b, b]
         nis = 0.0
         logdet = 0.0
         for a in range(mo):
-            e_out[t, obs[a]] = es[a]
+            acc = v[obs[a]]
+            for b in range(a):
+                acc -= L[a, b] * es[b]
+            es[a] = acc / L[a, a]
             nis += es[a] * es[a]
             logdet += 2.0 * math.log(L[a, a])
+            if store:
+                e_out[t, obs[a]] = es[a]
         if gate > 0.0 and nis > gate:
             rej[t] = True
-            xf[t] = xp
-            Pf[t] = Pp
             x[:] = xp
             P[:, :] = Pp
-            t += 1
+            if store:
+                xf[t] = x
+                Pf[t] = P
             continue
         loglik += -0.5 * (mo * _LOG_2PI + logdet + nis)
-        Sinv = np.linalg.inv(Ss)
-        K = Pp @ Hs.T @ Sinv
-        x[:] = xp + K @ vs
-        IKH = eye - K @ Hs
-        P[:, :] = IKH @ Pp @ IKH.T + K @ Rs @ K.T
-        _sym(P)
-        xf[t] = x
-        Pf[t] = P
-        t += 1
-        if allow_ss and t > 1:
+        # ---- gain K = Pp Hs^T Ss^-1, row by row through the Cholesky factor
+        for i in range(n):
+            for a in range(mo):
+                acc = PHt[i, obs[a]]
+                for b in range(a):
+                    acc -= L[a, b] * Kg[i, b]
+                Kg[i, a] = acc / L[a, a]
+            for a in range(mo - 1, -1, -1):
+                acc = Kg[i, a]
+                for b in range(a + 1, mo):
+                    acc -= L[b, a] * Kg[i, b]
+                Kg[i, a] = acc / L[a, a]
+        for i in range(n):
+            acc = xp[i]
+            for a in range(mo):
+                acc += Kg[i, a] * v[obs[a]]
+            x[i] = acc
+        # ---- Joseph form: P = (I - K H) Pp (I - K H)^T + K R K^T
+        for i in range(n):
+            for j in range(n):
+                acc = 1.0 if i == j else 0.0
+                for a in range(mo):
+                    acc -= Kg[i, a] * Ht[obs[a], j]
+                IKH[i, j] = acc
+            for a in range(mo):
+                acc = 0.0
+                for b in range(mo):
+                    acc += Kg[i, b] * Rt[obs[b], obs[a]]
+                KR[i, a] = acc
+        for i in range(n):
+            for j in range(n):
+                acc = 0.0
+                for l in range(n):
+                    acc += IKH[i, l] * Pp[l, j]
+                tmp[i, j] = acc
+        for i in range(n):
+            for j in range(i + 1):
+                acc = 0.0
+                for l in range(n):
+                    acc += tmp[i, l] * IKH[j, l]
+                for a in range(mo):
+                    acc += KR[i, a] * Kg[j, a]
+                P[i, j] = acc
+                P[j, i] = acc
+        if store:
+            xf[t] = x
+            Pf[t] = P
+        if allow_ss and t > 0:
             # Converged when the predicted covariance stops changing.
             scale = 0.0
             diff = 0.0
@@ -152,17 +235,16 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss,
                     scale = max(scale, abs(Pp[i, j]))
                     diff = max(diff, abs(Pp[i, j] - Pp_prev[i, j]))
             hold = hold + 1 if diff <= _SS_TOL * scale else 0
-            if hold >= _SS_HOLD:
-                ss_from = t
-                loglik += _steady(F[0], B[0], H[0], K, L, Sinv, P, x, y, u, t, xf, Pf, xp_out,
+            if hold >= _SS_HOLD and t + 1 < T:
+                loglik += _steady(F[0], B[0], H[0], Kg, L, P, x, y, u, t + 1, store, xf, Pf, xp_out,
                                   Pp_out, v_out, S_out, e_out, logdet, Pp, S)
-                break
+                return loglik, t + 1
         Pp_prev[:, :] = Pp
-    return loglik, ss_from
+    return loglik, -1
 
 
 @nb.njit(cache=True)
-def _steady(F, B, H, K, L, Sinv, P, x, y, u, t0, xf, Pf, xp_out, Pp_out, v_out, S_out, e_out,
+def _steady(F, B, H, K, L, P, x, y, u, t0, store, xf, Pf, xp_out, Pp_out, v_out, S_out, e_out,
             logdet, Pp, S):
     """Mean-only recursion with the frozen gain from step ``t0`` on.
 
@@ -173,7 +255,7 @@ def _steady(F, B, H, K, L, Sinv, P, x, y, u, t0, xf, Pf, xp_out, Pp_out, v_out, 
     m = H.shape[0]
     k = B.shape[1]
     T = y.shape[0]
-    Linv = np.linalg.inv(L)
+    Linv = np.linalg.inv(L[:m, :m])
     const = -0.5 * (m * _LOG_2PI + logdet)
     ll = 0.0
     xp = np.empty(n)
@@ -205,6 +287,8 @@ def _steady(F, B, H, K, L, Sinv, P, x, y, u, t0, xf, Pf, xp_out, Pp_out, v_out, 
                 acc += K[i, a] * v[a]
             x[i] = acc
         ll += const - 0.5 * nis
+        if not store:
+            continue
         xp_out[t] = xp
         xf[t] = x
         v_out[t] = v

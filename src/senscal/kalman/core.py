@@ -12,7 +12,8 @@ from senscal.errors import DataError, InputError
 from senscal.kalman import _kernels as K
 from senscal.kalman.model import StateSpaceModel
 
-__all__ = ["KalmanResult", "SmootherResult", "kalman_filter", "rts_smoother", "fixed_lag_smoother"]
+__all__ = ["KalmanResult", "SmootherResult", "kalman_filter", "rts_smoother", "fixed_lag_smoother",
+           "log_likelihood"]
 
 
 @dataclass(frozen=True)
@@ -182,13 +183,11 @@ def kalman_filter(model: StateSpaceModel, y: Any, u: Any = None, *, gate: float 
     ssf = np.empty(S, dtype=np.int64)
     for s in range(S):
         allow = bool(steady_state and not model.time_varying and gate is None and not np.isnan(yy[s]).any())
-        try:
-            ll[s], ssf[s] = K.filter_series(model._F, model._B, model._H, model._Q, model._R, model.x0, model.P0,
-                                            yy[s], uu[s], g, allow, xf[s], Pf[s], xp[s], Pp[s], v[s], Sc[s], e[s],
-                                            rej[s])
-        except np.linalg.LinAlgError:
-            raise DataError("the innovation covariance lost positive definiteness; check that R is not "
-                            "negligible against the signal's scale and that P0 is not absurdly large") from None
+        ll[s], ssf[s] = K.filter_series(model._F, model._B, model._H, model._Q, model._R, model.x0, model.P0,
+                                        yy[s], uu[s], g, allow, True, xf[s], Pf[s], xp[s], Pp[s], v[s], Sc[s],
+                                        e[s], rej[s])
+        if ssf[s] == -2:
+            raise _not_pd()
 
     def tl(a: np.ndarray) -> np.ndarray:
         # time-major -> time-last views
@@ -199,6 +198,47 @@ def kalman_filter(model: StateSpaceModel, y: Any, u: Any = None, *, gate: float 
                         innovation_cov=tl(Sc), normalized_innovation=tl(e),
                         loglik=ll if batched else float(ll[0]), rejected=rej if batched else rej[0],
                         steady_state_from=ssf if batched else int(ssf[0]))
+
+
+def _not_pd() -> DataError:
+    return DataError("the innovation covariance lost positive definiteness; check that R is not negligible "
+                     "against the signal's scale and that P0 is not absurdly large")
+
+
+def log_likelihood(model: StateSpaceModel, y: Any, u: Any = None) -> float | np.ndarray:
+    """Gaussian log-likelihood of the measurements under the model [nats].
+
+    The same recursion as :func:`kalman_filter` without storing the states:
+    the objective of maximum-likelihood noise estimation.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    y : array_like, (m, T) or (S, m, T)
+        Measurements, NaN = missing.
+    u : array_like, optional
+        Control input.
+
+    Returns
+    -------
+    float, or ndarray (S,) for batched y
+    """
+    yy, uu, batched = _series(model, y, u)
+    S, T, m = yy.shape
+    n = model.n_states
+    ll = np.empty(S)
+    d1 = np.empty((1, n))
+    d2 = np.empty((1, n, n))
+    dm = np.empty((1, m))
+    dmm = np.empty((1, m, m))
+    rej = np.zeros(T, dtype=bool)
+    for s in range(S):
+        allow = bool(not model.time_varying and not np.isnan(yy[s]).any())
+        ll[s], code = K.filter_series(model._F, model._B, model._H, model._Q, model._R, model.x0, model.P0,
+                                      yy[s], uu[s], 0.0, allow, False, d1, d2, d1, d2, dm, dmm, dm, rej)
+        if code == -2:
+            raise _not_pd()
+    return ll if batched else float(ll[0])
 
 
 def _time_major(res: KalmanResult) -> tuple[np.ndarray, ...]:
