@@ -39,58 +39,6 @@ def quaternion_integrate(omega, t, q0):
     return q
 
 
-@nb.njit(cache=True)
-def rate_filter(y, u, Q, R, x0, P0, gate):
-    """Three-state random-walk-plus-control Kalman filter (fallback kernel).
-
-    ``x_k = x_{k-1} + u_{k-1} + w_k``, ``z_k = x_k + v_k`` with ``R`` per step
-    (3, 3, T); NaN components of ``z`` are skipped; a step whose normalised
-    innovation squared exceeds ``gate`` (if > 0) is rejected.  Joseph form.
-    """
-    n = y.shape[1]
-    x = np.empty((3, n))
-    P = np.empty((3, 3, n))
-    nis = np.full(n, np.nan)
-    rejected = np.zeros(n, dtype=np.bool_)
-    xk = x0.copy()
-    Pk = P0.copy()
-    eye = np.eye(3)
-    for k in range(n):
-        if k > 0:
-            xk = xk + u[:, k - 1]
-            Pk = Pk + Q
-        idx = np.empty(3, dtype=np.int64)
-        m = 0
-        for i in range(3):
-            if not np.isnan(y[i, k]):
-                idx[m] = i
-                m += 1
-        if m > 0:
-            H = np.zeros((m, 3))
-            Rm = np.empty((m, m))
-            nu = np.empty(m)
-            for a in range(m):
-                H[a, idx[a]] = 1.0
-                nu[a] = y[idx[a], k] - xk[idx[a]]
-                for b in range(m):
-                    Rm[a, b] = R[idx[a], idx[b], k]
-            S = H @ Pk @ H.T + Rm
-            Si = np.linalg.inv(S)
-            d2 = nu @ Si @ nu
-            nis[k] = d2
-            if gate > 0 and d2 > gate:
-                rejected[k] = True
-            else:
-                K = Pk @ H.T @ Si
-                xk = xk + K @ nu
-                A = eye - K @ H
-                Pk = A @ Pk @ A.T + K @ Rm @ K.T
-                Pk = 0.5 * (Pk + Pk.T)
-        x[:, k] = xk
-        P[:, :, k] = Pk
-    return x, P, nis, rejected
-
-
 @nb.njit(cache=True, inline="always")
 def _inv3(A, out):
     a, b, c = A[0, 0], A[0, 1], A[0, 2]

@@ -26,7 +26,8 @@ from scipy.stats import chi2
 
 from senscal._result import ResultMixin
 from senscal.errors import InputError
-from senscal.gfimu._kernels import quadratic_ekf, rate_filter
+from senscal.kalman import StateSpaceModel, kalman_filter
+from senscal.gfimu._kernels import quadratic_ekf
 from senscal.gfimu.layout import KinematicSolution, square_map
 from senscal.gfimu.methods import differential_rate, integration_rate, rate_increments, sqrt_rate
 
@@ -239,5 +240,8 @@ def _result(x, P, rej, ok, observation, passes) -> RateFilterResult:
 
 
 def _filter(z, u, Q, R, x0, P0, gate):
-    return rate_filter(np.ascontiguousarray(z), np.ascontiguousarray(u), Q, np.ascontiguousarray(R),
-                       x0, P0, gate)
+    """The linear filters run on the shared engine: F = H = B = I, R per step."""
+    eye = np.eye(3)
+    model = StateSpaceModel(F=eye, H=eye, Q=Q, R=np.moveaxis(R, -1, 0), B=eye, x0=x0, P0=P0)
+    res = kalman_filter(model, z, u, gate=gate if gate > 0 else None)
+    return res.x, res.P, res.normalized_innovation, res.rejected
