@@ -13,6 +13,8 @@ References
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from senscal.errors import DataError, InputError, TooFewSamplesError
@@ -174,7 +176,9 @@ def differential_rate(squares: np.ndarray, alpha: np.ndarray, t: np.ndarray, *, 
     u[~np.isfinite(u)] = np.inf
     bad = ~np.isfinite(omega)
     if np.isfinite(reject_factor):
-        med = np.nanmedian(np.where(np.isfinite(u), u, np.nan), axis=1, keepdims=True)
+        with warnings.catch_warnings():  # an axis with no finite uncertainty is all rejected anyway
+            warnings.simplefilter("ignore", RuntimeWarning)
+            med = np.nanmedian(np.where(np.isfinite(u), u, np.nan), axis=1, keepdims=True)
         bad |= u > reject_factor * med
     if max_uncertainty is not None:
         if squares_std is None:
