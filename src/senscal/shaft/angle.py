@@ -24,7 +24,7 @@ from scipy.signal import savgol_coeffs, savgol_filter
 from senscal._result import ResultMixin
 from senscal.errors import DataError, InputError, TooFewSamplesError
 
-__all__ = ["angle_to_rad", "check_radius", "check_uniform", "EncoderKinematics", "encoder_kinematics",
+__all__ = ["white_noise_std", "angle_to_rad", "check_radius", "check_uniform", "EncoderKinematics", "encoder_kinematics",
            "savgol_window", "smooth"]
 
 TWO_PI = 2.0 * math.pi
@@ -131,6 +131,22 @@ def smooth(x: np.ndarray, m: int) -> np.ndarray:
     return savgol_filter(x, m, POLYORDER, mode="interp")
 
 
+def white_noise_std(x: np.ndarray, m: int) -> float:
+    """Standard deviation of the white noise on ``x``, from ``x`` minus its Savitzky-Golay smoothing.
+
+    Signal the cubic window follows cancels; white noise of variance ``s^2``
+    leaves ``(1 - 2 h0[c] + |h0|^2) s^2``, which is divided out.  Samples
+    within half a window of the ends are not used.
+    """
+    h0 = savgol_coeffs(m, POLYORDER)
+    e = m // 2
+    resid = (x - smooth(x, m))[e:x.size - e]
+    if resid.size == 0:
+        return 0.0
+    keep = 1.0 - 2.0 * h0[e] + float(h0 @ h0)
+    return float(np.sqrt(np.mean(resid**2) / keep))
+
+
 @dataclass(frozen=True)
 class EncoderKinematics(ResultMixin):
     """Angular velocity and acceleration from the encoder angle.
@@ -146,11 +162,13 @@ class EncoderKinematics(ResultMixin):
     window : float
         Filter length in s.
     angle_noise : float
-        Estimated white noise of the angle (rad), from the angle minus its
+        Estimated noise of the angle (rad), from the angle minus its
         smoothed value (encoder quantisation ~ step / sqrt(12)).
     u_angular_acceleration : float
-        Standard deviation of ``angular_acceleration`` caused by ``angle_noise``,
-        rad/s^2 (white-noise propagation through the filter).
+        Standard deviation of ``angular_acceleration`` caused by ``angle_noise``
+        if that noise were white, rad/s^2.  Quantisation of a smooth motion
+        is not white (its error pattern repeats with the count rate), so
+        take this as an estimate within about a factor of two.
     smoothing_gain : float
         ``sqrt(sum h0^2)`` of the smoothing filter: white noise of standard
         deviation s becomes ``s * smoothing_gain`` after :func:`smooth`.
@@ -194,11 +212,7 @@ def encoder_kinematics(theta: np.ndarray, dt: float, *, window: float = 0.1) -> 
     al = savgol_filter(theta, m, POLYORDER, deriv=2, delta=dt, mode="interp")
     h0 = savgol_coeffs(m, POLYORDER)
     h2 = savgol_coeffs(m, POLYORDER, deriv=2, delta=dt)
-    e = m // 2
-    resid = (theta - smooth(theta, m))[e:n - e] if n > 2 * e else theta - smooth(theta, m)
-    # White noise of variance s^2 leaves (1 - 2 h0[c] + |h0|^2) s^2 after subtracting its smoothed self.
-    keep = 1.0 - 2.0 * h0[e] + float(h0 @ h0)
-    s_theta = float(np.sqrt(np.mean(resid**2) / keep)) if resid.size else 0.0
+    s_theta = white_noise_std(theta, m)
     return EncoderKinematics(angular_velocity=w, angular_acceleration=al, window_samples=int(m), window=m * dt,
                              angle_noise=s_theta, u_angular_acceleration=s_theta * float(np.linalg.norm(h2)),
                              smoothing_gain=float(np.linalg.norm(h0)))

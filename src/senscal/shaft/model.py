@@ -36,7 +36,7 @@ import numpy as np
 
 from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
-from senscal.shaft.angle import angle_to_rad, check_radius, check_uniform, encoder_kinematics
+from senscal.shaft.angle import angle_to_rad, check_radius, check_uniform, encoder_kinematics, white_noise_std
 from senscal.sinefit import fit_sine, wrap_phase
 
 __all__ = ["G", "GravityModel", "calibrate_gravity", "load_model"]
@@ -69,7 +69,11 @@ class GravityModel(ResultMixin):
     covariance : ndarray, shape (3, 3)
         Covariance of (amplitude, phase, offset).
     residual_rms : float
-        RMS of the per-sample residuals, output unit (the noise floor).
+        RMS of the per-sample residuals, output unit.
+    noise : float
+        White noise of the accelerometer, output unit, from the output minus
+        its Savitzky-Golay smoothing (``residual_rms`` also holds the encoder
+        differentiator's noise the ripple correction brings in).
     sensitivity, u_sensitivity : float
         Output unit per m/s^2 (1 when the output is in m/s^2).
     output_unit : str
@@ -124,6 +128,7 @@ class GravityModel(ResultMixin):
     u_offset: float
     covariance: np.ndarray
     residual_rms: float
+    noise: float
     sensitivity: float
     u_sensitivity: float
     output_unit: str
@@ -161,33 +166,31 @@ class GravityModel(ResultMixin):
         jac = np.stack([np.sin(x), self.amplitude * np.cos(x), np.ones_like(x)], axis=-1)
         return np.sqrt(np.einsum("...i,ij,...j->...", jac, np.asarray(self.covariance), jac))
 
-    def check_applicable(self, *, accel_unit: str | None = None, accel=None) -> list[str]:
-        """Check that data may be compensated with this model.
+    def check_applicable(self, *, accel_unit: str | None = None) -> None:
+        """Check that an accelerometer channel may be compensated with this model.
 
         Parameters
         ----------
         accel_unit : str, optional
-            Unit of the accelerometer channel; must match the calibration's.
-        accel : array_like, optional
-            Accelerometer samples (output unit); a spread far beyond what the
-            gravity term plus any plausible motion gives is reported.
-
-        Returns
-        -------
-        list of str
-            Warnings (empty when nothing looks wrong).
+            Unit of the accelerometer channel ('' or None when unknown); must
+            match the calibration's when both are known.
 
         Raises
         ------
         InputError
             The units differ (another sensor or a rescaled channel).
+
+        Notes
+        -----
+        :func:`senscal.shaft.compensate` also checks the data themselves:
+        a gravity term left after compensation (sensor remounted, another
+        sensor, wrong angle zero) is reported as a warning.
         """
         if accel_unit and self.output_unit and accel_unit.strip() != self.output_unit.strip():
             raise InputError(
                 f"the accelerometer channel is in '{accel_unit}' but the model was calibrated in "
                 f"'{self.output_unit}'; convert the channel or recalibrate with this sensor"
             )
-        return []
 
     # -- persistence -----------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -248,7 +251,7 @@ def load_model(path: str | Path) -> GravityModel:
 # Calibration
 # ---------------------------------------------------------------------------
 
-def _time_step(n: int, t, fs) -> float:
+def time_step(n: int, t, fs) -> float:
     if (t is None) == (fs is None):
         raise InputError("give the time stamps t (s) or the sample rate fs (Hz), exactly one of them")
     if t is None:
@@ -262,7 +265,7 @@ def _time_step(n: int, t, fs) -> float:
     return check_uniform(t)
 
 
-def _accel(accel, n: int | None = None) -> np.ndarray:
+def check_accel(accel, n: int | None = None) -> np.ndarray:
     a = np.asarray(accel, dtype=np.float64)
     if a.ndim != 1 or (n is not None and a.size != n):
         raise InputError(f"the accelerometer channel must be 1-D with one sample per angle sample ({n}), got {a.shape}")
@@ -272,14 +275,14 @@ def _accel(accel, n: int | None = None) -> np.ndarray:
     return a
 
 
-def _by_angle(theta: np.ndarray, *ys: np.ndarray):
-    """Samples in increasing angle, repeated encoder readings merged (weights = counts).
+def by_angle(theta: np.ndarray, *ys: np.ndarray):
+    """Samples sorted by angle, repeated encoder readings merged (weights = counts).
 
     The gravity term is a function of the angle only, so the order of the
     samples does not matter; merging equal angles keeps the least-squares
     problem identical while giving the fit a strictly increasing abscissa.
     """
-    order = slice(None, None, -1) if theta[-1] < theta[0] else slice(None)
+    order = np.argsort(theta, kind="stable")
     x = theta[order]
     ux, inv, cnt = np.unique(x, return_inverse=True, return_counts=True)
     if ux.size == x.size:
@@ -287,7 +290,7 @@ def _by_angle(theta: np.ndarray, *ys: np.ndarray):
     return ux, cnt.astype(float), [np.bincount(inv, y[order]) / cnt for y in ys]
 
 
-def _fit(y, x, w):
+def fit_angle(y, x, w=None):
     return fit_sine(y, x, freq=ANGLE_FREQ, weights=w)
 
 
@@ -358,7 +361,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     """
     theta = angle_to_rad(angle, angle_unit, monotonic=True)
     n = theta.size
-    a = _accel(accel, n)
+    a = check_accel(accel, n)
     if not (math.isfinite(sensitivity) and sensitivity > 0):
         raise InputError(f"sensitivity must be a positive number (output per m/s^2), got {sensitivity!r}")
     if not (math.isfinite(u_sensitivity) and u_sensitivity >= 0):
@@ -373,7 +376,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
             f"the calibration run covers only {revs:.3g} revolutions ({math.degrees(abs(theta[-1] - theta[0])):.4g} deg); "
             "record at least one full revolution (several are better), or check --angle-unit"
         )
-    dt = _time_step(n, t, fs)
+    dt = time_step(n, t, fs)
     kin = encoder_kinematics(theta, dt, window=window)
     e = kin.edge
     w_in = kin.angular_velocity[e:n - e] if n > 2 * e + 2 else kin.angular_velocity
@@ -386,11 +389,11 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     # fit when the encoder's angular acceleration is used, unless that would leave < 1 revolution.
     keep = slice(e, n - e) if abs(theta[n - e - 1] - theta[e]) >= 2.0 * math.pi and (ripple_correction or radius) \
         else slice(0, n)
-    x, wts, (ya, yal) = _by_angle(theta[keep], a[keep], alpha[keep])
-    plain = _fit(ya, x, wts)
+    x, wts, (ya, yal) = by_angle(theta[keep], a[keep], alpha[keep])
+    plain = fit_angle(ya, x, wts)
     # The response to the encoder's angular acceleration, estimated with the gravity term:
     # regress the sine-fit residual of the accelerometer on that of alpha (Frisch-Waugh-Lovell).
-    fal = _fit(yal, x, wts)
+    fal = fit_angle(yal, x, wts)
     ra = ya - plain.evaluate(x)
     ral = yal - fal.evaluate(x)
     ww = np.ones_like(x) if wts is None else wts
@@ -402,7 +405,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         mode, coef = "regression", b
     else:
         mode, coef = "none", 0.0
-    fit = _fit(ya - coef * yal, x, wts) if coef != 0.0 else plain
+    fit = fit_angle(ya - coef * yal, x, wts) if coef != 0.0 else plain
     cov = np.asarray(fit.covariance, dtype=float).copy()
     dof = fit.dof
     u_b = math.nan
@@ -423,6 +426,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     amp, ph, off = float(fit.amplitude), float(fit.phase), float(fit.offset)
     resid = (a - coef * alpha - (amp * np.sin(theta + ph) + off))[keep]
     rms = float(np.sqrt(np.mean(resid**2)))
+    noise = white_noise_std(a, kin.window_samples)
 
     # Tilt from horizontal: cos(tilt) = amplitude / (S g).
     ratio = amp / (sensitivity * g)
@@ -450,7 +454,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
                         "check --sensitivity (the output may not be in m/s^2)")
     return GravityModel(
         amplitude=amp, phase=float(wrap_phase(ph)), offset=off, u_amplitude=float(u[0]), u_phase=float(u[1]),
-        u_offset=float(u[2]), covariance=cov, residual_rms=rms, sensitivity=float(sensitivity),
+        u_offset=float(u[2]), covariance=cov, residual_rms=rms, noise=noise, sensitivity=float(sensitivity),
         u_sensitivity=float(u_sensitivity), output_unit=str(output_unit or ""), g=float(g), tilt=tilt,
         u_tilt=u_tilt, bias=bias, u_bias=u_bias, revolutions=revs, n_samples=int(resid.size), mean_speed=mean_speed,
         mean_square_speed=float(np.mean(w_in**2)), speed_variation=speed_var,
