@@ -36,7 +36,9 @@ import numpy as np
 
 from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
-from senscal.shaft.angle import angle_to_rad, check_radius, check_uniform, encoder_kinematics, white_noise_std
+from scipy.signal import savgol_filter
+
+from senscal.shaft.angle import POLYORDER, angle_to_rad, check_radius, check_uniform, encoder_kinematics, white_noise_std
 from senscal.sinefit import fit_sine, wrap_phase
 
 __all__ = ["G", "GravityModel", "calibrate_gravity", "load_model"]
@@ -384,24 +386,34 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     mean_speed = float(np.mean(w_in))
     speed_var = float(np.std(w_in) / abs(mean_speed)) if mean_speed != 0 else math.inf
     alpha = kin.angular_acceleration
+    # Instrument for the response to alpha: the same derivative over a window three times longer.
+    # Its quantisation noise is far smaller and nearly independent of alpha's, so the coefficient is
+    # not pulled toward zero by the noise in alpha (errors in variables), as least squares would be.
+    ninst = min(n - 1 + n % 2, 3 * kin.window_samples)
+    inst = savgol_filter(theta, ninst, POLYORDER, deriv=2, delta=dt, mode="interp")
+    ei = ninst // 2
 
-    # The filter extrapolates over its first and last half window: keep those samples out of the
+    # The filters extrapolate over their first and last half window: keep those samples out of the
     # fit when the encoder's angular acceleration is used, unless that would leave < 1 revolution.
-    keep = slice(e, n - e) if abs(theta[n - e - 1] - theta[e]) >= 2.0 * math.pi and (ripple_correction or radius) \
+    use_alpha = bool(ripple_correction or radius)
+    keep = slice(ei, n - ei) if use_alpha and n > 2 * ei + 2 and abs(theta[n - ei - 1] - theta[ei]) >= 2.0 * math.pi \
         else slice(0, n)
-    x, wts, (ya, yal) = by_angle(theta[keep], a[keep], alpha[keep])
+    x, wts, (ya, yal, yz) = by_angle(theta[keep], a[keep], alpha[keep], inst[keep])
     plain = fit_angle(ya, x, wts)
-    # The response to the encoder's angular acceleration, estimated with the gravity term:
-    # regress the sine-fit residual of the accelerometer on that of alpha (Frisch-Waugh-Lovell).
+    # Frisch-Waugh-Lovell: the coefficient of alpha from the sine-fit residuals, here by instrumental
+    # variables (residual of the instrument against the residuals of accel and alpha).
     fal = fit_angle(yal, x, wts)
     ra = ya - plain.evaluate(x)
     ral = yal - fal.evaluate(x)
+    rz = yz - fit_angle(yz, x, wts).evaluate(x)
     ww = np.ones_like(x) if wts is None else wts
-    sal = float(np.sum(ww * ral * ral))
-    b = float(np.sum(ww * ra * ral) / sal) if sal > 0 else 0.0
+    szz = float(np.sum(ww * rz * rz))
+    sza = float(np.sum(ww * rz * ral))
+    identifiable = szz > 0 and abs(sza) > 0
+    b = float(np.sum(ww * rz * ra) / sza) if identifiable else 0.0
     if radius is not None:
         mode, coef = "radius", sensitivity * radius
-    elif ripple_correction and sal > 0:
+    elif ripple_correction and identifiable:
         mode, coef = "regression", b
     else:
         mode, coef = "none", 0.0
@@ -409,13 +421,13 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     cov = np.asarray(fit.covariance, dtype=float).copy()
     dof = fit.dof
     u_b = math.nan
-    if sal > 0:
-        sigma2 = float(np.sum(ww * (ya - b * yal - fit.evaluate(x)) ** 2)) / max(dof - 1, 1) if mode == "regression" \
-            else float(np.sum(ww * ra**2)) / max(dof - 1, 1)
-        u_b = math.sqrt(sigma2 / sal)
+    if identifiable:
+        sigma2 = float(np.sum(ww * (ya - b * yal - fit_angle(ya - b * yal, x, wts).evaluate(x)) ** 2)) / max(dof - 1, 1)
+        u_b = math.sqrt(sigma2 * szz) / abs(sza)
     if mode == "regression":
-        # Full-regression covariance = fixed-coefficient covariance + u_b^2 * g g^T, where g is how
-        # (amplitude, phase, offset) move when the coefficient moves (partitioned inverse).
+        # Covariance = fixed-coefficient covariance + u_b^2 * g g^T, where g is how (amplitude, phase,
+        # offset) move with the coefficient; the cross terms vanish because the instrument's residual
+        # is orthogonal to the sine-fit columns.
         cov *= dof / max(dof - 1, 1)
         amp_al, ph_al, off_al = fal.amplitude, fal.phase, fal.offset
         gvec = np.array([-amp_al * math.cos(fit.phase - ph_al),
