@@ -49,10 +49,12 @@ class DriftFit(ResultMixin):
     dof : int
         Degrees of freedom, ``n - 2``.
     birge_ratio : float
-        ``sqrt(chi2 / dof)`` (NaN with two records). Above 1 the records
-        scatter more than their stated uncertainties say; the covariance has
-        then been scaled by ``birge_ratio**2`` so the drift's uncertainty is
-        not understated.
+        ``sqrt(chi2 / dof)`` (NaN with two records). When the records
+        scatter more than their stated uncertainties allow (chi-square test
+        at 5 %), the covariance is scaled by ``birge_ratio**2`` so the
+        drift's uncertainty is not understated.
+    scaled : bool
+        Whether the covariance was scaled by ``birge_ratio**2``.
     z : float
         ``drift_per_year / u_drift_per_year``.
     p_value : float
@@ -74,6 +76,7 @@ class DriftFit(ResultMixin):
     chi2: float
     dof: int
     birge_ratio: float
+    scaled: bool
     z: float
     p_value: float
     significant: bool
@@ -169,7 +172,11 @@ def fit_drift(t_years, values, uncertainties, *, alpha: float = 0.05) -> DriftFi
     chi2 = float(resid @ resid)
     dof = t.size - 2
     birge = math.sqrt(chi2 / dof) if dof > 0 else math.nan
-    scaled = dof > 0 and birge > 1.0
+    # Scale only when the scatter is inconsistent with the stated uncertainties
+    # (chi-square test at 5 %): scaling every time chi2 > dof would make the
+    # drift test conservative (false-alarm rate well under alpha) for sensors
+    # whose certificates are honest.
+    scaled = dof > 0 and birge > 1.0 and stats.chi2.sf(chi2, dof) < 0.05
     if scaled:
         cov = cov * birge**2
     u_slope = math.sqrt(cov[1, 1])
@@ -178,7 +185,7 @@ def fit_drift(t_years, values, uncertainties, *, alpha: float = 0.05) -> DriftFi
     return DriftFit(
         value_at_epoch=float(coef[0]), u_value_at_epoch=math.sqrt(cov[0, 0]),
         drift_per_year=float(coef[1]), u_drift_per_year=u_slope, covariance=cov,
-        chi2=chi2, dof=dof, birge_ratio=birge, z=z, p_value=p, significant=bool(p < alpha),
+        chi2=chi2, dof=dof, birge_ratio=birge, scaled=bool(scaled), z=z, p_value=p, significant=bool(p < alpha),
         alpha=alpha, n_records=int(t.size),
     )
 
