@@ -22,7 +22,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, stats
 
 from senscal._result import ResultMixin
 from senscal.errors import DataError, InputError, TooFewSamplesError
@@ -149,6 +148,8 @@ def fit_drift(t_years, values, uncertainties, *, alpha: float = 0.05) -> DriftFi
     DataError
         Non-finite values, non-positive uncertainties, or all records at the same time.
     """
+    from scipy import stats  # imported here: scipy.stats costs ~1 s, and most registry commands never fit
+
     t = np.asarray(t_years, dtype=float).ravel()
     y = np.asarray(values, dtype=float).ravel()
     u = np.asarray(uncertainties, dtype=float).ravel()
@@ -218,6 +219,8 @@ def due_time(fit: DriftFit, *, t_last: float, reference: float, tolerance: float
     -------
     DueDate
     """
+    from scipy import optimize
+
     if not (tolerance > 0 and math.isfinite(tolerance)):
         raise InputError(f"tolerance must be a positive finite number, got {tolerance}")
     if k <= 0:
