@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from senscal.errors import InputError, TooFewSamplesError
 from senscal.simulate.vibration import second_order_response, simulate_centrifuge, simulate_shaker
@@ -162,3 +164,32 @@ def test_repeats_are_combined_with_type_a_from_their_spread():
         0.001 * g.normalized_sensitivity, rel=1e-9)
     # a single record passes through unchanged in value
     assert reps[1].normalized_sensitivity == pytest.approx(pts[4].normalized_sensitivity, rel=1e-15)
+
+
+def test_response_saves_and_loads_itself(tmp_path):
+    from senscal.errors import FileFormatError
+    from senscal.vibration import frequency_response, load_response, save_response
+
+    recs, _ = simulate_centrifuge(frequencies=(1.0, 5.0), seed=6, min_duration=5.0)
+    resp = frequency_response([response_point(r["output"], r.time, input_amplitude=100.0, angle_deg=r["angle"],
+                                              static_sensitivity=0.05, u_input=0.001) for r in recs],
+                              static_sensitivity=0.05)
+    back = load_response(save_response(resp, tmp_path / "resp.json"))
+    assert back.to_dict() == resp.to_dict()
+    assert back.points[1].normalized_budget.component("input amplitude").kind == "B"
+    (tmp_path / "other.json").write_text('{"type": "something else"}')
+    with pytest.raises(FileFormatError, match="not a senscal frequency response"):
+        load_response(tmp_path / "other.json")
+
+
+@given(shift=st.floats(-50.0, 50.0), gain=st.floats(0.1, 10.0))
+@settings(max_examples=15)
+def test_back_to_back_invariant_to_time_shift_and_output_gain(shift, gain):
+    t = np.arange(2000) / 2000.0
+    ref = 0.5 * np.sin(2 * np.pi * 37.0 * t + 0.3) + 0.01 * np.cos(2 * np.pi * 411 * t)
+    dut = 0.2 * np.sin(2 * np.pi * 37.0 * t + 0.1) + 0.01 * np.sin(2 * np.pi * 523 * t)
+    a = response_point(dut, t, reference=ref, reference_sensitivity=0.01)
+    b = response_point(gain * dut, t + shift, reference=ref, reference_sensitivity=0.01)
+    assert b.sensitivity == pytest.approx(gain * a.sensitivity, rel=1e-9)
+    assert b.phase_delay == pytest.approx(a.phase_delay, abs=1e-9)
+    assert b.u_phase_delay == pytest.approx(a.u_phase_delay, rel=1e-5)

@@ -22,6 +22,8 @@ ReportOpt = Annotated[Optional[Path], typer.Option("--report", help="Write an HT
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Write the key plot to this PNG file.")]
 SensorIdOpt = Annotated[str, typer.Option("--sensor-id", help="Identification of the item calibrated (certificate).")]
 ModelOpt = Annotated[str, typer.Option("--model", help="Sensor model / manufacturer (certificate).")]
+ConditionOpt = Annotated[Optional[List[str]], typer.Option(
+    "--condition", help="Calibration condition for the certificate, KEY=VALUE (repeatable), e.g. 'temperature=23.1 C'.")]
 UnitOpt = Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the sensor output (default: from the file, else V).")]
 
 
@@ -54,6 +56,16 @@ def _save_plot(fig, path: Path | None) -> None:
         err_console.print(f"plot written to {path}")
 
 
+def _conditions(items: list[str] | None) -> dict[str, str]:
+    out = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError(f"--condition must look like KEY=VALUE, got {item!r}")
+        out[key.strip()] = value.strip()
+    return out
+
+
 def _k2(u):
     return None if u is None else 2.0 * u
 
@@ -83,7 +95,7 @@ def velocity_cmd(
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated",
+    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
 ) -> None:
     """Velocity-sensor sensitivity S = A_s / (w A_p) against a position reference, per file and mean."""
     from senscal.vibration import velocity_calibration, velocity_point
@@ -115,7 +127,7 @@ def velocity_cmd(
                           conditions={"frequency points": len(points),
                                       "frequencies (Hz)": ", ".join(f"{p.frequency:.4g}" for p in cal.points),
                                       "offset drift fitted": "yes" if drift else "no",
-                                      "position reference u (type B)": f"{100 * ub:g} %"})
+                                      "position reference u (type B)": f"{100 * ub:g} %", **_conditions(condition)})
         doc["report"] = str(report)
     if plot is not None:
         from senscal.report.certificate import velocity_figure
@@ -186,7 +198,8 @@ def response_cmd(
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated",
+    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
+    save: Annotated[Optional[Path], typer.Option("--save", help="Save the response (JSON with type and version) for later use.")] = None,
 ) -> None:
     """Accelerometer frequency response: sensitivity, S_i/S0, phase delay with GUM budgets."""
     from senscal.vibration import combine_repeats, frequency_response
@@ -241,12 +254,17 @@ def response_cmd(
             cond["static sensitivity S0"] = f"{static_sensitivity:g} {unit} (u = {100 * _rel(u_static, '--u-static-sensitivity'):g} %)"
         if angle:
             cond["turntable angle synchronisation"] = "records cut to whole revolutions from a 360 deg crossing"
+        cond.update(_conditions(condition))
         meth = ("Double-centrifuge / known sinusoidal input; least-squares sine fit of the output "
                 "(against the turntable angle when synchronised; Qin, seed 003)" if input_amplitude is not None
                 else "Back-to-back comparison with a reference accelerometer (ISO 16063-21); sine fits at one shared frequency")
         write_certificate(report, "response", resp, sensor_id=sensor_id, model=model, unit=unit, method=meth,
                           conditions=cond, files=[str(f) for f in files])
         doc["report"] = str(report)
+    if save is not None:
+        from senscal.vibration import save_response
+
+        doc["saved"] = str(save_response(resp, save))
     if plot is not None:
         from senscal.report.certificate import response_figure
 
@@ -284,7 +302,7 @@ def linearity_cmd(
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated",
+    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
 ) -> None:
     """Amplitude linearity at a fixed frequency: best straight line, deviations, linearity in % of full scale."""
     from senscal.vibration import amplitude_linearity
@@ -318,7 +336,7 @@ def linearity_cmd(
                           conditions={"input levels": len(files),
                                       "frequency (Hz)": f"{sum(p.frequency for p in points) / len(points):.4g}",
                                       "input range (m/s^2)": f"{min(amps):g} .. {max(amps):g}",
-                                      "angle synchronisation": "yes" if angle else "no"})
+                                      "angle synchronisation": "yes" if angle else "no", **_conditions(condition)})
         doc["report"] = str(report)
     if plot is not None:
         from senscal.report.certificate import linearity_figure
