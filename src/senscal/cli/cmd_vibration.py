@@ -92,6 +92,7 @@ def velocity_cmd(
     u_position: Annotated[Optional[str], typer.Option(
         "--u-position", help="Type B standard uncertainty of the position reference's scale, e.g. 0.1%.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift (default on).")] = True,
+    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics of the motion fitted with the fundamental.")] = 1,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
@@ -106,7 +107,8 @@ def velocity_cmd(
     for path, f in zip(track(files, "fitting"), freqs):
         rec = load(path, time_column=time_column, fs=fs, names=names, channels=[position, velocity])
         unit = unit or _unit(rec, velocity, output_unit) + "/(m/s)"
-        points.append(velocity_point(rec[position], rec[velocity], rec.time, freq=f, drift=drift, u_position=ub,
+        points.append(velocity_point(rec[position], rec[velocity], rec.time, freq=f, drift=drift, harmonics=harmonics,
+                                     u_position=ub,
                                      source=str(path), unit=unit))
     cal = velocity_calibration(points, u_position=ub, unit=unit)
     doc = {
@@ -194,7 +196,7 @@ def response_cmd(
     u_reference: Annotated[Optional[str], typer.Option("--u-reference", help="Type B standard uncertainty of the reference sensitivity, e.g. 0.5%.")] = None,
     u_static: Annotated[Optional[str], typer.Option("--u-static-sensitivity", help="Type B standard uncertainty of S0, e.g. 0.05%.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift.")] = False,
-    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (known input; 3 for a nonlinear sensor).")] = 1,
+    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
@@ -298,7 +300,7 @@ def linearity_cmd(
     freq: Annotated[Optional[float], typer.Option("--freq", help="Known frequency in Hz (estimated per file when omitted).")] = None,
     angle: Annotated[Optional[str], typer.Option("--angle", help="Turntable angle channel (deg): fit against the angle.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift.")] = False,
-    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (known input; 3 for a nonlinear sensor).")] = 1,
+    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
@@ -388,12 +390,13 @@ def simulate_hydraulic_cmd(
     freqs: Annotated[Optional[str], typer.Option("--freqs", help="Frequencies in Hz, comma separated (default 1..5.5 Hz, 10 points).")] = None,
     sensitivity: Annotated[float, typer.Option("--sensitivity", help="Velocity-sensor sensitivity, V/(m/s).")] = 0.1368,
     noise: Annotated[float, typer.Option("--noise", help="Velocity-sensor noise, V.")] = 3e-4,
+    distortion: Annotated[float, typer.Option("--distortion", help="Third harmonic of the motion, relative.")] = 0.0,
 ) -> None:
     """Hydraulic rig: position reference and velocity sensor, one CSV per frequency, truth JSON."""
     from senscal.simulate.vibration import simulate_hydraulic
 
     recs, truth = simulate_hydraulic(frequencies=_opt_floats(freqs, "--freqs"), sensitivity=sensitivity,
-                                     velocity_noise=noise, seed=seed)
+                                     velocity_noise=noise, distortion=distortion, seed=seed)
     paths = write_simulation(recs, truth, out, "hydraulic")
     console.print(f"wrote {len(paths)} recordings and hydraulic_truth.json to {out}")
 

@@ -147,8 +147,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
     drift : bool
         Also fit a linear offset drift.
     harmonics : int
-        Harmonics fitted with the fundamental on known-input records (1 =
-        fundamental only).  A nonlinear sensor puts harmonics in its output;
+        Harmonics fitted with the fundamental (1 = fundamental only).  A nonlinear sensor puts harmonics in its output;
         fitting them keeps them out of the residual, so the fundamental's
         uncertainty stays the noise's (the fundamental itself is orthogonal to
         them over whole revolutions).
@@ -178,7 +177,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
             raise InputError("give either a reference channel (back-to-back) or a known input amplitude, not both")
         if reference_sensitivity is None or not reference_sensitivity > 0:
             raise InputError("back-to-back comparison needs the reference sensitivity (> 0, reference unit per m/s^2)")
-        pf = fit_pair(reference, y, t, freq=freq, drift=drift)
+        pf = fit_pair(reference, y, t, freq=freq, drift=drift, harmonics=harmonics)
         a_ref, a_out = pf.reference_amplitude, pf.output_amplitude
         if a_ref <= 0:
             raise InputError("the reference channel carries no sinusoid; check --reference")
