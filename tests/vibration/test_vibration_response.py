@@ -138,10 +138,9 @@ def test_bad_inputs_raise_clear_errors():
         response_point(r["output"], r.time, reference=r["output"])
     with pytest.raises(InputError, match="u_input"):
         response_point(r["output"], r.time, input_amplitude=1.0, u_input=-0.1)
-    short = slice(0, 150)  # 1.5 revolutions at 1 Hz, 100 Hz: may hold no whole revolution between crossings
+    # 0.6 s at 1 Hz: less than one revolution between 360 deg crossings
     with pytest.raises(TooFewSamplesError, match="fewer than one whole"):
         response_point(r["output"][:60], r.time[:60], input_amplitude=100.0, angle_deg=r["angle"][:60])
-    del short
 
 
 def test_repeats_are_combined_with_type_a_from_their_spread():
