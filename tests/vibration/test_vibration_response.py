@@ -192,3 +192,14 @@ def test_back_to_back_invariant_to_time_shift_and_output_gain(shift, gain):
     assert b.sensitivity == pytest.approx(gain * a.sensitivity, rel=1e-9)
     assert b.phase_delay == pytest.approx(a.phase_delay, abs=1e-9)
     assert b.u_phase_delay == pytest.approx(a.u_phase_delay, rel=1e-5)
+
+
+def test_bias_drift_is_fitted_in_angle_mode():
+    recs, truth = simulate_centrifuge(frequencies=(0.1,), seed=23, revolutions=1.6, min_duration=0.0)
+    r = recs[0]
+    ramp = 0.05 * r.time  # 50 mV/s bias drift over a 16 s record of non-whole revolutions
+    p = response_point(r["output"] + ramp, r.time, input_amplitude=100.0, angle_deg=r["angle"], static_sensitivity=0.05,
+                       drift=True)
+    tr = truth["points"][0]
+    assert abs(p.normalized_sensitivity - tr["normalized_sensitivity"]) < 2 * p.u_normalized_sensitivity
+    assert abs(math.degrees(p.phase_delay) - tr["phase_delay_deg"]) < 2 * math.degrees(p.u_phase_delay)

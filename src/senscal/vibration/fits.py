@@ -217,7 +217,7 @@ def cut_whole_revolutions(angle_deg, t) -> AngleSync:
     return AngleSync(start, stop, revs, direction, float(lr.slope), float(lr.stderr))
 
 
-def fit_against_angle(y, angle_deg, *, harmonics: int = 1) -> SineFit:
+def fit_against_angle(y, angle_deg, *, harmonics: int = 1, drift: bool = False) -> SineFit:
     """Three-parameter fit of an output against the turntable angle.
 
     Model ``y = A sin(psi + phi) + C`` with ``psi`` the unwrapped angle in rad
@@ -232,6 +232,8 @@ def fit_against_angle(y, angle_deg, *, harmonics: int = 1) -> SineFit:
         Turntable angle in degrees over the same samples.
     harmonics : int
         Harmonics of the revolution fitted with the fundamental.
+    drift : bool
+        Also fit an offset drift linear in the angle (in time, at constant speed).
 
     Returns
     -------
@@ -240,4 +242,4 @@ def fit_against_angle(y, angle_deg, *, harmonics: int = 1) -> SineFit:
     """
     a = np.unwrap(np.asarray(angle_deg, dtype=float), period=360.0)
     psi = np.radians(a if a[-1] >= a[0] else -a)
-    return fit_sine(y, psi, freq=1.0 / TWO_PI, harmonics=harmonics)
+    return fit_sine(y, psi, freq=1.0 / TWO_PI, harmonics=harmonics, drift=drift)

@@ -198,7 +198,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         if angle_deg is not None:
             sync = cut_whole_revolutions(angle_deg, t)
             sl = slice(sync.start, sync.stop)
-            fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics)
+            fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics, drift=drift)
             f, u_f = sync.frequency, sync.u_frequency
             # The axis sees a0 cos(angle) = a0 sin(angle + pi/2).
             delay = float(wrap_phase(fit.phase - 0.5 * math.pi))
