@@ -12,24 +12,31 @@ import pytest
 
 @pytest.fixture(scope="module")
 def sim(tmp_path_factory):
-    from senscal.cli import main
+    """A short simulated recording written through the Python API (the CLI is tested below)."""
+    from senscal.gfimu import paper_layout, write_layout
+    from senscal.io import write_recording
+    from senscal.simulate.gfimu import simulate_gfimu
 
     d = tmp_path_factory.mktemp("gfimu")
-    try:
-        main(["simulate", "gfimu", "--out", str(d), "--fs", "500", "--duration", "2", "--seed", "3"])
-    except SystemExit as exc:
-        assert not exc.code
+    rec, truth, _ = simulate_gfimu(fs=500, duration=2, seed=3)
+    write_recording(rec, d / "gfimu.csv")
+    write_recording(truth, d / "gfimu_truth.csv")
+    write_layout(paper_layout(), d / "layout.csv")
     return d
 
 
-def test_simulate_writes_files(sim):
-    rec = pd.read_csv(sim / "gfimu.csv")
+def test_simulate_writes_files(cli, tmp_path):
+    r = cli("simulate", "gfimu", "--out", tmp_path, "--fs", "500", "--duration", "2", "--seed", "3")
+    assert r.code == 0, r.err
+    rec = pd.read_csv(tmp_path / "gfimu.csv")
     assert list(rec.columns) == ["t"] + [f"a{k}{ax}" for k in range(1, 5) for ax in "xyz"]
     assert len(rec) == 1000
-    truth = pd.read_csv(sim / "gfimu_truth.csv")
+    truth = pd.read_csv(tmp_path / "gfimu_truth.csv")
     assert {"t", "wx", "wy", "wz", "qw"} <= set(truth.columns)
-    info = json.loads((sim / "gfimu_truth.json").read_text())
+    info = json.loads((tmp_path / "gfimu_truth.json").read_text())
     assert info["fs_hz"] == 500 and len(info["bias_m_s2"]) == 12
+    assert (tmp_path / "layout.csv").read_text().startswith("name,x,y,z,nx,ny,nz")
+    assert cli("simulate", "gfimu", "--out", tmp_path, "--fs", "-5").code == 2
 
 
 def test_gfimu_all_with_truth_attitude_out_plot(cli, sim, tmp_path):
