@@ -108,3 +108,18 @@ def test_too_few_readings_cli(cli, tmp_path):
     f.write_text("t,x,y,z\n0,1,0,0\n1,0,1,0\n2,0,0,1\n")
     r = cli("triaxial", "calibrate", f, "--channels", "x,y,z")
     assert r.code == 2 and "needs at least 5" in r.err
+
+
+def test_save_to_registry(cli, sim, tmp_path):
+    db = tmp_path / "reg.sqlite"
+    f = sim / "planar" / "magnetometer.csv"
+    r = cli("triaxial", "calibrate", f, "--channels", "x,y,z", "--field", "50000", "--json", "--save",
+            "--sensor", "MAG-1", "--create-sensor", "magnetometer", "--db", db)
+    assert r.code == 0, r.err
+    assert "saved calibration" in r.err
+    r = cli("registry", "history", "MAG-1", "--db", db, "--json")
+    assert r.code == 0, r.err
+    text = r.out
+    assert "gamma_deg" in text and "alpha_deg" not in text  # unidentifiable parameters are not recorded
+    r = cli("triaxial", "calibrate", f, "--channels", "x,y,z", "--sensor", "MAG-1")
+    assert r.code == 2 and "add --save" in r.err

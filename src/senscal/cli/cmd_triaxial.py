@@ -15,6 +15,9 @@ from senscal.cli.common import (
     FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, print_json, progress_bar, split_names, table,
     write_json,
 )
+from senscal.cli.registry_opts import (
+    CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted, save_if_requested,
+)
 from senscal.errors import InputError
 
 triaxial_app = typer.Typer(help="Three-axis magnetometer / accelerometer calibration without a reference.",
@@ -69,6 +72,12 @@ def calibrate_document(res, *, file: Path, channels: list[str], static=None) -> 
     return doc
 
 
+def triaxial_quantities(doc: dict) -> list:
+    """The registry quantities: every parameter the data determined (unidentifiable ones are left out)."""
+    return [quoted(doc, name, f"parameters.{name}.value", f"parameters.{name}.u", p["unit"])
+            for name, p in doc["parameters"].items() if p["value"] is not None and p["u"] is not None]
+
+
 @triaxial_app.command("calibrate")
 def calibrate_cmd(
     file: Annotated[Path, typer.Argument(help="Recording with three field channels.")],
@@ -89,6 +98,12 @@ def calibrate_cmd(
     fs: FsOpt = None,
     names: NamesOpt = None,
     json_out: JsonOpt = False,
+    save: SaveOpt = False,
+    sensor: SensorOpt = None,
+    db: DbOpt = None,
+    create_sensor: CreateSensorOpt = None,
+    date: DateOpt = None,
+    operator: OperatorOpt = None,
 ) -> None:
     """Identify non-orthogonality, gains and offsets from readings in a constant field."""
     from senscal.triaxial import calibrate, detect_static
@@ -110,6 +125,11 @@ def calibrate_cmd(
     doc = calibrate_document(res, file=file, channels=chans, static=st)
     if out is not None:
         write_json(doc, out)
+    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      job="triaxial", method=f"{res.model} model, {res.method}",
+                      quantities=lambda: triaxial_quantities(doc), input_files=[file],
+                      conditions={"field": res.field, "field_estimated": res.field_estimated,
+                                  "coverage": res.coverage["fraction"]})
     if plot is not None:
         from senscal.triaxial.plots import plot_calibration
 
