@@ -458,20 +458,26 @@ class Registry:
                 operator = getpass.getuser()
             except Exception:  # no login name (containers): leave it empty
                 operator = None
-        uid = str(uuid.uuid4())
+        values = dict(
+            uid=str(uuid.uuid4()), performed_at=when, utc_offset_s=_offset_s(when), recorded_at=db.now_utc(),
+            job=job, method=method, conditions=to_jsonable(dict(conditions or {})),
+            result=to_jsonable(dict(result)) if result is not None else None,
+            certificate=str(certificate) if certificate is not None else None, input_files=list(files),
+            senscal_version=_senscal_version(), operator=operator, note=note)
         with self.engine.begin() as conn:
             if create_kind is not None:
                 self._insert_sensor(conn, serial, _clean(create_kind, "kind"), None, None, None, None)
             sid = self._sensor_id(conn, serial)
-            if supersedes is not None:
-                supersedes = self._resolve_uid(conn, supersedes, sid, serial)
-            self._insert_calibration(conn, sid, dict(
-                uid=uid, performed_at=when, utc_offset_s=_offset_s(when), recorded_at=db.now_utc(), job=job,
-                method=method, conditions=to_jsonable(dict(conditions or {})),
-                result=to_jsonable(dict(result)) if result is not None else None,
-                certificate=str(certificate) if certificate is not None else None, input_files=list(files),
-                senscal_version=_senscal_version(), operator=operator, note=note, supersedes=supersedes), qs)
-        return self.calibration(uid)
+            values["supersedes"] = self._resolve_uid(conn, supersedes, sid, serial) if supersedes else None
+            self._insert_calibration(conn, sid, values, qs)
+        # Built from what was stored (no second round trip); microseconds as the database keeps them.
+        return Calibration(
+            uid=values["uid"], serial=serial, performed_at=when, recorded_at=values["recorded_at"], job=job,
+            method=method, quantities=tuple(Quantity(q.name, float(q.value), float(q.uncertainty), q.unit, float(q.k))
+                                            for q in qs),
+            conditions=values["conditions"], result=values["result"], certificate=values["certificate"],
+            input_files=files, senscal_version=values["senscal_version"], operator=operator, note=note,
+            supersedes=values["supersedes"])
 
     def _insert_calibration(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity]) -> None:
         cid = conn.execute(calibrations.insert().values(sensor_id=sensor_id, **values)).inserted_primary_key[0]
@@ -550,14 +556,33 @@ class Registry:
         ------
         UnknownSensorError, UnknownQuantityError
         """
-        recs = self.calibrations(serial, include_superseded=include_superseded)
-        points = [HistoryPoint(date=_iso(r.performed_at), quantity=q.name, value=q.value, uncertainty=q.uncertainty,
-                               unit=q.unit, k=q.k, expanded_uncertainty=q.k * q.uncertainty, uid=r.uid, job=r.job,
-                               method=r.method, operator=r.operator, note=r.note, certificate=r.certificate,
-                               supersedes=r.supersedes, superseded_by=r.superseded_by)
-                  for r in recs for q in r.quantities if quantity is None or q.name == quantity]
-        if quantity is not None and not points:
-            known = sorted({q.name for r in recs for q in r.quantities})
+        c, q = calibrations.c, quantities.c
+        later = calibrations.alias("later")
+        with self.engine.connect() as conn:
+            sid = self._sensor_id(conn, serial)
+            # Only the columns a history shows: the full result JSON of each record is not read.
+            stmt = (sa.select(c.performed_at, c.utc_offset_s, c.uid, c.job, c.method, c.operator, c.note,
+                              c.certificate, c.supersedes, later.c.uid.label("superseded_by"),
+                              q.name, q.value, q.uncertainty, q.unit, q.k)
+                    .join(quantities, q.calibration_id == c.id)
+                    .outerjoin(later, later.c.supersedes == c.uid)
+                    .where(c.sensor_id == sid)
+                    .order_by(c.performed_at, c.recorded_at, c.id, q.id))
+            if quantity is not None:
+                stmt = stmt.where(q.name == quantity)
+            if not include_superseded:
+                stmt = stmt.where(later.c.uid.is_(None))
+            rows = conn.execute(stmt).all()
+            known = None
+            if quantity is not None and not rows:
+                known = sorted(conn.execute(sa.select(q.name).distinct().join(calibrations, q.calibration_id == c.id)
+                                            .where(c.sensor_id == sid)).scalars())
+        points = [HistoryPoint(date=_localise(r.performed_at, r.utc_offset_s).isoformat(), quantity=r.name,
+                               value=r.value, uncertainty=r.uncertainty, unit=r.unit, k=r.k,
+                               expanded_uncertainty=r.k * r.uncertainty, uid=r.uid, job=r.job, method=r.method,
+                               operator=r.operator, note=r.note, certificate=r.certificate, supersedes=r.supersedes,
+                               superseded_by=r.superseded_by) for r in rows]
+        if known is not None:
             raise UnknownQuantityError(
                 f"sensor {serial!r} has no recorded quantity {quantity!r}; "
                 + (f"recorded quantities: {', '.join(known)}" if known else "it has no calibration records yet"))
