@@ -148,3 +148,14 @@ def test_wrong_password_on_real_server_is_masked(pg_url):
     with pytest.raises(InputError, match="cannot reach") as exc:
         open_registry(bad.render_as_string(hide_password=False))
     assert "Wr0ngPassw0rd" not in str(exc.value) and str(make_url(pg_url).password) not in str(exc.value)
+
+
+def test_schema_from_a_newer_senscal_is_a_clear_error(tmp_path):
+    url = f"sqlite:///{tmp_path / 'r.sqlite'}"
+    open_registry(url).close()
+    engine = sa.create_engine(url)
+    with engine.begin() as conn:
+        conn.execute(sa.text("UPDATE alembic_version SET version_num = '0999'"))
+    engine.dispose()
+    with pytest.raises(InputError, match="schema revision '0999'.*upgrade senscal"):
+        open_registry(url)

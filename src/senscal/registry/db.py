@@ -265,14 +265,20 @@ def upgrade(engine: Engine) -> None:
     PostgreSQL: a transaction-scoped advisory lock), so exactly one of them
     creates the schema and the others find it at head.
     """
-    if current_revision(engine) == head_revision():
+    current = current_revision(engine)
+    if current == head_revision():
         return
     from alembic import command
+    from alembic.util import CommandError
 
-    with engine.begin() as conn:
-        if conn.dialect.name == "postgresql":
-            conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": _PG_LOCK_KEY})
-        command.upgrade(_alembic_config(conn), "head")
+    try:
+        with engine.begin() as conn:
+            if conn.dialect.name == "postgresql":
+                conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": _PG_LOCK_KEY})
+            command.upgrade(_alembic_config(conn), "head")
+    except CommandError:
+        raise InputError(f"the registry {mask_url(engine.url)} has schema revision {current!r}, which this "
+                         f"senscal does not know (newest: {head_revision()!r}); upgrade senscal") from None
 
 
 def now_utc() -> datetime:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import getpass
 import hashlib
 import math
@@ -13,7 +14,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 import sqlalchemy as sa
-from sqlalchemy.exc import DBAPIError, IntegrityError
+from sqlalchemy.exc import DBAPIError, IntegrityError, InterfaceError, OperationalError
 
 from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
@@ -296,6 +297,19 @@ def _localise(dt_utc: datetime, offset_s: int) -> datetime:
 
 # --- the registry --------------------------------------------------------------
 
+def _db_errors(method):
+    """Turn a lost server, a locked or read-only database into a one-line error (password masked)."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except (OperationalError, InterfaceError) as exc:
+            raise InputError(f"registry database {self.url} failed: {db._scrub(exc.orig, self._url)}") from None
+
+    return wrapper
+
+
 class Registry:
     """Sensors and calibration history in a SQLAlchemy database.
 
@@ -340,6 +354,7 @@ class Registry:
 
     # sensors -----------------------------------------------------------------
 
+    @_db_errors
     def add_sensor(self, serial: str, kind: str, *, model: str | None = None, manufacturer: str | None = None,
                    nominal: Mapping[str, Any] | None = None, notes: str | None = None) -> Sensor:
         """Register a sensor.
@@ -383,11 +398,13 @@ class Registry:
         return (f"unknown sensor serial {serial!r} in {self.url} ({n} sensors registered); "
                 "list them with 'senscal registry sensors' or add it with 'senscal registry add SERIAL --kind KIND'")
 
+    @_db_errors
     def sensor(self, serial: str) -> Sensor:
         """The sensor with this serial (UnknownSensorError if absent)."""
         with self.engine.connect() as conn:
             return self._sensor_row(conn, serial)
 
+    @_db_errors
     def sensors(self) -> list[Sensor]:
         """All sensors, sorted by serial."""
         with self.engine.connect() as conn:
@@ -395,6 +412,7 @@ class Registry:
         return [Sensor(serial=r["serial"], kind=r["kind"], model=r["model"], manufacturer=r["manufacturer"],
                        nominal=r["nominal"] or {}, notes=r["notes"], created_at=r["created_at"]) for r in rows]
 
+    @_db_errors
     def counts(self) -> dict[str, int]:
         """Number of calibration records per serial."""
         with self.engine.connect() as conn:
@@ -406,6 +424,7 @@ class Registry:
 
     # calibrations ----------------------------------------------------------
 
+    @_db_errors
     def record(self, serial: str, quantities_: Sequence[Quantity], *, performed_at: str | datetime | None = None,
                job: str = "manual", method: str | None = None, conditions: Mapping[str, Any] | None = None,
                result: Mapping[str, Any] | None = None, certificate: str | Path | None = None,
@@ -509,6 +528,7 @@ class Registry:
                              "supersede a record of the same sensor")
         return uid
 
+    @_db_errors
     def calibration(self, uid: str) -> Calibration:
         """One record by its full uid."""
         with self.engine.connect() as conn:
@@ -541,6 +561,7 @@ class Registry:
             input_files=tuple(r["input_files"] or ()), senscal_version=r["senscal_version"], operator=r["operator"],
             note=r["note"], supersedes=r["supersedes"], superseded_by=later.get(r["uid"])) for r in rows]
 
+    @_db_errors
     def calibrations(self, serial: str, *, include_superseded: bool = False) -> list[Calibration]:
         """A sensor's records in date order (superseded ones only on request)."""
         with self.engine.connect() as conn:
@@ -548,6 +569,7 @@ class Registry:
             recs = self._calibrations(conn, calibrations.c.sensor_id == sid)
         return recs if include_superseded else [r for r in recs if r.superseded_by is None]
 
+    @_db_errors
     def history(self, serial: str, quantity: str | None = None, *,
                 include_superseded: bool = False) -> list[HistoryPoint]:
         """The values of one (or every) quantity of a sensor over time.
@@ -588,6 +610,7 @@ class Registry:
                 + (f"recorded quantities: {', '.join(known)}" if known else "it has no calibration records yet"))
         return points
 
+    @_db_errors
     def drift(self, serial: str, quantity: str, *, tolerance: float | None = None, relative: bool = True,
               nominal: float | None = None, k: float = 2.0, alpha: float = 0.05) -> DriftReport:
         """Drift rate of a quantity and the date the sensor is due.
@@ -642,6 +665,7 @@ class Registry:
 
     # export / import ---------------------------------------------------------
 
+    @_db_errors
     def export(self) -> dict[str, Any]:
         """Every sensor and record as one JSON-ready document (import() reads it back exactly)."""
         out_sensors = []
@@ -657,6 +681,7 @@ class Registry:
         return {"format": EXPORT_FORMAT, "version": EXPORT_VERSION, "schema": db.head_revision(),
                 "sensors": out_sensors}
 
+    @_db_errors
     def import_(self, doc: Mapping[str, Any]) -> dict[str, int]:
         """Add the sensors and records of an export document.
 
