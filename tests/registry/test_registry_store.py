@@ -58,6 +58,8 @@ def test_errors_unknown_and_duplicate_serial(db_url):
             reg.drift("NEW", Q, tolerance=0.01)
         with pytest.raises(DataError, match="positive"):
             Quantity(Q, 1.0, 0.0, UNIT)
+        with pytest.raises(InputError, match="control characters"):
+            Quantity("a\x00b", 1.0, 0.1, UNIT)
 
 
 def test_records_are_append_only_and_corrections_supersede(db_url):
@@ -159,3 +161,30 @@ def test_schema_from_a_newer_senscal_is_a_clear_error(tmp_path):
     engine.dispose()
     with pytest.raises(InputError, match="schema revision '0999'.*upgrade senscal"):
         open_registry(url)
+
+
+def test_any_record_reads_back_exactly(tmp_path):
+    """Property: values, uncertainties, offsets and microseconds survive the database bit for bit."""
+    from hypothesis import given, settings, strategies as st
+
+    reg = open_registry(f"sqlite:///{tmp_path / 'prop.sqlite'}")
+    reg.add_sensor("P", "accelerometer")
+    finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+    positive = st.floats(min_value=1e-300, max_value=1e300, allow_nan=False)
+
+    @settings(max_examples=30, deadline=None)
+    @given(value=finite, u=positive, k=st.sampled_from([1.0, 2.0, 2.576, 3.0]),
+           when=st.datetimes(min_value=datetime(1950, 1, 1), max_value=datetime(2100, 1, 1)),
+           offset_min=st.integers(-12 * 60, 14 * 60), name=st.text(st.characters(min_codepoint=32), min_size=1, max_size=30).filter(str.strip))
+    def check(value, u, k, when, offset_min, name):
+        performed = when.replace(tzinfo=timezone(timedelta(minutes=offset_min)))
+        rec = reg.record("P", [Quantity(name, value, u, "V", k)], performed_at=performed, result={"v": value})
+        back = reg.calibration(rec.uid)
+        assert back == rec
+        assert back.performed_at.utcoffset() == timedelta(minutes=offset_min)
+        assert back.performed_at.replace(tzinfo=None) == when
+
+    try:
+        check()
+    finally:
+        reg.close()

@@ -101,6 +101,9 @@ class Quantity(ResultMixin):
     def __post_init__(self):
         if not str(self.name).strip():
             raise InputError("a calibrated quantity needs a name")
+        if any(ord(ch) < 32 for ch in str(self.name) + str(self.unit)):
+            raise InputError(f"quantity name and unit must not contain control characters, got {self.name!r} "
+                             f"[{self.unit!r}]")
         if not math.isfinite(float(self.value)):
             raise DataError(f"quantity {self.name!r}: value must be finite, got {self.value}")
         u = float(self.uncertainty)
@@ -758,6 +761,8 @@ def _clean(text: str, what: str) -> str:
     s = str(text).strip() if text is not None else ""
     if not s:
         raise InputError(f"sensor {what} must not be empty")
+    if any(ord(ch) < 32 for ch in s):
+        raise InputError(f"sensor {what} must not contain control characters, got {s!r}")
     return s
 
 
