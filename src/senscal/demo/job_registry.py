@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
-from senscal.cli.common import write_json
 from senscal.demo import DemoSection
 from senscal.registry import Quantity, open_registry
 from senscal.registry.plot import plot_history
@@ -38,7 +38,7 @@ def run(out: Path, seed: int) -> DemoSection:
                            job="manual", method="back-to-back comparison (simulated)", operator="demo")
             reports[serial] = reg.drift(serial, Q, tolerance=TOL)
         points = reg.history("DRIFT-01", Q)
-        write_json(reg.export(), folder / "registry_export.json")
+        (folder / "registry_export.json").write_text(json.dumps(reg.export(), indent=2) + "\n")
     rep = reports["DRIFT-01"]
     plot_history(points, folder / "history.png", report=rep, title="DRIFT-01: sensitivity history, drift and due date")
     first = rep.first_date
