@@ -300,6 +300,10 @@ def _localise(dt_utc: datetime, offset_s: int) -> datetime:
 
 # --- the registry --------------------------------------------------------------
 
+_INSERT_CALIBRATION = calibrations.insert()
+_INSERT_QUANTITY = quantities.insert()
+
+
 def _db_errors(method):
     """Turn a lost server, a locked or read-only database into a one-line error (password masked)."""
 
@@ -502,8 +506,9 @@ class Registry:
             supersedes=values["supersedes"])
 
     def _insert_calibration(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity]) -> None:
-        cid = conn.execute(calibrations.insert().values(sensor_id=sensor_id, **values)).inserted_primary_key[0]
-        conn.execute(quantities.insert(), [
+        # Parameters passed to execute (not .values()) so the compiled statement is reused from the cache.
+        cid = conn.execute(_INSERT_CALIBRATION, dict(values, sensor_id=sensor_id)).inserted_primary_key[0]
+        conn.execute(_INSERT_QUANTITY, [
             dict(calibration_id=cid, name=q.name, value=float(q.value), uncertainty=float(q.uncertainty),
                  unit=q.unit, k=float(q.k)) for q in qs])
 
