@@ -188,3 +188,19 @@ def test_any_record_reads_back_exactly(tmp_path):
         check()
     finally:
         reg.close()
+
+
+def test_sqlite_reader_does_not_block_a_writer(tmp_path):
+    from senscal.registry import db
+
+    url = f"sqlite:///{tmp_path / 'wal.sqlite'}"
+    reader, writer = open_registry(url), open_registry(url)
+    writer.add_sensor("A1", "accelerometer")
+    with db.read_connection(reader.engine) as conn:
+        assert conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
+        n0 = conn.execute(sa.text("SELECT count(*) FROM calibrations")).scalar()  # holds a read snapshot
+        writer.record("A1", _q(0.01))  # would wait for the busy timeout if readers took the write lock
+        assert conn.execute(sa.text("SELECT count(*) FROM calibrations")).scalar() == n0  # snapshot isolation
+    assert len(reader.calibrations("A1")) == 1
+    reader.close()
+    writer.close()

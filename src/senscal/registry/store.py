@@ -300,6 +300,11 @@ def _localise(dt_utc: datetime, offset_s: int) -> datetime:
 
 # --- the registry --------------------------------------------------------------
 
+def _sensor_from(row) -> Sensor:
+    return Sensor(serial=row["serial"], kind=row["kind"], model=row["model"], manufacturer=row["manufacturer"],
+                  nominal=row["nominal"] or {}, notes=row["notes"], created_at=row["created_at"])
+
+
 _INSERT_CALIBRATION = calibrations.insert()
 _INSERT_QUANTITY = quantities.insert()
 
@@ -397,8 +402,7 @@ class Registry:
         row = conn.execute(sa.select(sensors).where(sensors.c.serial == serial)).mappings().first()
         if row is None:
             raise UnknownSensorError(self._unknown_sensor_message(conn, serial))
-        return Sensor(serial=row["serial"], kind=row["kind"], model=row["model"], manufacturer=row["manufacturer"],
-                      nominal=row["nominal"] or {}, notes=row["notes"], created_at=row["created_at"])
+        return _sensor_from(row)
 
     def _unknown_sensor_message(self, conn, serial: str) -> str:
         n = conn.execute(sa.select(sa.func.count()).select_from(sensors)).scalar_one()
@@ -408,21 +412,20 @@ class Registry:
     @_db_errors
     def sensor(self, serial: str) -> Sensor:
         """The sensor with this serial (UnknownSensorError if absent)."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             return self._sensor_row(conn, serial)
 
     @_db_errors
     def sensors(self) -> list[Sensor]:
         """All sensors, sorted by serial."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             rows = conn.execute(sa.select(sensors).order_by(sensors.c.serial)).mappings().all()
-        return [Sensor(serial=r["serial"], kind=r["kind"], model=r["model"], manufacturer=r["manufacturer"],
-                       nominal=r["nominal"] or {}, notes=r["notes"], created_at=r["created_at"]) for r in rows]
+        return [_sensor_from(r) for r in rows]
 
     @_db_errors
     def counts(self) -> dict[str, int]:
         """Number of calibration records per serial."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             rows = conn.execute(
                 sa.select(sensors.c.serial, sa.func.count(calibrations.c.id))
                 .select_from(sensors.outerjoin(calibrations, calibrations.c.sensor_id == sensors.c.id))
@@ -539,7 +542,7 @@ class Registry:
     @_db_errors
     def calibration(self, uid: str) -> Calibration:
         """One record by its full uid."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             recs = self._calibrations(conn, calibrations.c.uid == uid)
         if not recs:
             raise InputError(f"no calibration record with id {uid!r}")
@@ -572,7 +575,7 @@ class Registry:
     @_db_errors
     def calibrations(self, serial: str, *, include_superseded: bool = False) -> list[Calibration]:
         """A sensor's records in date order (superseded ones only on request)."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             sid = self._sensor_id(conn, serial)
             recs = self._calibrations(conn, calibrations.c.sensor_id == sid)
         return recs if include_superseded else [r for r in recs if r.superseded_by is None]
@@ -588,7 +591,7 @@ class Registry:
         """
         c, q = calibrations.c, quantities.c
         later = calibrations.alias("later")
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             sid = self._sensor_id(conn, serial)
             # Only the columns a history shows: the full result JSON of each record is not read.
             stmt = (sa.select(c.performed_at, c.utc_offset_s, c.uid, c.job, c.method, c.operator, c.note,
