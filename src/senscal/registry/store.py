@@ -101,9 +101,8 @@ class Quantity(ResultMixin):
     def __post_init__(self):
         if not str(self.name).strip():
             raise InputError("a calibrated quantity needs a name")
-        if any(ord(ch) < 32 for ch in str(self.name) + str(self.unit)):
-            raise InputError(f"quantity name and unit must not contain control characters, got {self.name!r} "
-                             f"[{self.unit!r}]")
+        _check_text(str(self.name), "quantity name")
+        _check_text(str(self.unit), "unit")
         if not math.isfinite(float(self.value)):
             raise DataError(f"quantity {self.name!r}: value must be finite, got {self.value}")
         u = float(self.uncertainty)
@@ -765,12 +764,21 @@ def _too_few(serial: str, quantity: str, n: int) -> TooFewSamplesError:
                               "and a due date need at least two calibrations at different dates")
 
 
+def _check_text(text: str, what: str) -> None:
+    """Refuse text no database can store faithfully (control characters, lone surrogates)."""
+    if any(ord(ch) < 32 for ch in text):
+        raise InputError(f"{what} must not contain control characters, got {text!r}")
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise InputError(f"{what} is not valid Unicode text (lone surrogate), got {text!r}") from None
+
+
 def _clean(text: str, what: str) -> str:
     s = str(text).strip() if text is not None else ""
     if not s:
         raise InputError(f"sensor {what} must not be empty")
-    if any(ord(ch) < 32 for ch in s):
-        raise InputError(f"sensor {what} must not contain control characters, got {s!r}")
+    _check_text(s, f"sensor {what}")
     return s
 
 
