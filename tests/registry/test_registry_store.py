@@ -62,6 +62,9 @@ def test_errors_unknown_and_duplicate_serial(db_url):
             Quantity("a\x00b", 1.0, 0.1, UNIT)
         with pytest.raises(InputError, match="lone surrogate"):
             reg.add_sensor("bad\ud800", "accelerometer")
+        with pytest.raises(InputError, match="note .*lone surrogate"):
+            reg.record("NEW", _q(1.0), note="x\udcff")
+        reg.record("NEW", _q(1.0), note="line 1\nline 2\ttab")
 
 
 def test_records_are_append_only_and_corrections_supersede(db_url):

@@ -376,6 +376,7 @@ class Registry:
             The serial is already registered.
         """
         serial, kind = _clean(serial, "serial"), _clean(kind, "kind")
+        _check_free(model=model, manufacturer=manufacturer, notes=notes)
         with self.engine.begin() as conn:
             sid = self._insert_sensor(conn, serial, kind, model, manufacturer, nominal, notes)
             if sid is None:
@@ -480,6 +481,8 @@ class Registry:
         if len(set(names)) != len(names):
             raise InputError(f"quantity names in one calibration must be unique, got {names}")
         when = parse_date(performed_at)
+        _check_free(job=job, method=method, note=note, operator=operator,
+                    certificate=str(certificate) if certificate is not None else None)
         files = tuple({"path": str(Path(p).resolve()), "sha256": sha256_file(p)} for p in input_files)
         if operator is None:
             try:
@@ -764,14 +767,23 @@ def _too_few(serial: str, quantity: str, n: int) -> TooFewSamplesError:
                               "and a due date need at least two calibrations at different dates")
 
 
-def _check_text(text: str, what: str) -> None:
-    """Refuse text no database can store faithfully (control characters, lone surrogates)."""
-    if any(ord(ch) < 32 for ch in text):
+def _check_text(text: str, what: str, *, free: bool = False) -> None:
+    """Refuse text no database can store faithfully (control characters, lone surrogates).
+
+    ``free`` text (notes) may hold line breaks and tabs, but never NUL.
+    """
+    if any(ord(ch) < 32 and not (free and ch in "\n\r\t") for ch in text):
         raise InputError(f"{what} must not contain control characters, got {text!r}")
     try:
         text.encode("utf-8")
     except UnicodeEncodeError:
         raise InputError(f"{what} is not valid Unicode text (lone surrogate), got {text!r}") from None
+
+
+def _check_free(**fields: str | None) -> None:
+    for what, text in fields.items():
+        if text is not None:
+            _check_text(str(text), what, free=True)
 
 
 def _clean(text: str, what: str) -> str:
