@@ -153,10 +153,15 @@ def history_cmd(
     if json_out:
         print_json({"serial": serial, "records": [p.to_dict() for p in points]})
         return
-    rows = [[p.date[:19].replace("T", " "), p.quantity, p.value, 2 * p.uncertainty, p.unit, p.uid[:8], p.job,
-             ("superseded by " + p.superseded_by[:8]) if p.superseded_by else (p.note or "")] for p in points]
-    console.print(table(f"Calibration history of {serial}  (U = expanded uncertainty, k=2)",
-                        ["date", "quantity", "value", "U", "unit", "id", "job", "note"], rows))
+    # Midnight means "a date" (paper certificates): show the time only when there is one.
+    rows = [[p.date[:10] if p.date[11:19] == "00:00:00" else p.date[:16].replace("T", " ")]
+            + ([] if quantity else [p.quantity])
+            + [p.value, 2 * p.uncertainty, p.unit, p.uid[:8], p.job,
+               ("superseded by " + p.superseded_by[:8]) if p.superseded_by else (p.note or "")] for p in points]
+    title = f"Calibration history of {serial}" + (f" {quantity}" if quantity else "")
+    console.print(table(f"{title}  (U = expanded uncertainty, k=2)",
+                        ["date"] + ([] if quantity else ["quantity"]) + ["value", "U", "unit", "id", "job", "note"],
+                        rows))
 
 
 @registry_app.command("due")
