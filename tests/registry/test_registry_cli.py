@@ -149,3 +149,15 @@ def test_quoted_reports_missing_quantity():
     assert quoted(doc, "a", "channels.ch1.amplitude", "channels.ch1.u_amplitude", "V").value == 1.0
     with pytest.raises(UnknownQuantityError, match="no quantity 'channels.ch2.amplitude'.*has: ch1"):
         quoted(doc, "a", "channels.ch2.amplitude", "channels.ch2.u_amplitude")
+
+
+def test_simulated_history_import_due_plot(cli, tmp_path):
+    _ok(cli("simulate", "registry", "--out", tmp_path, "--seed", "5", "--drift", "0.002"))
+    truth = json.loads((tmp_path / "history_truth.json").read_text())
+    db = f"sqlite:///{tmp_path / 'sim.sqlite'}"
+    _ok(cli("registry", "import", tmp_path / "history.json", "--db", db))
+    png = tmp_path / "due.png"
+    due = json.loads(_ok(cli("registry", "due", "SIM-001", "--quantity", "sensitivity", "--tolerance", "1%",
+                             "--plot", png, "--json", "--db", db)).out)
+    assert abs(due["drift_per_year"] - truth["drift_per_year"]) < 4 * due["u_drift_per_year"]
+    assert due["significant"] and png.stat().st_size > 10_000

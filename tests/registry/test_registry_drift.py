@@ -71,6 +71,10 @@ def test_matches_numpy_polyfit(seed):
     assert f.value_at_epoch == pytest.approx(coef[1], rel=1e-12)
     expected = cov_scaled if f.scaled else cov_unscaled
     assert f.u_drift_per_year == pytest.approx(math.sqrt(expected[0, 0]), rel=1e-8)
+    from scipy import stats
+
+    p = 2 * (stats.t.sf(abs(f.z), f.dof) if f.scaled else stats.norm.sf(abs(f.z)))
+    assert f.p_value == pytest.approx(p, rel=1e-9)
 
 
 def test_refuses_fewer_than_two_records_and_single_date():
@@ -130,4 +134,7 @@ def test_overdispersed_history_scales_uncertainty_like_polyfit():
     f = fit_drift(t, y, u)
     _, cov_scaled = np.polyfit(t, y, 1, w=1 / u, cov=True)
     assert f.scaled and f.birge_ratio > 2
+    from scipy import stats
+
+    assert f.p_value == pytest.approx(2 * stats.t.sf(abs(f.z), 10), rel=1e-9)
     assert f.u_drift_per_year == pytest.approx(math.sqrt(cov_scaled[0, 0]), rel=1e-8)

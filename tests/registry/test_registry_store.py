@@ -58,6 +58,13 @@ def test_errors_unknown_and_duplicate_serial(db_url):
             reg.drift("NEW", Q, tolerance=0.01)
         with pytest.raises(DataError, match="positive"):
             Quantity(Q, 1.0, 0.0, UNIT)
+        with pytest.raises(InputError, match="control characters"):
+            Quantity("a\x00b", 1.0, 0.1, UNIT)
+        with pytest.raises(InputError, match="lone surrogate"):
+            reg.add_sensor("bad\ud800", "accelerometer")
+        with pytest.raises(InputError, match="note .*lone surrogate"):
+            reg.record("NEW", _q(1.0), note="x\udcff")
+        reg.record("NEW", _q(1.0), note="line 1\nline 2\ttab")
 
 
 def test_records_are_append_only_and_corrections_supersede(db_url):
@@ -148,3 +155,58 @@ def test_wrong_password_on_real_server_is_masked(pg_url):
     with pytest.raises(InputError, match="cannot reach") as exc:
         open_registry(bad.render_as_string(hide_password=False))
     assert "Wr0ngPassw0rd" not in str(exc.value) and str(make_url(pg_url).password) not in str(exc.value)
+
+
+def test_schema_from_a_newer_senscal_is_a_clear_error(tmp_path):
+    url = f"sqlite:///{tmp_path / 'r.sqlite'}"
+    open_registry(url).close()
+    engine = sa.create_engine(url)
+    with engine.begin() as conn:
+        conn.execute(sa.text("UPDATE alembic_version SET version_num = '0999'"))
+    engine.dispose()
+    with pytest.raises(InputError, match="schema revision '0999'.*upgrade senscal"):
+        open_registry(url)
+
+
+def test_any_record_reads_back_exactly(db_url):
+    """Property: values, uncertainties, offsets and microseconds survive the database bit for bit."""
+    from hypothesis import given, settings, strategies as st
+
+    reg = open_registry(db_url)
+    reg.add_sensor("P", "accelerometer")
+    finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
+    positive = st.floats(min_value=1e-300, max_value=1e300, allow_nan=False)
+
+    @settings(max_examples=30, deadline=None)
+    @given(value=finite, u=positive, k=st.sampled_from([1.0, 2.0, 2.576, 3.0]),
+           when=st.datetimes(min_value=datetime(1950, 1, 1), max_value=datetime(2100, 1, 1)),
+           offset_min=st.integers(-12 * 60, 14 * 60), name=st.text(st.characters(min_codepoint=32, exclude_categories=("Cs",)), min_size=1,
+                        max_size=30).filter(str.strip))
+    def check(value, u, k, when, offset_min, name):
+        performed = when.replace(tzinfo=timezone(timedelta(minutes=offset_min)))
+        rec = reg.record("P", [Quantity(name, value, u, "V", k)], performed_at=performed, result={"v": value})
+        back = reg.calibration(rec.uid)
+        assert back == rec
+        assert back.performed_at.utcoffset() == timedelta(minutes=offset_min)
+        assert back.performed_at.replace(tzinfo=None) == when
+
+    try:
+        check()
+    finally:
+        reg.close()
+
+
+def test_sqlite_reader_does_not_block_a_writer(tmp_path):
+    from senscal.registry import db
+
+    url = f"sqlite:///{tmp_path / 'wal.sqlite'}"
+    reader, writer = open_registry(url), open_registry(url)
+    writer.add_sensor("A1", "accelerometer")
+    with db.read_connection(reader.engine) as conn:
+        assert conn.exec_driver_sql("PRAGMA journal_mode").scalar() == "wal"
+        n0 = conn.execute(sa.text("SELECT count(*) FROM calibrations")).scalar()  # holds a read snapshot
+        writer.record("A1", _q(0.01))  # would wait for the busy timeout if readers took the write lock
+        assert conn.execute(sa.text("SELECT count(*) FROM calibrations")).scalar() == n0  # snapshot isolation
+    assert len(reader.calibrations("A1")) == 1
+    reader.close()
+    writer.close()

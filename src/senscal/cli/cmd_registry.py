@@ -9,7 +9,7 @@ from typing import List, Optional
 import typer
 from typing_extensions import Annotated
 
-from senscal.cli.app import app
+from senscal.cli.app import app, simulate_app
 from senscal.cli.common import JsonOpt, console, err_console, parse_relative, print_json, table, write_json
 from senscal.cli.registry_opts import CreateSensorOpt, DbOpt, OperatorOpt
 from senscal.errors import FileFormatError, InputError
@@ -153,10 +153,15 @@ def history_cmd(
     if json_out:
         print_json({"serial": serial, "records": [p.to_dict() for p in points]})
         return
-    rows = [[p.date[:19].replace("T", " "), p.quantity, p.value, 2 * p.uncertainty, p.unit, p.uid[:8], p.job,
-             ("superseded by " + p.superseded_by[:8]) if p.superseded_by else (p.note or "")] for p in points]
-    console.print(table(f"Calibration history of {serial}  (U = expanded uncertainty, k=2)",
-                        ["date", "quantity", "value", "U", "unit", "id", "job", "note"], rows))
+    # Midnight means "a date" (paper certificates): show the time only when there is one.
+    rows = [[p.date[:10] if p.date[11:19] == "00:00:00" else p.date[:16].replace("T", " ")]
+            + ([] if quantity else [p.quantity])
+            + [p.value, 2 * p.uncertainty, p.unit, p.uid[:8], p.job,
+               ("superseded by " + p.superseded_by[:8]) if p.superseded_by else (p.note or "")] for p in points]
+    title = f"Calibration history of {serial}" + (f" {quantity}" if quantity else "")
+    console.print(table(f"{title}  (U = expanded uncertainty, k=2)",
+                        ["date"] + ([] if quantity else ["quantity"]) + ["value", "U", "unit", "id", "job", "note"],
+                        rows))
 
 
 @registry_app.command("due")
@@ -256,3 +261,34 @@ def import_cmd(
     else:
         console.print(f"imported {added['sensors']} sensors and {added['calibrations']} records into {url} "
                       f"({added['skipped']} already present)")
+
+
+@simulate_app.command("registry")
+def simulate_registry_cmd(
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
+    records: Annotated[int, typer.Option("--records", help="Number of yearly calibrations.")] = 7,
+    drift: Annotated[float, typer.Option("--drift", help="True relative drift per year, e.g. 0.0012 = 0.12 %/yr.")] = 0.0012,
+    u_rel: Annotated[float, typer.Option("--u-rel", help="Relative standard uncertainty of each calibration.")] = 4e-4,
+) -> None:
+    """A calibration history with known drift as a registry export (history.json) and its truth."""
+    from senscal.registry import Quantity, open_registry
+    from senscal.simulate.common import write_truth
+    from senscal.simulate.registry import simulate_calibration_history
+
+    if records < 1 or u_rel <= 0:
+        raise InputError("--records must be at least 1 and --u-rel positive")
+    value = 0.0100
+    recs, truth = simulate_calibration_history(n_records=records, value=value, drift_per_year=drift * value,
+                                               u_rel=u_rel, seed=seed)
+    # Written through an in-memory registry, so the file is exactly what 'registry export' produces.
+    with open_registry("sqlite://") as reg:
+        reg.add_sensor("SIM-001", "accelerometer", model="simulated",
+                       nominal={"sensitivity": {"value": value, "unit": "V/(m/s^2)"}})
+        for r in recs:
+            reg.record("SIM-001", [Quantity("sensitivity", r["value"], r["uncertainty"], "V/(m/s^2)", 2.0)],
+                       performed_at=r["date"], method="simulated certificate", operator="simulator")
+        doc = reg.export()
+    p = write_json(doc, out / "history.json")
+    q = write_truth(truth, out / "history_truth.json")
+    console.print(f"wrote {p} and {q}; try: senscal registry import {p}")

@@ -108,9 +108,16 @@ def _sqlite_pragmas(dbapi_conn, _record) -> None:
 
 
 def _sqlite_begin(conn) -> None:
-    # BEGIN IMMEDIATE takes the write lock up front, so two writers queue on
-    # the busy timeout instead of deadlocking when both upgrade a read lock.
-    conn.exec_driver_sql("BEGIN IMMEDIATE")
+    # Writers: BEGIN IMMEDIATE takes the write lock up front, so two writers
+    # queue on the busy timeout instead of deadlocking when both upgrade a
+    # read lock. Readers (marked by read_connection) take a plain snapshot and
+    # never block a writer in WAL mode.
+    conn.exec_driver_sql("BEGIN" if conn.get_execution_options().get("senscal_read") else "BEGIN IMMEDIATE")
+
+
+def read_connection(engine: Engine):
+    """A connection for reading only (on SQLite it does not take the write lock)."""
+    return engine.connect().execution_options(senscal_read=True)
 
 
 def create_registry_engine(url: str | Path | URL | None = None) -> Engine:
@@ -251,7 +258,7 @@ def current_revision(engine: Engine) -> str | None:
     """The schema revision of the database (None for an empty database)."""
     from alembic.runtime.migration import MigrationContext
 
-    with engine.connect() as conn:
+    with read_connection(engine) as conn:
         rev = MigrationContext.configure(conn).get_current_revision()
         conn.rollback()
     return rev
@@ -265,14 +272,20 @@ def upgrade(engine: Engine) -> None:
     PostgreSQL: a transaction-scoped advisory lock), so exactly one of them
     creates the schema and the others find it at head.
     """
-    if current_revision(engine) == head_revision():
+    current = current_revision(engine)
+    if current == head_revision():
         return
     from alembic import command
+    from alembic.util import CommandError
 
-    with engine.begin() as conn:
-        if conn.dialect.name == "postgresql":
-            conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": _PG_LOCK_KEY})
-        command.upgrade(_alembic_config(conn), "head")
+    try:
+        with engine.begin() as conn:
+            if conn.dialect.name == "postgresql":
+                conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": _PG_LOCK_KEY})
+            command.upgrade(_alembic_config(conn), "head")
+    except CommandError:
+        raise InputError(f"the registry {mask_url(engine.url)} has schema revision {current!r}, which this "
+                         f"senscal does not know (newest: {head_revision()!r}); upgrade senscal") from None
 
 
 def now_utc() -> datetime:

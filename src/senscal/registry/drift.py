@@ -148,7 +148,8 @@ def fit_drift(t_years, values, uncertainties, *, alpha: float = 0.05) -> DriftFi
     DataError
         Non-finite values, non-positive uncertainties, or all records at the same time.
     """
-    from scipy import stats  # imported here: scipy.stats costs ~1 s, and most registry commands never fit
+    # scipy.special's distribution functions: the same numbers as scipy.stats at a fraction of the call cost.
+    from scipy import special
 
     t = np.asarray(t_years, dtype=float).ravel()
     y = np.asarray(values, dtype=float).ravel()
@@ -177,12 +178,12 @@ def fit_drift(t_years, values, uncertainties, *, alpha: float = 0.05) -> DriftFi
     # (chi-square test at 5 %): scaling every time chi2 > dof would make the
     # drift test conservative (false-alarm rate well under alpha) for sensors
     # whose certificates are honest.
-    scaled = dof > 0 and birge > 1.0 and stats.chi2.sf(chi2, dof) < 0.05
+    scaled = dof > 0 and birge > 1.0 and special.chdtrc(dof, chi2) < 0.05
     if scaled:
         cov = cov * birge**2
     u_slope = math.sqrt(cov[1, 1])
     z = float(coef[1] / u_slope)
-    p = float(2.0 * (stats.t.sf(abs(z), dof) if scaled else stats.norm.sf(abs(z))))
+    p = float(2.0 * (special.stdtr(dof, -abs(z)) if scaled else special.ndtr(-abs(z))))
     return DriftFit(
         value_at_epoch=float(coef[0]), u_value_at_epoch=math.sqrt(cov[0, 0]),
         drift_per_year=float(coef[1]), u_drift_per_year=u_slope, covariance=cov,

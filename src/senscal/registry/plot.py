@@ -27,9 +27,13 @@ def plot_history(points: Sequence[HistoryPoint], path: str | Path, *, report: Dr
     fig, axes = new_figure(len(names), 1, height=2.2 + 2.3 * len(names), squeeze=False, sharex=True)
     for ax, name in zip(axes[:, 0], names):
         pts = [p for p in points if p.quantity == name]
-        dates = [datetime.fromisoformat(p.date) for p in pts]
-        ax.errorbar(dates, [p.value for p in pts], yerr=[2.0 * p.uncertainty for p in pts], fmt="o", ms=4,
-                    capsize=3, label="calibrations (±U, k=2)")
+        current = [p for p in pts if p.superseded_by is None]
+        old = [p for p in pts if p.superseded_by is not None]
+        for group, style in ((current, dict(fmt="o", label="calibrations (±U, k=2)")),
+                             (old, dict(fmt="o", mfc="none", color="0.6", label="superseded records"))):
+            if group:
+                ax.errorbar([datetime.fromisoformat(p.date) for p in group], [p.value for p in group],
+                            yerr=[2.0 * p.uncertainty for p in group], ms=4, capsize=3, **style)
         unit = pts[0].unit
         ax.set_ylabel(f"{name} ({unit})" if unit else name)
         if report is not None and report.quantity == name:

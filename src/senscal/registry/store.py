@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import getpass
 import hashlib
 import math
@@ -13,7 +14,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 import sqlalchemy as sa
-from sqlalchemy.exc import DBAPIError, IntegrityError
+from sqlalchemy.exc import DBAPIError, IntegrityError, InterfaceError, OperationalError
 
 from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
@@ -100,6 +101,8 @@ class Quantity(ResultMixin):
     def __post_init__(self):
         if not str(self.name).strip():
             raise InputError("a calibrated quantity needs a name")
+        _check_text(str(self.name), "quantity name")
+        _check_text(str(self.unit), "unit")
         if not math.isfinite(float(self.value)):
             raise DataError(f"quantity {self.name!r}: value must be finite, got {self.value}")
         u = float(self.uncertainty)
@@ -296,6 +299,28 @@ def _localise(dt_utc: datetime, offset_s: int) -> datetime:
 
 # --- the registry --------------------------------------------------------------
 
+def _sensor_from(row) -> Sensor:
+    return Sensor(serial=row["serial"], kind=row["kind"], model=row["model"], manufacturer=row["manufacturer"],
+                  nominal=row["nominal"] or {}, notes=row["notes"], created_at=row["created_at"])
+
+
+_INSERT_CALIBRATION = calibrations.insert()
+_INSERT_QUANTITY = quantities.insert()
+
+
+def _db_errors(method):
+    """Turn a lost server, a locked or read-only database into a one-line error (password masked)."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except (OperationalError, InterfaceError) as exc:
+            raise InputError(f"registry database {self.url} failed: {db._scrub(exc.orig, self._url)}") from None
+
+    return wrapper
+
+
 class Registry:
     """Sensors and calibration history in a SQLAlchemy database.
 
@@ -340,6 +365,7 @@ class Registry:
 
     # sensors -----------------------------------------------------------------
 
+    @_db_errors
     def add_sensor(self, serial: str, kind: str, *, model: str | None = None, manufacturer: str | None = None,
                    nominal: Mapping[str, Any] | None = None, notes: str | None = None) -> Sensor:
         """Register a sensor.
@@ -350,6 +376,7 @@ class Registry:
             The serial is already registered.
         """
         serial, kind = _clean(serial, "serial"), _clean(kind, "kind")
+        _check_free(model=model, manufacturer=manufacturer, notes=notes)
         with self.engine.begin() as conn:
             sid = self._insert_sensor(conn, serial, kind, model, manufacturer, nominal, notes)
             if sid is None:
@@ -375,29 +402,30 @@ class Registry:
         row = conn.execute(sa.select(sensors).where(sensors.c.serial == serial)).mappings().first()
         if row is None:
             raise UnknownSensorError(self._unknown_sensor_message(conn, serial))
-        return Sensor(serial=row["serial"], kind=row["kind"], model=row["model"], manufacturer=row["manufacturer"],
-                      nominal=row["nominal"] or {}, notes=row["notes"], created_at=row["created_at"])
+        return _sensor_from(row)
 
     def _unknown_sensor_message(self, conn, serial: str) -> str:
         n = conn.execute(sa.select(sa.func.count()).select_from(sensors)).scalar_one()
         return (f"unknown sensor serial {serial!r} in {self.url} ({n} sensors registered); "
                 "list them with 'senscal registry sensors' or add it with 'senscal registry add SERIAL --kind KIND'")
 
+    @_db_errors
     def sensor(self, serial: str) -> Sensor:
         """The sensor with this serial (UnknownSensorError if absent)."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             return self._sensor_row(conn, serial)
 
+    @_db_errors
     def sensors(self) -> list[Sensor]:
         """All sensors, sorted by serial."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             rows = conn.execute(sa.select(sensors).order_by(sensors.c.serial)).mappings().all()
-        return [Sensor(serial=r["serial"], kind=r["kind"], model=r["model"], manufacturer=r["manufacturer"],
-                       nominal=r["nominal"] or {}, notes=r["notes"], created_at=r["created_at"]) for r in rows]
+        return [_sensor_from(r) for r in rows]
 
+    @_db_errors
     def counts(self) -> dict[str, int]:
         """Number of calibration records per serial."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             rows = conn.execute(
                 sa.select(sensors.c.serial, sa.func.count(calibrations.c.id))
                 .select_from(sensors.outerjoin(calibrations, calibrations.c.sensor_id == sensors.c.id))
@@ -406,6 +434,7 @@ class Registry:
 
     # calibrations ----------------------------------------------------------
 
+    @_db_errors
     def record(self, serial: str, quantities_: Sequence[Quantity], *, performed_at: str | datetime | None = None,
                job: str = "manual", method: str | None = None, conditions: Mapping[str, Any] | None = None,
                result: Mapping[str, Any] | None = None, certificate: str | Path | None = None,
@@ -452,30 +481,39 @@ class Registry:
         if len(set(names)) != len(names):
             raise InputError(f"quantity names in one calibration must be unique, got {names}")
         when = parse_date(performed_at)
+        _check_free(job=job, method=method, note=note, operator=operator,
+                    certificate=str(certificate) if certificate is not None else None)
         files = tuple({"path": str(Path(p).resolve()), "sha256": sha256_file(p)} for p in input_files)
         if operator is None:
             try:
                 operator = getpass.getuser()
             except Exception:  # no login name (containers): leave it empty
                 operator = None
-        uid = str(uuid.uuid4())
+        values = dict(
+            uid=str(uuid.uuid4()), performed_at=when, utc_offset_s=_offset_s(when), recorded_at=db.now_utc(),
+            job=job, method=method, conditions=to_jsonable(dict(conditions or {})),
+            result=to_jsonable(dict(result)) if result is not None else None,
+            certificate=str(certificate) if certificate is not None else None, input_files=list(files),
+            senscal_version=_senscal_version(), operator=operator, note=note)
         with self.engine.begin() as conn:
             if create_kind is not None:
                 self._insert_sensor(conn, serial, _clean(create_kind, "kind"), None, None, None, None)
             sid = self._sensor_id(conn, serial)
-            if supersedes is not None:
-                supersedes = self._resolve_uid(conn, supersedes, sid, serial)
-            self._insert_calibration(conn, sid, dict(
-                uid=uid, performed_at=when, utc_offset_s=_offset_s(when), recorded_at=db.now_utc(), job=job,
-                method=method, conditions=to_jsonable(dict(conditions or {})),
-                result=to_jsonable(dict(result)) if result is not None else None,
-                certificate=str(certificate) if certificate is not None else None, input_files=list(files),
-                senscal_version=_senscal_version(), operator=operator, note=note, supersedes=supersedes), qs)
-        return self.calibration(uid)
+            values["supersedes"] = self._resolve_uid(conn, supersedes, sid, serial) if supersedes else None
+            self._insert_calibration(conn, sid, values, qs)
+        # Built from what was stored (no second round trip); microseconds as the database keeps them.
+        return Calibration(
+            uid=values["uid"], serial=serial, performed_at=when, recorded_at=values["recorded_at"], job=job,
+            method=method, quantities=tuple(Quantity(q.name, float(q.value), float(q.uncertainty), q.unit, float(q.k))
+                                            for q in qs),
+            conditions=values["conditions"], result=values["result"], certificate=values["certificate"],
+            input_files=files, senscal_version=values["senscal_version"], operator=operator, note=note,
+            supersedes=values["supersedes"])
 
     def _insert_calibration(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity]) -> None:
-        cid = conn.execute(calibrations.insert().values(sensor_id=sensor_id, **values)).inserted_primary_key[0]
-        conn.execute(quantities.insert(), [
+        # Parameters passed to execute (not .values()) so the compiled statement is reused from the cache.
+        cid = conn.execute(_INSERT_CALIBRATION, dict(values, sensor_id=sensor_id)).inserted_primary_key[0]
+        conn.execute(_INSERT_QUANTITY, [
             dict(calibration_id=cid, name=q.name, value=float(q.value), uncertainty=float(q.uncertainty),
                  unit=q.unit, k=float(q.k)) for q in qs])
 
@@ -503,9 +541,10 @@ class Registry:
                              "supersede a record of the same sensor")
         return uid
 
+    @_db_errors
     def calibration(self, uid: str) -> Calibration:
         """One record by its full uid."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             recs = self._calibrations(conn, calibrations.c.uid == uid)
         if not recs:
             raise InputError(f"no calibration record with id {uid!r}")
@@ -535,13 +574,15 @@ class Registry:
             input_files=tuple(r["input_files"] or ()), senscal_version=r["senscal_version"], operator=r["operator"],
             note=r["note"], supersedes=r["supersedes"], superseded_by=later.get(r["uid"])) for r in rows]
 
+    @_db_errors
     def calibrations(self, serial: str, *, include_superseded: bool = False) -> list[Calibration]:
         """A sensor's records in date order (superseded ones only on request)."""
-        with self.engine.connect() as conn:
+        with db.read_connection(self.engine) as conn:
             sid = self._sensor_id(conn, serial)
             recs = self._calibrations(conn, calibrations.c.sensor_id == sid)
         return recs if include_superseded else [r for r in recs if r.superseded_by is None]
 
+    @_db_errors
     def history(self, serial: str, quantity: str | None = None, *,
                 include_superseded: bool = False) -> list[HistoryPoint]:
         """The values of one (or every) quantity of a sensor over time.
@@ -550,19 +591,39 @@ class Registry:
         ------
         UnknownSensorError, UnknownQuantityError
         """
-        recs = self.calibrations(serial, include_superseded=include_superseded)
-        points = [HistoryPoint(date=_iso(r.performed_at), quantity=q.name, value=q.value, uncertainty=q.uncertainty,
-                               unit=q.unit, k=q.k, expanded_uncertainty=q.k * q.uncertainty, uid=r.uid, job=r.job,
-                               method=r.method, operator=r.operator, note=r.note, certificate=r.certificate,
-                               supersedes=r.supersedes, superseded_by=r.superseded_by)
-                  for r in recs for q in r.quantities if quantity is None or q.name == quantity]
-        if quantity is not None and not points:
-            known = sorted({q.name for r in recs for q in r.quantities})
+        c, q = calibrations.c, quantities.c
+        later = calibrations.alias("later")
+        with db.read_connection(self.engine) as conn:
+            sid = self._sensor_id(conn, serial)
+            # Only the columns a history shows: the full result JSON of each record is not read.
+            stmt = (sa.select(c.performed_at, c.utc_offset_s, c.uid, c.job, c.method, c.operator, c.note,
+                              c.certificate, c.supersedes, later.c.uid.label("superseded_by"),
+                              q.name, q.value, q.uncertainty, q.unit, q.k)
+                    .join(quantities, q.calibration_id == c.id)
+                    .outerjoin(later, later.c.supersedes == c.uid)
+                    .where(c.sensor_id == sid)
+                    .order_by(c.performed_at, c.recorded_at, c.id, q.id))
+            if quantity is not None:
+                stmt = stmt.where(q.name == quantity)
+            if not include_superseded:
+                stmt = stmt.where(later.c.uid.is_(None))
+            rows = conn.execute(stmt).all()
+            known = None
+            if quantity is not None and not rows:
+                known = sorted(conn.execute(sa.select(q.name).distinct().join(calibrations, q.calibration_id == c.id)
+                                            .where(c.sensor_id == sid)).scalars())
+        points = [HistoryPoint(date=_localise(r.performed_at, r.utc_offset_s).isoformat(), quantity=r.name,
+                               value=r.value, uncertainty=r.uncertainty, unit=r.unit, k=r.k,
+                               expanded_uncertainty=r.k * r.uncertainty, uid=r.uid, job=r.job, method=r.method,
+                               operator=r.operator, note=r.note, certificate=r.certificate, supersedes=r.supersedes,
+                               superseded_by=r.superseded_by) for r in rows]
+        if known is not None:
             raise UnknownQuantityError(
                 f"sensor {serial!r} has no recorded quantity {quantity!r}; "
                 + (f"recorded quantities: {', '.join(known)}" if known else "it has no calibration records yet"))
         return points
 
+    @_db_errors
     def drift(self, serial: str, quantity: str, *, tolerance: float | None = None, relative: bool = True,
               nominal: float | None = None, k: float = 2.0, alpha: float = 0.05) -> DriftReport:
         """Drift rate of a quantity and the date the sensor is due.
@@ -617,6 +678,7 @@ class Registry:
 
     # export / import ---------------------------------------------------------
 
+    @_db_errors
     def export(self) -> dict[str, Any]:
         """Every sensor and record as one JSON-ready document (import() reads it back exactly)."""
         out_sensors = []
@@ -632,6 +694,7 @@ class Registry:
         return {"format": EXPORT_FORMAT, "version": EXPORT_VERSION, "schema": db.head_revision(),
                 "sensors": out_sensors}
 
+    @_db_errors
     def import_(self, doc: Mapping[str, Any]) -> dict[str, int]:
         """Add the sensors and records of an export document.
 
@@ -704,10 +767,30 @@ def _too_few(serial: str, quantity: str, n: int) -> TooFewSamplesError:
                               "and a due date need at least two calibrations at different dates")
 
 
+def _check_text(text: str, what: str, *, free: bool = False) -> None:
+    """Refuse text no database can store faithfully (control characters, lone surrogates).
+
+    ``free`` text (notes) may hold line breaks and tabs, but never NUL.
+    """
+    if any(ord(ch) < 32 and not (free and ch in "\n\r\t") for ch in text):
+        raise InputError(f"{what} must not contain control characters, got {text!r}")
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise InputError(f"{what} is not valid Unicode text (lone surrogate), got {text!r}") from None
+
+
+def _check_free(**fields: str | None) -> None:
+    for what, text in fields.items():
+        if text is not None:
+            _check_text(str(text), what, free=True)
+
+
 def _clean(text: str, what: str) -> str:
     s = str(text).strip() if text is not None else ""
     if not s:
         raise InputError(f"sensor {what} must not be empty")
+    _check_text(s, f"sensor {what}")
     return s
 
 

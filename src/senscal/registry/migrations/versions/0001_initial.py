@@ -47,7 +47,7 @@ def upgrade() -> None:
         sa.Column("senscal_version", sa.String(50)),
         sa.Column("operator", sa.String(200)),
         sa.Column("note", sa.Text),
-        sa.Column("supersedes", sa.String(36), sa.ForeignKey("calibrations.uid")),
+        sa.Column("supersedes", sa.String(36), sa.ForeignKey("calibrations.uid"), index=True),
     )
     op.create_table(
         "quantities",
