@@ -31,7 +31,7 @@ def test_simulate_and_response_acceptance(cli, centrifuge_dir, tmp_path):
     r = cli("response", *files, "--output", "output", "--input-amplitude", "100", "--angle", "angle",
             "--static-sensitivity", str(truth["static_sensitivity"]), "--u-input", "0.2%", "--json",
             "--report", cert, "--sensor-id", "SN-42", "--model", "QF-1", "--plot", tmp_path / "bode.png",
-            "--condition", "temperature=23.1 C", "--save", tmp_path / "resp.json")
+            "--condition", "temperature=23.1 C", "--save-response", tmp_path / "resp.json")
     assert r.code == 0, r.err
     doc = json.loads(r.out)
     for key in ("file", "frequency_hz", "sensitivity", "u_sensitivity", "normalized_sensitivity",
@@ -143,3 +143,24 @@ def test_input_files_are_not_modified(cli, centrifuge_dir):
     before = [open(f, "rb").read() for f in files]
     assert cli("response", *files, "--output", "output", "--input-amplitude", "100", "--angle", "angle").code == 0
     assert [open(f, "rb").read() for f in files] == before
+
+
+def test_response_and_velocity_save_to_registry(cli, centrifuge_dir, tmp_path):
+    files = _files(centrifuge_dir, "centrifuge")
+    db = tmp_path / "reg.sqlite"
+    r = cli("response", *files, "--output", "output", "--input-amplitude", "100", "--angle", "angle",
+            "--static-sensitivity", "0.01", "--json", "--save", "--sensor", "ACC-1", "--create-sensor", "accelerometer",
+            "--db", db, "--date", "2026-01-05")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    h = cli("registry", "history", "ACC-1", "--db", db, "--json")
+    assert h.code == 0, h.err
+    recs = json.loads(h.out)["records"]
+    f0 = doc["points"][0]
+    q = f"sensitivity@{f0['frequency_hz']:.4g}Hz"
+    saved = [x for x in recs if x["quantity"] == q]
+    assert saved and saved[0]["value"] == pytest.approx(f0["sensitivity"])
+    assert saved[0]["uncertainty"] == pytest.approx(f0["u_sensitivity"])
+    # Registry options without --save are a user error, not silently ignored.
+    r = cli("response", *files, "--output", "output", "--input-amplitude", "100", "--sensor", "ACC-1")
+    assert r.code == 2 and "--save" in r.err

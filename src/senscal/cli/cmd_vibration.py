@@ -11,6 +11,8 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
+from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted,
+                                       save_if_requested)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, parse_floats, parse_relative,
                                 print_json, table, track)
 from senscal.errors import InputError
@@ -66,6 +68,22 @@ def _conditions(items: list[str] | None) -> dict[str, str]:
     return out
 
 
+def _response_quantities(doc: dict) -> list:
+    """Registry quantities of a response: per frequency point, with their standard uncertainties."""
+    from senscal.registry import Quantity
+
+    qs = []
+    for p in doc["points"]:
+        tag = f"{p['frequency_hz']:.4g}Hz"
+        qs.append(Quantity(f"sensitivity@{tag}", p["sensitivity"], p["u_sensitivity"], doc["unit"]))
+        if p.get("normalized_sensitivity") is not None:
+            qs.append(Quantity(f"normalized_sensitivity@{tag}", p["normalized_sensitivity"],
+                               p["u_normalized_sensitivity"], "1"))
+        if p.get("phase_delay_deg") is not None:
+            qs.append(Quantity(f"phase_delay@{tag}", p["phase_delay_deg"], p["u_phase_delay_deg"], "deg"))
+    return qs
+
+
 def _k2(u):
     return None if u is None else 2.0 * u
 
@@ -97,6 +115,8 @@ def velocity_cmd(
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
+    save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None,
 ) -> None:
     """Velocity-sensor sensitivity S = A_s / (w A_p) against a position reference, per file and mean."""
     from senscal.vibration import velocity_calibration, velocity_point
@@ -131,6 +151,10 @@ def velocity_cmd(
                                       "offset drift fitted": "yes" if drift else "no",
                                       "position reference u (type B)": f"{100 * ub:g} %", **_conditions(condition)})
         doc["report"] = str(report)
+    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      job="velocity", method="sine fit against a position reference (Yang et al. 2014)",
+                      quantities=lambda: [quoted(doc, "sensitivity", "sensitivity", "u_sensitivity", unit)],
+                      input_files=files, certificate=report, conditions=_conditions(condition))
     if plot is not None:
         from senscal.report.certificate import velocity_figure
 
@@ -201,7 +225,9 @@ def response_cmd(
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
-    save: Annotated[Optional[Path], typer.Option("--save", help="Save the response (JSON with type and version) for later use.")] = None,
+    save_response_to: Annotated[Optional[Path], typer.Option("--save-response", help="Save the response (JSON with type and version) for later use.")] = None,
+    save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None,
 ) -> None:
     """Accelerometer frequency response: sensitivity, S_i/S0, phase delay with GUM budgets."""
     from senscal.vibration import combine_repeats, frequency_response
@@ -263,10 +289,13 @@ def response_cmd(
         write_certificate(report, "response", resp, sensor_id=sensor_id, model=model, unit=unit, method=meth,
                           conditions=cond, files=[str(f) for f in files])
         doc["report"] = str(report)
-    if save is not None:
+    if save_response_to is not None:
         from senscal.vibration import save_response
 
-        doc["saved"] = str(save_response(resp, save))
+        doc["saved"] = str(save_response(resp, save_response_to))
+    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      job="response", method=doc["method"], quantities=lambda: _response_quantities(doc),
+                      input_files=files, certificate=report, conditions=_conditions(condition))
     if plot is not None:
         from senscal.report.certificate import response_figure
 
@@ -305,6 +334,8 @@ def linearity_cmd(
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
+    save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None,
 ) -> None:
     """Amplitude linearity at a fixed frequency: best straight line, deviations, linearity in % of full scale."""
     from senscal.vibration import amplitude_linearity
@@ -340,6 +371,11 @@ def linearity_cmd(
                                       "input range (m/s^2)": f"{min(amps):g} .. {max(amps):g}",
                                       "angle synchronisation": "yes" if angle else "no", **_conditions(condition)})
         doc["report"] = str(report)
+    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      job="linearity", method="amplitude linearity, best straight line (Qin, seed 003)",
+                      quantities=lambda: [quoted(doc, "linearity_slope", "slope", "u_slope", unit),
+                                          quoted(doc, "linearity_percent", "linearity_percent", "u_linearity_percent", "%")],
+                      input_files=files, certificate=report, conditions=_conditions(condition))
     if plot is not None:
         from senscal.report.certificate import linearity_figure
 
