@@ -36,9 +36,7 @@ import numpy as np
 
 from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
-from scipy.signal import savgol_filter
-
-from senscal.shaft.angle import POLYORDER, angle_to_rad, check_radius, check_uniform, encoder_kinematics, white_noise_std
+from senscal.shaft.angle import angle_to_rad, savgol, check_radius, check_uniform, encoder_kinematics, white_noise_std
 from senscal.sinefit import fit_sine, wrap_phase
 
 __all__ = ["G", "GravityModel", "calibrate_gravity", "load_model"]
@@ -390,7 +388,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     # Its quantisation noise is far smaller and nearly independent of alpha's, so the coefficient is
     # not pulled toward zero by the noise in alpha (errors in variables), as least squares would be.
     ninst = min(n - 1 + n % 2, 3 * kin.window_samples)
-    inst = savgol_filter(theta, ninst, POLYORDER, deriv=2, delta=dt, mode="interp")
+    inst = savgol(theta, ninst, 2, dt)
     ei = ninst // 2
 
     # The filters extrapolate over their first and last half window: keep those samples out of the
@@ -399,13 +397,11 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     keep = slice(ei, n - ei) if use_alpha and n > 2 * ei + 2 and abs(theta[n - ei - 1] - theta[ei]) >= 2.0 * math.pi \
         else slice(0, n)
     x, wts, (ya, yal, yz) = by_angle(theta[keep], a[keep], alpha[keep], inst[keep])
-    plain = fit_angle(ya, x, wts)
     # Frisch-Waugh-Lovell: the coefficient of alpha from the sine-fit residuals, here by instrumental
-    # variables (residual of the instrument against the residuals of accel and alpha).
-    fal = fit_angle(yal, x, wts)
-    ra = ya - plain.evaluate(x)
-    ral = yal - fal.evaluate(x)
-    rz = yz - fit_angle(yz, x, wts).evaluate(x)
+    # variables.  One batched fit (shared abscissa) serves the accelerometer, alpha and the instrument.
+    fits = fit_angle(np.stack([ya, yal, yz]), x, wts)
+    plain, fal = fits.channel(0), fits.channel(1)
+    ra, ral, rz = np.stack([ya, yal, yz]) - fits.evaluate(x)
     ww = np.ones_like(x) if wts is None else wts
     szz = float(np.sum(ww * rz * rz))
     sza = float(np.sum(ww * rz * ral))
@@ -422,7 +418,8 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     dof = fit.dof
     u_b = math.nan
     if identifiable:
-        sigma2 = float(np.sum(ww * (ya - b * yal - fit_angle(ya - b * yal, x, wts).evaluate(x)) ** 2)) / max(dof - 1, 1)
+        fb = fit if mode == "regression" else fit_angle(ya - b * yal, x, wts)
+        sigma2 = float(np.sum(ww * (ya - b * yal - fb.evaluate(x)) ** 2)) / max(dof - 1, 1)
         u_b = math.sqrt(sigma2 * szz) / abs(sza)
     if mode == "regression":
         # Covariance = fixed-coefficient covariance + u_b^2 * g g^T, where g is how (amplitude, phase,
