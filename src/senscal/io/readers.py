@@ -330,7 +330,9 @@ def write_recording(rec: Recording, path: str | Path, *, format: str | None = No
     if kind == "csv":
         import pandas as pd
 
-        df = pd.DataFrame({time_column: rec.time, **{n: rec.channels[n] for n in rec.names}})
+        # Units ride in the header as "name [unit]", which the reader parses back.
+        df = pd.DataFrame({time_column: rec.time,
+                           **{(f"{n} [{rec.units[n]}]" if rec.units.get(n) else n): rec.channels[n] for n in rec.names}})
         df.to_csv(path, index=False, float_format="%.17g")
     elif kind == "parquet":
         import pyarrow as pa

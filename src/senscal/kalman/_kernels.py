@@ -1,0 +1,346 @@
+"""Compiled Kalman recursions (one series per call; batching loops outside).
+
+Every matrix argument is three-dimensional with a leading "time" axis of
+length 1 (time-invariant) or T (given per step); ``_at(A, t)`` picks the
+right slice, so one kernel serves both cases without copies.
+
+Internal layout is time-major (``x[t, i]``, ``P[t, i, j]``) so that a step
+touches contiguous memory; the public API transposes to time-last views.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+_LOG_2PI = math.log(2.0 * math.pi)
+# Relative change of the predicted covariance below which the Riccati
+# recursion is taken as converged (a few ulps: the frozen gain then differs
+# from the exact one by far less than the 1e-9 agreement we promise).
+_SS_TOL = 1e-14
+_SS_HOLD = 3
+
+
+@nb.njit(cache=True, inline="always")
+def _at(A, t):
+    return A[0] if A.shape[0] == 1 else A[t]
+
+
+@nb.njit(cache=True)
+def _sym(P):
+    n = P.shape[0]
+    for i in range(n):
+        for j in range(i + 1, n):
+            a = 0.5 * (P[i, j] + P[j, i])
+            P[i, j] = a
+            P[j, i] = a
+
+
+@nb.njit(cache=True)
+def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
+                  xf, Pf, xp_out, Pp_out, v_out, S_out, e_out, rej):
+    """Kalman filter of one series; fills the output arrays in place.
+
+    Shapes: F (1|T, n, n), B (1|T, n, k), H (1|T, m, n), Q (1|T, n, n),
+    R (1|T, m, m), x0 (n,), P0 (n, n), y (T, m) with NaN = missing,
+    u (T, k) (time-major, contiguous rows).  Outputs time-major: xf, xp_out
+    (T, n); Pf, Pp_out (T, n, n); v_out, e_out (T, m); S_out (T, m, m);
+    rej (T,) bool.  With ``store`` False nothing but ``rej`` is written (the
+    likelihood-only pass of parameter estimation).
+
+    Small fixed-size loops on preallocated buffers: at n, m <= 10 they beat
+    BLAS calls, whose per-call overhead and allocations would dominate.
+
+    Returns (loglik, index at which the steady-state gain was frozen, -1 if
+    never, or -2 if an innovation covariance was not positive definite).
+    """
+    n = F.shape[1]
+    m = H.shape[1]
+    k = B.shape[2]
+    T = y.shape[0]
+    x = x0.copy()
+    P = P0.copy()
+    xp = np.empty(n)
+    Pp = np.empty((n, n))
+    Pp_prev = np.zeros((n, n))
+    tmp = np.empty((n, n))
+    IKH = np.empty((n, n))
+    PHt = np.empty((n, m))
+    Kg = np.empty((n, m))
+    KR = np.empty((n, m))
+    S = np.empty((m, m))
+    L = np.zeros((m, m))
+    v = np.empty(m)
+    es = np.empty(m)
+    obs = np.empty(m, dtype=np.int64)
+    loglik = 0.0
+    hold = 0
+    for t in range(T):
+        # ---- predict
+        if t == 0:
+            xp[:] = x0
+            Pp[:, :] = P0
+        else:
+            Ft = _at(F, t)
+            Bt = _at(B, t)
+            Qt = _at(Q, t)
+            for i in range(n):
+                acc = 0.0
+                for j in range(n):
+                    acc += Ft[i, j] * x[j]
+                for j in range(k):
+                    acc += Bt[i, j] * u[t - 1, j]
+                xp[i] = acc
+            for i in range(n):
+                for j in range(n):
+                    acc = 0.0
+                    for l in range(n):
+                        acc += Ft[i, l] * P[l, j]
+                    tmp[i, j] = acc
+            for i in range(n):
+                for j in range(i + 1):
+                    acc = Qt[i, j]
+                    for l in range(n):
+                        acc += tmp[i, l] * Ft[j, l]
+                    Pp[i, j] = acc
+            for i in range(n):
+                for j in range(i + 1, n):
+                    Pp[i, j] = Pp[j, i]
+        # ---- innovation
+        Ht = _at(H, t)
+        Rt = _at(R, t)
+        for i in range(n):
+            for a in range(m):
+                acc = 0.0
+                for j in range(n):
+                    acc += Pp[i, j] * Ht[a, j]
+                PHt[i, a] = acc
+        for a in range(m):
+            for b in range(a + 1):
+                acc = Rt[a, b]
+                for i in range(n):
+                    acc += Ht[a, i] * PHt[i, b]
+                S[a, b] = acc
+                S[b, a] = acc
+        mo = 0
+        for a in range(m):
+            acc = y[t, a]
+            for j in range(n):
+                acc -= Ht[a, j] * xp[j]
+            v[a] = acc
+            if not math.isnan(acc):
+                obs[mo] = a
+                mo += 1
+        if store:
+            xp_out[t] = xp
+            Pp_out[t] = Pp
+            v_out[t] = v
+            S_out[t] = S
+            for a in range(m):
+                e_out[t, a] = np.nan
+        if mo == 0:
+            x[:] = xp
+            P[:, :] = Pp
+            if store:
+                xf[t] = x
+                Pf[t] = P
+            continue
+        # ---- Cholesky of the observed block, whitened innovation
+        for a in range(mo):
+            for b in range(a + 1):
+                acc = S[obs[a], obs[b]]
+                for c in range(b):
+                    acc -= L[a, c] * L[b, c]
+                if a == b:
+                    if not acc > 0.0:
+                        return np.nan, -2
+                    L[a, a] = math.sqrt(acc)
+                else:
+                    L[a, b] = acc / L[b, b]
+        nis = 0.0
+        logdet = 0.0
+        for a in range(mo):
+            acc = v[obs[a]]
+            for b in range(a):
+                acc -= L[a, b] * es[b]
+            es[a] = acc / L[a, a]
+            nis += es[a] * es[a]
+            logdet += 2.0 * math.log(L[a, a])
+            if store:
+                e_out[t, obs[a]] = es[a]
+        if gate > 0.0 and nis > gate:
+            rej[t] = True
+            x[:] = xp
+            P[:, :] = Pp
+            if store:
+                xf[t] = x
+                Pf[t] = P
+            continue
+        loglik += -0.5 * (mo * _LOG_2PI + logdet + nis)
+        # ---- gain K = Pp Hs^T Ss^-1, row by row through the Cholesky factor
+        for i in range(n):
+            for a in range(mo):
+                acc = PHt[i, obs[a]]
+                for b in range(a):
+                    acc -= L[a, b] * Kg[i, b]
+                Kg[i, a] = acc / L[a, a]
+            for a in range(mo - 1, -1, -1):
+                acc = Kg[i, a]
+                for b in range(a + 1, mo):
+                    acc -= L[b, a] * Kg[i, b]
+                Kg[i, a] = acc / L[a, a]
+        for i in range(n):
+            acc = xp[i]
+            for a in range(mo):
+                acc += Kg[i, a] * v[obs[a]]
+            x[i] = acc
+        # ---- Joseph form: P = (I - K H) Pp (I - K H)^T + K R K^T
+        for i in range(n):
+            for j in range(n):
+                acc = 1.0 if i == j else 0.0
+                for a in range(mo):
+                    acc -= Kg[i, a] * Ht[obs[a], j]
+                IKH[i, j] = acc
+            for a in range(mo):
+                acc = 0.0
+                for b in range(mo):
+                    acc += Kg[i, b] * Rt[obs[b], obs[a]]
+                KR[i, a] = acc
+        for i in range(n):
+            for j in range(n):
+                acc = 0.0
+                for l in range(n):
+                    acc += IKH[i, l] * Pp[l, j]
+                tmp[i, j] = acc
+        for i in range(n):
+            for j in range(i + 1):
+                acc = 0.0
+                for l in range(n):
+                    acc += tmp[i, l] * IKH[j, l]
+                for a in range(mo):
+                    acc += KR[i, a] * Kg[j, a]
+                P[i, j] = acc
+                P[j, i] = acc
+        if store:
+            xf[t] = x
+            Pf[t] = P
+        if allow_ss and t > 0:
+            # Converged when the predicted covariance stops changing.
+            scale = 0.0
+            diff = 0.0
+            for i in range(n):
+                for j in range(n):
+                    scale = max(scale, abs(Pp[i, j]))
+                    diff = max(diff, abs(Pp[i, j] - Pp_prev[i, j]))
+            hold = hold + 1 if diff <= _SS_TOL * scale else 0
+            if hold >= _SS_HOLD and t + 1 < T:
+                loglik += _steady(F[0], B[0], H[0], Kg, L, P, x, y, u, t + 1, store, xf, Pf, xp_out,
+                                  Pp_out, v_out, S_out, e_out, logdet, Pp, S)
+                return loglik, t + 1
+        Pp_prev[:, :] = Pp
+    return loglik, -1
+
+
+@nb.njit(cache=True)
+def _steady(F, B, H, K, L, P, x, y, u, t0, store, xf, Pf, xp_out, Pp_out, v_out, S_out, e_out,
+            logdet, Pp, S):
+    """Mean-only recursion with the frozen gain from step ``t0`` on.
+
+    Only for time-invariant models without missing data or gating: the
+    covariances are the converged ones, copied into the outputs.
+    """
+    n = F.shape[0]
+    m = H.shape[0]
+    k = B.shape[1]
+    T = y.shape[0]
+    Linv = np.linalg.inv(L[:m, :m])
+    const = -0.5 * (m * _LOG_2PI + logdet)
+    ll = 0.0
+    xp = np.empty(n)
+    v = np.empty(m)
+    e = np.empty(m)
+    for t in range(t0, T):
+        for i in range(n):
+            acc = 0.0
+            for j in range(n):
+                acc += F[i, j] * x[j]
+            for j in range(k):
+                acc += B[i, j] * u[t - 1, j]
+            xp[i] = acc
+        for a in range(m):
+            acc = y[t, a]
+            for j in range(n):
+                acc -= H[a, j] * xp[j]
+            v[a] = acc
+        nis = 0.0
+        for a in range(m):
+            acc = 0.0
+            for b in range(a + 1):
+                acc += Linv[a, b] * v[b]
+            e[a] = acc
+            nis += acc * acc
+        for i in range(n):
+            acc = xp[i]
+            for a in range(m):
+                acc += K[i, a] * v[a]
+            x[i] = acc
+        ll += const - 0.5 * nis
+        if not store:
+            continue
+        xp_out[t] = xp
+        xf[t] = x
+        v_out[t] = v
+        e_out[t] = e
+        Pf[t] = P
+        Pp_out[t] = Pp
+        S_out[t] = S
+    return ll
+
+
+@nb.njit(cache=True)
+def smoother_gains(F, Pf, Pp):
+    """RTS gains C_t = P_t F_{t+1}^T Pp_{t+1}^{-1}, t = 0..T-2 (time-major)."""
+    T, n, _ = Pf.shape
+    C = np.zeros((T, n, n))
+    for t in range(T - 1):
+        Ft1 = _at(F, t + 1)
+        # Pp symmetric: C^T = Pp^{-1} F P.
+        C[t] = np.linalg.solve(Pp[t + 1], Ft1 @ Pf[t]).T
+    return C
+
+
+@nb.njit(cache=True)
+def rts_series(C, xf, Pf, xp, Pp, xs, Ps):
+    """Rauch-Tung-Striebel backward pass (time-major, in place)."""
+    T = xf.shape[0]
+    xs[T - 1] = xf[T - 1]
+    Ps[T - 1] = Pf[T - 1]
+    for t in range(T - 2, -1, -1):
+        Ct = C[t]
+        xs[t] = xf[t] + Ct @ (xs[t + 1] - xp[t + 1])
+        P = Pf[t] + Ct @ (Ps[t + 1] - Pp[t + 1]) @ Ct.T
+        _sym(P)
+        Ps[t] = P
+
+
+@nb.njit(cache=True)
+def fixed_lag_series(C, xf, Pf, xp, Pp, lag, xs, Ps):
+    """Fixed-lag smoother: the estimate at t uses data up to min(t+lag, T-1).
+
+    A backward RTS pass of ``lag`` steps from each ``t + lag``; the gains do
+    not depend on the end point, so each window reuses them.
+    """
+    T, n = xf.shape
+    for t in range(T):
+        end = min(t + lag, T - 1)
+        x = xf[end].copy()
+        P = Pf[end].copy()
+        for s in range(end - 1, t - 1, -1):
+            Cs = C[s]
+            x = xf[s] + Cs @ (x - xp[s + 1])
+            P = Pf[s] + Cs @ (P - Pp[s + 1]) @ Cs.T
+        _sym(P)
+        xs[t] = x
+        Ps[t] = P
