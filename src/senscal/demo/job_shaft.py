@@ -38,7 +38,9 @@ def run(out: Path, seed: int) -> DemoSection:
     write_recording(Recording(channels={"tangential_acceleration": res.tangential_acceleration,
                                         "angular_acceleration": res.angular_acceleration,
                                         "angular_acceleration_encoder": res.angular_acceleration_encoder},
-                              t=res.t), folder / "compensated.csv")
+                              t=res.t, units={"tangential_acceleration": "m/s^2", "angular_acceleration": "rad/s^2",
+                                              "angular_acceleration_encoder": "rad/s^2"}),
+                    folder / "compensated.csv")
     plot_compensation(folder / "compensation.png", model, res.angle, np.asarray(test["accel"]),
                       res.tangential_acceleration, unit=truth["output_unit"],
                       title=f"test run, r = {r} m: before/after gravity compensation", t=res.t,
