@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
+import timeit
 
 import numpy as np
 from scipy.optimize import curve_fit
@@ -23,12 +23,10 @@ from senscal.simulate.shaft import simulate_shaft
 
 
 def best_of(fn, repeat=3):
-    best, out = math.inf, None
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, out
+    """(best wall time in s, result) over ``repeat`` calls."""
+    out = []
+    best = min(timeit.repeat(lambda: out.append(fn()), number=1, repeat=repeat))
+    return best, out[-1]
 
 
 def main() -> None:
