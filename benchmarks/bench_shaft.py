@@ -17,8 +17,7 @@ import timeit
 import numpy as np
 from scipy.optimize import curve_fit
 
-from senscal.shaft import calibrate_gravity
-from senscal.shaft.compensate import compensate
+from senscal.shaft import calibrate_gravity, compensate
 from senscal.simulate.shaft import simulate_shaft
 
 

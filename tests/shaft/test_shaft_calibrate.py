@@ -183,3 +183,13 @@ def test_irregular_time_and_nan_refused():
     a[10] = np.nan
     with pytest.raises(DataError, match="NaN"):
         calibrate_gravity(a, cal["angle"], cal.time, angle_unit="deg")
+
+
+def test_vertical_shaft_sees_no_gravity():
+    cal, _, truth = cached(10, tilt_deg=90.0, misalignment_deg=0.0)
+    m = _cal(cal)
+    assert truth["gravity"]["amplitude"] < 1e-12
+    # The amplitude of pure noise is Rayleigh-like: positive, a few u at most.
+    assert m.amplitude < 4 * m.u_amplitude
+    assert abs(math.degrees(m.tilt) - 90.0) < 4 * math.degrees(m.u_tilt)
+    assert abs(m.offset - truth["gravity"]["offset"]) < 4 * m.u_offset

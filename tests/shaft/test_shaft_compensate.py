@@ -9,8 +9,7 @@ import pytest
 from hypothesis import given, strategies as st
 
 from senscal.errors import FileFormatError, InputError
-from senscal.shaft import GravityModel, angle_to_rad, calibrate_gravity, load_model
-from senscal.shaft.compensate import compensate
+from senscal.shaft import GravityModel, angle_to_rad, calibrate_gravity, compensate, load_model
 
 from ._shaft_sim import cached
 

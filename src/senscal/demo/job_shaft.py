@@ -9,8 +9,7 @@ import numpy as np
 
 from senscal.demo import DemoSection
 from senscal.io import Recording, write_recording
-from senscal.shaft import calibrate_gravity
-from senscal.shaft.compensate import compensate
+from senscal.shaft import calibrate_gravity, compensate
 from senscal.shaft.plotting import plot_compensation
 from senscal.simulate.common import write_truth
 from senscal.simulate.shaft import simulate_shaft

@@ -210,6 +210,13 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
         Radius <= 0, unit mismatch, bad arguments.
     DataError
         NaN/inf, irregular time stamps.
+
+    References
+    ----------
+    .. [1] Yang X., Li C., Mu D., Chen C., Transducer and Microsystem
+       Technologies, 2014 (seed 000, experiment 2: compensation by the
+       identified gravity term; METHODS.md 1c).
+    .. [2] Savitzky A., Golay M. J. E., Analytical Chemistry 36 (1964).
     """
     r = check_radius(radius)
     model.check_applicable(accel_unit=accel_unit)

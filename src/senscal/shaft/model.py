@@ -358,6 +358,12 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         NaN/inf, a reversing angle, irregular time stamps.
     InputError
         Bad arguments (sensitivity <= 0, radius <= 0, ...).
+
+    References
+    ----------
+    .. [1] Yang X., Li C., Mu D., Chen C., Transducer and Microsystem
+       Technologies, 2014 (seed 000, experiment 2; METHODS.md 1c).
+    .. [2] Frisch R., Waugh F. V., Econometrica 1 (1933).
     """
     theta = angle_to_rad(angle, angle_unit, monotonic=True)
     n = theta.size
