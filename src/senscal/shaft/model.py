@@ -28,15 +28,15 @@ import dataclasses
 import datetime as _dt
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from senscal._result import ResultMixin, to_jsonable
+from senscal._result import ResultMixin
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
-from senscal.shaft.angle import angle_to_rad, savgol, check_radius, check_uniform, encoder_kinematics, white_noise_std
+from senscal.shaft.angle import angle_to_rad, check_radius, check_uniform, encoder_kinematics, savgol, white_noise_std
 from senscal.sinefit import fit_sine, wrap_phase
 
 __all__ = ["G", "GravityModel", "calibrate_gravity", "load_model"]
