@@ -84,6 +84,9 @@ def test_synchronous_ripple_needs_the_radius():
     # Regression cannot separate it: it must then say so through a large uncertainty, not a wrong answer.
     reg = _cal(cal)
     assert np.all(np.abs(_z(reg, truth)) < 4.0)
+    assert reg.u_amplitude > 3 * with_r.u_amplitude
+    assert any("locked to the rotation" in w for w in reg.warnings)
+    assert not any("locked to the rotation" in w for w in _cal(cached(1)[0]).warnings)
 
 
 def test_sensitivity_gives_tilt_and_bias_in_si():

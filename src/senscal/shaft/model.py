@@ -463,6 +463,10 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
                 "none": "it was NOT removed: enable the ripple correction or give the radius"}[mode]
         warnings.append(f"angular acceleration during the run moved the gravity amplitude by {leak:.3g} "
                         f"({abs(leak) / u[0]:.3g} standard uncertainties); {what}")
+    if mode == "regression" and u[0] > 3.0 * math.sqrt(fit.covariance[0][0]):
+        warnings.append(f"the speed ripple is mostly locked to the rotation, so the fit can hardly tell it from "
+                        f"gravity: the amplitude uncertainty grew {u[0] / math.sqrt(fit.covariance[0][0]):.3g} times; "
+                        "give the sensor radius (--radius) to remove it, or calibrate at a steadier speed")
     if ratio - 1.0 > 3.0 * u_ratio:
         warnings.append(f"gravity amplitude {amp:.6g} exceeds sensitivity * g = {sensitivity * g:.6g}; "
                         "check --sensitivity (the output may not be in m/s^2)")
