@@ -196,3 +196,14 @@ def test_vertical_shaft_sees_no_gravity():
     assert m.amplitude < 4 * m.u_amplitude
     assert abs(math.degrees(m.tilt) - 90.0) < 4 * math.degrees(m.u_tilt)
     assert abs(m.offset - truth["gravity"]["offset"]) < 4 * m.u_offset
+
+
+def test_radius_correction_not_overconfident():
+    """Once-per-turn ripple removed with the radius: the spread over runs stays within the reported u."""
+    zs = []
+    for s in range(8):
+        cal, _, truth = cached(300 + s, ripple=0.0, sync_ripple=0.04, misalignment_deg=0.0, cal_duration=4.0,
+                               test_duration=1.0)
+        zs.append(_z(_cal(cal, radius=truth["radius"]), truth))
+    # With 8 runs a unit spread would exceed 1.7 with probability < 1 %.
+    assert np.all(np.std(zs, axis=0, ddof=1) < 1.7), np.std(zs, axis=0, ddof=1)

@@ -126,8 +126,8 @@ def savgol_window(window: float, dt: float, n: int) -> int:
     return m
 
 
-def savgol(x: np.ndarray, m: int, deriv: int = 0, dt: float = 1.0) -> np.ndarray:
-    """``scipy.signal.savgol_filter(x, m, 3, deriv, delta=dt, mode="interp")``, FFT-convolved inside.
+def savgol(x: np.ndarray, m: int, deriv: int = 0, dt: float = 1.0, polyorder: int = POLYORDER) -> np.ndarray:
+    """``scipy.signal.savgol_filter(x, m, polyorder, deriv, delta=dt, mode="interp")``, FFT-convolved inside.
 
     Long windows on long records make the direct convolution O(N m); the
     interior is convolved by overlap-add instead and the first and last
@@ -136,12 +136,12 @@ def savgol(x: np.ndarray, m: int, deriv: int = 0, dt: float = 1.0) -> np.ndarray
     """
     n = x.size
     if n < 4 * m or m < 64:
-        return savgol_filter(x, m, POLYORDER, deriv=deriv, delta=dt, mode="interp")
-    h = savgol_coeffs(m, POLYORDER, deriv=deriv, delta=dt)
+        return savgol_filter(x, m, polyorder, deriv=deriv, delta=dt, mode="interp")
+    h = savgol_coeffs(m, polyorder, deriv=deriv, delta=dt)
     out = oaconvolve(x, h, mode="same")
     e = m // 2
-    out[:e] = savgol_filter(x[:m], m, POLYORDER, deriv=deriv, delta=dt, mode="interp")[:e]
-    out[n - e:] = savgol_filter(x[n - m:], m, POLYORDER, deriv=deriv, delta=dt, mode="interp")[m - e:]
+    out[:e] = savgol_filter(x[:m], m, polyorder, deriv=deriv, delta=dt, mode="interp")[:e]
+    out[n - e:] = savgol_filter(x[n - m:], m, polyorder, deriv=deriv, delta=dt, mode="interp")[m - e:]
     return out
 
 
