@@ -53,6 +53,11 @@ def test_plain_fit_is_biased_by_ripple_the_correction_is_not():
     # The coefficient of the encoder alpha is S r (the SG filter's small attenuation at the ripple
     # frequency is absorbed by it).
     assert corrected.ripple_coefficient == pytest.approx(truth["radius"], rel=0.1)
+    # What the plain fit would have got wrong is reported; removed, it is no warning.  (Here the plain
+    # fit's own residual, full of r*alpha, makes its uncertainty cover the leak: no warning either.)
+    assert abs(corrected.ripple_leak) > 2 * corrected.u_amplitude
+    assert abs(plain.amplitude - truth["gravity"]["amplitude"]) < 4 * plain.u_amplitude
+    assert not any("NOT removed" in w for w in corrected.warnings + plain.warnings)
 
 
 def test_uncertainties_honest_monte_carlo():
@@ -78,7 +83,7 @@ def test_synchronous_ripple_needs_the_radius():
     plain = _cal(cal, ripple_correction=False)
     with_r = _cal(cal, radius=truth["radius"])
     assert abs(_z(plain, truth)[0]) > 10 or abs(_z(plain, truth)[1]) > 10
-    assert any("moved the gravity amplitude" in w for w in plain.warnings)
+    assert any("NOT removed" in w for w in plain.warnings)
     assert np.all(np.abs(_z(with_r, truth)) < 4.0), _z(with_r, truth)
     assert with_r.ripple_correction == "radius"
     # Regression cannot separate it: it must then say so through a large uncertainty, not a wrong answer.
@@ -96,6 +101,14 @@ def test_sensitivity_gives_tilt_and_bias_in_si():
     # 1 % sensitivity uncertainty dominates the tilt uncertainty: d tilt = cot(tilt) * 0.01.
     assert math.degrees(m.u_tilt) == pytest.approx(math.degrees(0.01 / math.tan(math.radians(20))), rel=0.05)
     assert m.bias == pytest.approx(truth["gravity"]["offset"] / 0.05, abs=4 * m.u_bias)
+
+
+def test_output_in_volts_without_sensitivity_warns():
+    cal, _, _ = cached(1)
+    m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", output_unit="V")
+    assert any("give the sensitivity" in w for w in m.warnings)
+    m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", output_unit="m/s^2")
+    assert not any("give the sensitivity" in w for w in m.warnings)
 
 
 def test_amplitude_above_g_warns():

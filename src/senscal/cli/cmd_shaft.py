@@ -134,7 +134,9 @@ def calibrate_cmd(
                 ["bias (m/s^2)", model.bias, 2 * model.u_bias, "m/s^2"],
                 ["residual RMS", model.residual_rms, None, model.output_unit],
                 ["revolutions", model.revolutions, None, ""],
-                ["speed (rev/s)", doc["mean_speed_rps"], None, f"varies {100 * model.speed_variation:.2g}%"]]
+                ["speed (rev/s)", doc["mean_speed_rps"], None, f"varies {100 * model.speed_variation:.2g}%"],
+                [f"ripple leak ({model.ripple_correction})", model.ripple_leak, None,
+                 "removed" if model.ripple_correction != "none" else "left in the fit"]]
         console.print(table(f"Gravity calibration of {file}  (U = expanded uncertainty, k=2)",
                             ["quantity", "value", "U (k=2)", "unit"], rows))
         for k in ("model", "plot"):

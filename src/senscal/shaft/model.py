@@ -111,7 +111,9 @@ class GravityModel(ResultMixin):
     window : float
         Savitzky-Golay window of the encoder derivatives, s.
     warnings : tuple of str
-        What the data say about the run (speed far from constant, ...).
+        What the data say about the run: speed far from constant, ripple
+        leaking into the fit uncorrected or locked to the rotation, amplitude
+        above ``S g``, an output unit that is not m/s^2 without a sensitivity.
     source : str or None
         File the calibration came from.
     created : str
@@ -461,16 +463,19 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
                         f"{100 * max_speed_variation:.3g}%); angular acceleration leaks into the gravity fit, "
                         "calibrate at a steadier speed")
     leak = float(plain.amplitude) - amp if mode != "none" else -b * float(fal.amplitude) * math.cos(ph - fal.phase)
-    if abs(leak) > 2.0 * u[0] and math.isfinite(leak):
-        what = {"regression": "it was removed by regression on the encoder's angular acceleration",
-                "radius": "it was removed with the given radius",
-                "none": "it was NOT removed: enable the ripple correction or give the radius"}[mode]
-        warnings.append(f"angular acceleration during the run moved the gravity amplitude by {leak:.3g} "
-                        f"({abs(leak) / u[0]:.3g} standard uncertainties); {what}")
+    # A leak that was removed is reported in ripple_leak; only one left in the fit is a warning.
+    if mode == "none" and abs(leak) > 2.0 * u[0] and math.isfinite(leak):
+        warnings.append(f"angular acceleration during the run moved the gravity amplitude by about {leak:.3g} "
+                        f"({abs(leak) / u[0]:.3g} standard uncertainties) and was NOT removed: enable the ripple "
+                        "correction or give the radius")
     if mode == "regression" and u[0] > 3.0 * math.sqrt(fit.covariance[0][0]):
         warnings.append(f"the speed ripple is mostly locked to the rotation, so the fit can hardly tell it from "
                         f"gravity: the amplitude uncertainty grew {u[0] / math.sqrt(fit.covariance[0][0]):.3g} times; "
                         "give the sensor radius (--radius) to remove it, or calibrate at a steadier speed")
+    unit = str(output_unit or "").strip()
+    if unit and sensitivity == 1.0 and unit.replace(" ", "").replace("²", "^2") not in ("m/s^2", "m/s2", "ms^-2", "m*s^-2"):
+        warnings.append(f"the accelerometer output is in '{unit}' but no sensitivity was given: tilt and bias "
+                        "assume m/s^2; give the sensitivity (output per m/s^2)")
     if ratio - 1.0 > 3.0 * u_ratio:
         warnings.append(f"gravity amplitude {amp:.6g} exceeds sensitivity * g = {sensitivity * g:.6g}; "
                         "check --sensitivity (the output may not be in m/s^2)")
