@@ -275,7 +275,7 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
     if math.isfinite(corr) and rms > 3.0 * expected and rms > 0.1 * float(np.std(se)):
         warnings.append(f"accelerometer and encoder angular accelerations differ by {rms:.3g} rad/s^2 RMS "
                         f"(noise alone would give {expected:.3g}); check the radius and the model"
-                        + ("" if remove_centripetal else ", or remove the centripetal leakage of a misaligned axis"))
+                        + ("" if remove_centripetal else ", or remove the centripetal leakage of a misaligned axis (--centripetal)"))
     return ShaftCompensation(
         t=tt, angle=theta, tangential_acceleration=at, angular_acceleration=alpha, angular_acceleration_encoder=al_enc,
         angular_velocity_encoder=kin.angular_velocity, uncompensated_angular_acceleration=alpha_unc, radius=r,
