@@ -93,15 +93,19 @@ def test_filter_uncertainty_is_honest_for_white_noise():
 
 def test_kalman_beats_single_methods_on_paper_motion():
     # The paper's motion in small (2 kHz, 4 s); biases on, so integration drifts and sqrt fails near w = 0.
-    rec, tr, _ = simulate_gfimu(paper=True, fs=2000, duration=4, seed=0)
+    rec, tr, info = simulate_gfimu(paper=True, fs=2000, duration=4, seed=0)
     est = angular_velocity(rec.data(), rec.time, paper_layout(), methods=METHODS)
     st = error_statistics(est.omega, tr.data(["wx", "wy", "wz"]))
     k = st["kalman"]
     for m in ("sqrt", "differential"):
         assert k.max_abs_error[2] < st[m].max_abs_error[2] / 10
         assert k.std_error[2] < st[m].std_error[2] / 10
-    assert k.max_abs_error[2] < st["integration"].max_abs_error[2]
-    assert k.std_error[2] < st["integration"].std_error[2]
+    b = info["bias_m_s2"]
+    # The constant errors reach alpha_z through (d2y - d3x) / (2L); this seed's do not cancel, so
+    # integration drifts ~0.1 rad/s in 4 s while the filter stays at its ~5e-3 rad/s floor.
+    assert abs(b["a2y"] - b["a1y"] - b["a3x"] + b["a1x"]) > 1e-4
+    assert k.max_abs_error[2] < st["integration"].max_abs_error[2] / 10
+    assert k.std_error[2] < st["integration"].std_error[2] / 10
 
 
 @pytest.mark.parametrize("obs", ["sqrt", "differential"])

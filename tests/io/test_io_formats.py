@@ -28,7 +28,7 @@ def rec():
 
 @pytest.mark.parametrize("ext", [".csv", ".parquet", ".h5", ".tdms", ".npz"])
 def test_round_trip_same_fit(rec, tmp_path, ext):
-    path = write_recording(rec, tmp_path / f"rec{ext}")
+    path = write_recording(rec, tmp_path / f"rec{ext}", units_in_header=True)
     back = read_recording(path)
     assert back.names == ["a", "b"]
     np.testing.assert_array_equal(back.time, rec.time)
@@ -56,6 +56,11 @@ def test_tdms_waveform_increment_written_by_nptdms(tmp_path):
     rec = read_recording(path)
     assert rec.sample_rate == pytest.approx(100.0)
     assert rec.unit("acc") == "g"
+
+
+def test_csv_header_names_bare_by_default(rec, tmp_path):
+    p = write_recording(rec, tmp_path / "plain.csv")
+    assert p.read_text().splitlines()[0] == "t,a,b"
 
 
 def test_csv_from_another_program(tmp_path):

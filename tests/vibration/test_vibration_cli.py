@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 
 import pytest
 
@@ -31,7 +30,8 @@ def test_simulate_and_response_acceptance(cli, centrifuge_dir, tmp_path):
     cert = tmp_path / "cert.html"
     r = cli("response", *files, "--output", "output", "--input-amplitude", "100", "--angle", "angle",
             "--static-sensitivity", str(truth["static_sensitivity"]), "--u-input", "0.2%", "--json",
-            "--report", cert, "--sensor-id", "SN-42", "--model", "QF-1", "--plot", tmp_path / "bode.png")
+            "--report", cert, "--sensor-id", "SN-42", "--model", "QF-1", "--plot", tmp_path / "bode.png",
+            "--condition", "temperature=23.1 C", "--save", tmp_path / "resp.json")
     assert r.code == 0, r.err
     doc = json.loads(r.out)
     for key in ("file", "frequency_hz", "sensitivity", "u_sensitivity", "normalized_sensitivity",
@@ -47,7 +47,10 @@ def test_simulate_and_response_acceptance(cli, centrifuge_dir, tmp_path):
         assert abs(p["normalized_sensitivity"] - tr["normalized_sensitivity"]) < 4 * fit_u
         assert p["u_normalized_sensitivity"] > 0.002 * p["normalized_sensitivity"]
     html = cert.read_text()
-    for needle in ("SN-42", "QF-1", "Certificate id", "relate only to the item calibrated", "<svg", "k = 2",
+    from senscal.vibration import load_response
+
+    assert len(load_response(tmp_path / "resp.json").points) == len(files)
+    for needle in ("SN-42", "QF-1", "23.1 C", "Certificate id", "relate only to the item calibrated", "<svg", "k = 2",
                    "Uncertainty budget"):
         assert needle in html
     # self-contained: no scripts, no external resources
@@ -110,6 +113,7 @@ def test_linearity_command(cli, tmp_path):
     (["--output", "output", "--input-amplitude", "100", "--freq", "1,2,3"], "one per file"),
     (["--output", "output", "--input-amplitude", "100", "--u-input", "abc"], "percentage"),
     (["--output", "output", "--input-amplitude", "-1"], "m/s^2"),
+    (["--output", "output", "--input-amplitude", "1", "--report", "x.html", "--condition", "oops"], "KEY=VALUE"),
 ])
 def test_response_user_errors_are_one_line(cli, centrifuge_dir, args, message):
     r = cli("response", *_files(centrifuge_dir, "centrifuge")[:2], *args)
@@ -139,4 +143,3 @@ def test_input_files_are_not_modified(cli, centrifuge_dir):
     before = [open(f, "rb").read() for f in files]
     assert cli("response", *files, "--output", "output", "--input-amplitude", "100", "--angle", "angle").code == 0
     assert [open(f, "rb").read() for f in files] == before
-    assert math.isfinite(1.0)

@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from senscal.errors import InputError, TooFewSamplesError
 from senscal.simulate.vibration import second_order_response, simulate_centrifuge, simulate_shaker
@@ -136,10 +138,9 @@ def test_bad_inputs_raise_clear_errors():
         response_point(r["output"], r.time, reference=r["output"])
     with pytest.raises(InputError, match="u_input"):
         response_point(r["output"], r.time, input_amplitude=1.0, u_input=-0.1)
-    short = slice(0, 150)  # 1.5 revolutions at 1 Hz, 100 Hz: may hold no whole revolution between crossings
+    # 0.6 s at 1 Hz: less than one revolution between 360 deg crossings
     with pytest.raises(TooFewSamplesError, match="fewer than one whole"):
         response_point(r["output"][:60], r.time[:60], input_amplitude=100.0, angle_deg=r["angle"][:60])
-    del short
 
 
 def test_repeats_are_combined_with_type_a_from_their_spread():
@@ -162,3 +163,43 @@ def test_repeats_are_combined_with_type_a_from_their_spread():
         0.001 * g.normalized_sensitivity, rel=1e-9)
     # a single record passes through unchanged in value
     assert reps[1].normalized_sensitivity == pytest.approx(pts[4].normalized_sensitivity, rel=1e-15)
+
+
+def test_response_saves_and_loads_itself(tmp_path):
+    from senscal.errors import FileFormatError
+    from senscal.vibration import frequency_response, load_response, save_response
+
+    recs, _ = simulate_centrifuge(frequencies=(1.0, 5.0), seed=6, min_duration=5.0)
+    resp = frequency_response([response_point(r["output"], r.time, input_amplitude=100.0, angle_deg=r["angle"],
+                                              static_sensitivity=0.05, u_input=0.001) for r in recs],
+                              static_sensitivity=0.05)
+    back = load_response(save_response(resp, tmp_path / "resp.json"))
+    assert back.to_dict() == resp.to_dict()
+    assert back.points[1].normalized_budget.component("input amplitude").kind == "B"
+    (tmp_path / "other.json").write_text('{"type": "something else"}')
+    with pytest.raises(FileFormatError, match="not a senscal frequency response"):
+        load_response(tmp_path / "other.json")
+
+
+@given(shift=st.floats(-50.0, 50.0), gain=st.floats(0.1, 10.0))
+@settings(max_examples=15)
+def test_back_to_back_invariant_to_time_shift_and_output_gain(shift, gain):
+    t = np.arange(2000) / 2000.0
+    ref = 0.5 * np.sin(2 * np.pi * 37.0 * t + 0.3) + 0.01 * np.cos(2 * np.pi * 411 * t)
+    dut = 0.2 * np.sin(2 * np.pi * 37.0 * t + 0.1) + 0.01 * np.sin(2 * np.pi * 523 * t)
+    a = response_point(dut, t, reference=ref, reference_sensitivity=0.01)
+    b = response_point(gain * dut, t + shift, reference=ref, reference_sensitivity=0.01)
+    assert b.sensitivity == pytest.approx(gain * a.sensitivity, rel=1e-9)
+    assert b.phase_delay == pytest.approx(a.phase_delay, abs=1e-9)
+    assert b.u_phase_delay == pytest.approx(a.u_phase_delay, rel=1e-5)
+
+
+def test_bias_drift_is_fitted_in_angle_mode():
+    recs, truth = simulate_centrifuge(frequencies=(0.1,), seed=23, revolutions=1.6, min_duration=0.0)
+    r = recs[0]
+    ramp = 0.05 * r.time  # 50 mV/s bias drift over a 16 s record of non-whole revolutions
+    p = response_point(r["output"] + ramp, r.time, input_amplitude=100.0, angle_deg=r["angle"], static_sensitivity=0.05,
+                       drift=True)
+    tr = truth["points"][0]
+    assert abs(p.normalized_sensitivity - tr["normalized_sensitivity"]) < 2 * p.u_normalized_sensitivity
+    assert abs(math.degrees(p.phase_delay) - tr["phase_delay_deg"]) < 2 * math.degrees(p.u_phase_delay)

@@ -79,3 +79,16 @@ def test_type_b_position_component_and_scaling():
     assert q.phase == pytest.approx(p0.phase, abs=1e-9)
     with pytest.raises(InputError):
         velocity_calibration([])
+
+
+def test_distorted_motion_with_harmonics_fitted():
+    # 3 % third harmonic in the cylinder motion, short records of non-whole periods:
+    # fitting the harmonics recovers the fundamental's sensitivity within U, and
+    # the harmonic no longer counts as noise (its velocity is 9 % of the fundamental's,
+    # far above the 0.3 mV noise), so u shrinks.
+    recs, truth = simulate_hydraulic(frequencies=[1.0, 2.0, 3.0], seed=12, distortion=0.03, periods=2.4, min_duration=0.0)
+    for r, tr in zip(recs, truth["points"]):
+        p = velocity_point(r["position"], r["velocity"], r.time, harmonics=3)
+        assert abs(p.sensitivity - tr["sensitivity"]) < 2 * p.u_sensitivity
+        assert p.u_sensitivity < velocity_point(r["position"], r["velocity"], r.time).u_sensitivity
+        assert abs(math.degrees(p.phase) - tr["phase_deg"]) < 2 * math.degrees(p.u_phase)

@@ -82,7 +82,7 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
     if attitude:
         src = "kalman" if "kalman" in est.omega else next(iter(est.omega))
         q0 = q_true[:, 0] if q_true is not None else (1.0, 0.0, 0.0, 0.0)
-        q = integrate_attitude(np.nan_to_num(est.omega[src]), rec.time, q0)
+        q = integrate_attitude(est.omega[src], rec.time, q0)
         doc["attitude"] = {"method": src, "initial_quaternion": list(map(float, q0))}
         if q_true is not None:
             ae = attitude_error(q, q_true, rec.time)

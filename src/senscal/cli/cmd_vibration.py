@@ -22,6 +22,8 @@ ReportOpt = Annotated[Optional[Path], typer.Option("--report", help="Write an HT
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Write the key plot to this PNG file.")]
 SensorIdOpt = Annotated[str, typer.Option("--sensor-id", help="Identification of the item calibrated (certificate).")]
 ModelOpt = Annotated[str, typer.Option("--model", help="Sensor model / manufacturer (certificate).")]
+ConditionOpt = Annotated[Optional[List[str]], typer.Option(
+    "--condition", help="Calibration condition for the certificate, KEY=VALUE (repeatable), e.g. 'temperature=23.1 C'.")]
 UnitOpt = Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the sensor output (default: from the file, else V).")]
 
 
@@ -54,6 +56,16 @@ def _save_plot(fig, path: Path | None) -> None:
         err_console.print(f"plot written to {path}")
 
 
+def _conditions(items: list[str] | None) -> dict[str, str]:
+    out = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError(f"--condition must look like KEY=VALUE, got {item!r}")
+        out[key.strip()] = value.strip()
+    return out
+
+
 def _k2(u):
     return None if u is None else 2.0 * u
 
@@ -80,10 +92,11 @@ def velocity_cmd(
     u_position: Annotated[Optional[str], typer.Option(
         "--u-position", help="Type B standard uncertainty of the position reference's scale, e.g. 0.1%.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift (default on).")] = True,
+    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics of the motion fitted with the fundamental.")] = 1,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated",
+    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
 ) -> None:
     """Velocity-sensor sensitivity S = A_s / (w A_p) against a position reference, per file and mean."""
     from senscal.vibration import velocity_calibration, velocity_point
@@ -94,7 +107,8 @@ def velocity_cmd(
     for path, f in zip(track(files, "fitting"), freqs):
         rec = load(path, time_column=time_column, fs=fs, names=names, channels=[position, velocity])
         unit = unit or _unit(rec, velocity, output_unit) + "/(m/s)"
-        points.append(velocity_point(rec[position], rec[velocity], rec.time, freq=f, drift=drift, u_position=ub,
+        points.append(velocity_point(rec[position], rec[velocity], rec.time, freq=f, drift=drift, harmonics=harmonics,
+                                     u_position=ub,
                                      source=str(path), unit=unit))
     cal = velocity_calibration(points, u_position=ub, unit=unit)
     doc = {
@@ -115,7 +129,7 @@ def velocity_cmd(
                           conditions={"frequency points": len(points),
                                       "frequencies (Hz)": ", ".join(f"{p.frequency:.4g}" for p in cal.points),
                                       "offset drift fitted": "yes" if drift else "no",
-                                      "position reference u (type B)": f"{100 * ub:g} %"})
+                                      "position reference u (type B)": f"{100 * ub:g} %", **_conditions(condition)})
         doc["report"] = str(report)
     if plot is not None:
         from senscal.report.certificate import velocity_figure
@@ -182,11 +196,12 @@ def response_cmd(
     u_reference: Annotated[Optional[str], typer.Option("--u-reference", help="Type B standard uncertainty of the reference sensitivity, e.g. 0.5%.")] = None,
     u_static: Annotated[Optional[str], typer.Option("--u-static-sensitivity", help="Type B standard uncertainty of S0, e.g. 0.05%.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift.")] = False,
-    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (known input; 3 for a nonlinear sensor).")] = 1,
+    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated",
+    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
+    save: Annotated[Optional[Path], typer.Option("--save", help="Save the response (JSON with type and version) for later use.")] = None,
 ) -> None:
     """Accelerometer frequency response: sensitivity, S_i/S0, phase delay with GUM budgets."""
     from senscal.vibration import combine_repeats, frequency_response
@@ -241,12 +256,17 @@ def response_cmd(
             cond["static sensitivity S0"] = f"{static_sensitivity:g} {unit} (u = {100 * _rel(u_static, '--u-static-sensitivity'):g} %)"
         if angle:
             cond["turntable angle synchronisation"] = "records cut to whole revolutions from a 360 deg crossing"
+        cond.update(_conditions(condition))
         meth = ("Double-centrifuge / known sinusoidal input; least-squares sine fit of the output "
                 "(against the turntable angle when synchronised; Qin, seed 003)" if input_amplitude is not None
                 else "Back-to-back comparison with a reference accelerometer (ISO 16063-21); sine fits at one shared frequency")
         write_certificate(report, "response", resp, sensor_id=sensor_id, model=model, unit=unit, method=meth,
                           conditions=cond, files=[str(f) for f in files])
         doc["report"] = str(report)
+    if save is not None:
+        from senscal.vibration import save_response
+
+        doc["saved"] = str(save_response(resp, save))
     if plot is not None:
         from senscal.report.certificate import response_figure
 
@@ -280,11 +300,11 @@ def linearity_cmd(
     freq: Annotated[Optional[float], typer.Option("--freq", help="Known frequency in Hz (estimated per file when omitted).")] = None,
     angle: Annotated[Optional[str], typer.Option("--angle", help="Turntable angle channel (deg): fit against the angle.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift.")] = False,
-    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (known input; 3 for a nonlinear sensor).")] = 1,
+    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated",
+    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
 ) -> None:
     """Amplitude linearity at a fixed frequency: best straight line, deviations, linearity in % of full scale."""
     from senscal.vibration import amplitude_linearity
@@ -318,7 +338,7 @@ def linearity_cmd(
                           conditions={"input levels": len(files),
                                       "frequency (Hz)": f"{sum(p.frequency for p in points) / len(points):.4g}",
                                       "input range (m/s^2)": f"{min(amps):g} .. {max(amps):g}",
-                                      "angle synchronisation": "yes" if angle else "no"})
+                                      "angle synchronisation": "yes" if angle else "no", **_conditions(condition)})
         doc["report"] = str(report)
     if plot is not None:
         from senscal.report.certificate import linearity_figure
@@ -370,12 +390,13 @@ def simulate_hydraulic_cmd(
     freqs: Annotated[Optional[str], typer.Option("--freqs", help="Frequencies in Hz, comma separated (default 1..5.5 Hz, 10 points).")] = None,
     sensitivity: Annotated[float, typer.Option("--sensitivity", help="Velocity-sensor sensitivity, V/(m/s).")] = 0.1368,
     noise: Annotated[float, typer.Option("--noise", help="Velocity-sensor noise, V.")] = 3e-4,
+    distortion: Annotated[float, typer.Option("--distortion", help="Third harmonic of the motion, relative.")] = 0.0,
 ) -> None:
     """Hydraulic rig: position reference and velocity sensor, one CSV per frequency, truth JSON."""
     from senscal.simulate.vibration import simulate_hydraulic
 
     recs, truth = simulate_hydraulic(frequencies=_opt_floats(freqs, "--freqs"), sensitivity=sensitivity,
-                                     velocity_noise=noise, seed=seed)
+                                     velocity_noise=noise, distortion=distortion, seed=seed)
     paths = write_simulation(recs, truth, out, "hydraulic")
     console.print(f"wrote {len(paths)} recordings and hydraulic_truth.json to {out}")
 

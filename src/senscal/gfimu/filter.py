@@ -6,8 +6,11 @@ array's angular acceleration as the control input and the process noise the
 white-noise variance of that increment.  Observation: ``w`` from the
 square-root method or from the differential method, each with a noise
 covariance that follows its own conditioning (the square root's error
-grows as ``1 / |w|``, the differential's as ``1 / |D|``); ill-conditioned
-observations are dropped and innovation gating rejects gross outliers.
+grows as ``1 / |w|``, the differential's as ``1 / |D|``), or (beyond the
+paper) the six quadratic terms ``w w^T - |w|^2 I`` themselves through an
+extended Kalman filter.  Ill-conditioned observations are dropped and
+innovation gating rejects gross outliers.  The linear filters run on the
+shared :mod:`senscal.kalman` engine.
 
 References
 ----------
@@ -33,7 +36,8 @@ from senscal.gfimu.methods import differential_rate, integration_rate, rate_incr
 
 OBSERVATIONS = ("quadratic", "sqrt", "differential")
 
-__all__ = ["RateFilterResult", "channel_covariance", "OBSERVATIONS", "kalman_rate", "sqrt_observation", "differential_observation"]
+__all__ = ["RateFilterResult", "channel_covariance", "OBSERVATIONS", "kalman_rate", "sqrt_observation",
+           "differential_observation"]
 
 
 @dataclass(frozen=True)

@@ -52,11 +52,12 @@ def _check_freqs(freqs: Sequence[float], fs: float, what: str) -> list[float]:
 def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float = 1000.0, periods: float = 8.3,
                        min_duration: float = 4.0, position_amplitude: float = 0.02, sensitivity: float = 0.1368,
                        delay: float = 5e-4, position_noise: float = 2e-6, velocity_noise: float = 3e-4,
-                       offset: float = 0.01, drift: float = 1e-3, seed: int | None = None,
+                       offset: float = 0.01, drift: float = 1e-3, distortion: float = 0.0, seed: int | None = None,
                        ) -> tuple[list[Recording], dict[str, Any]]:
     """Servo cylinder moving sinusoidally; position sensor and velocity sensor.
 
-    The cylinder follows ``x(t) = A_p sin(w t + phi)`` (m).  The position
+    The cylinder follows ``x(t) = A_p sin(w t + phi)`` (m), plus a third
+    harmonic of relative amplitude ``distortion`` (servo-valve nonlinearity).  The position
     sensor reads ``x`` with white noise; the velocity sensor reads
     ``S * dx/dt`` delayed by ``delay`` (its electronics: a pure delay, flat
     amplitude, phase ``-360 f delay`` deg), plus an offset with a linear
@@ -82,6 +83,8 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
         Noise standard deviations, m and V.
     offset, drift : float
         Velocity-sensor offset (V) and its drift (V/s).
+    distortion : float
+        Third-harmonic amplitude of the motion relative to the fundamental.
     seed : int, optional
 
     Returns
@@ -100,8 +103,12 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
         t = np.arange(n) / fs
         w = TWO_PI * f
         phi = rng.uniform(-math.pi, math.pi)
-        pos = position_amplitude * np.sin(w * t + phi) + rng.normal(0.0, position_noise, n)
-        vel_true_delayed = w * position_amplitude * np.cos(w * (t - delay) + phi)
+        phi3 = rng.uniform(-math.pi, math.pi)
+        a3 = distortion * position_amplitude
+        pos = (position_amplitude * np.sin(w * t + phi) + a3 * np.sin(3 * (w * t) + phi3)
+               + rng.normal(0.0, position_noise, n))
+        td = t - delay
+        vel_true_delayed = w * position_amplitude * np.cos(w * td + phi) + 3 * w * a3 * np.cos(3 * w * td + phi3)
         off = offset * rng.uniform(0.5, 1.5)
         vel = sensitivity * vel_true_delayed + off + drift * t + rng.normal(0.0, velocity_noise, n)
         recs.append(Recording(channels={"position": pos, "velocity": vel}, t=t,
@@ -109,7 +116,8 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
                               metadata={"simulator": "hydraulic", "frequency_hz": f}))
         points.append({"frequency_hz": f, "sensitivity": sensitivity, "phase_deg": -360.0 * f * delay})
     truth = {"sensitivity": sensitivity, "unit": "V/(m/s)", "delay_s": delay, "position_amplitude_m": position_amplitude,
-             "position_noise_m": position_noise, "velocity_noise_v": velocity_noise, "points": points}
+             "position_noise_m": position_noise, "velocity_noise_v": velocity_noise, "distortion": distortion,
+             "points": points}
     return recs, truth
 
 

@@ -15,7 +15,7 @@ from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_bu
 from senscal.vibration.fits import AngleSync, PairFit, cut_whole_revolutions, fit_against_angle, fit_pair
 from senscal.vibration.linearity import AmplitudeLinearity, LinearityPoint, amplitude_linearity
 from senscal.vibration.response import (FrequencyResponse, RepeatedPoint, ResponsePoint, combine_repeats,
-                                        frequency_response, response_point)
+                                        frequency_response, load_response, response_point, save_response)
 from senscal.vibration.velocity import VelocityCalibration, VelocityPoint, velocity_calibration, velocity_point
 
 __all__ = [
@@ -23,5 +23,6 @@ __all__ = [
     "AngleSync", "PairFit", "cut_whole_revolutions", "fit_against_angle", "fit_pair",
     "AmplitudeLinearity", "LinearityPoint", "amplitude_linearity",
     "FrequencyResponse", "RepeatedPoint", "ResponsePoint", "combine_repeats", "frequency_response", "response_point",
+    "save_response", "load_response",
     "VelocityCalibration", "VelocityPoint", "velocity_calibration", "velocity_point",
 ]

@@ -64,7 +64,7 @@ class PairFit(ResultMixin):
         return math.sqrt(self.covariance[3, 3])
 
 
-def fit_pair(reference, output, t, *, freq: float | None = None, drift: bool = False) -> PairFit:
+def fit_pair(reference, output, t, *, freq: float | None = None, drift: bool = False, harmonics: int = 1) -> PairFit:
     """Fit a reference and an output channel at one shared frequency.
 
     The frequency (when not given) comes from a four-parameter fit of the
@@ -84,14 +84,18 @@ def fit_pair(reference, output, t, *, freq: float | None = None, drift: bool = F
         Known excitation frequency in Hz.
     drift : bool
         Fit a linear drift of both offsets.
+    harmonics : int
+        Harmonics of the excitation fitted with the fundamental in both
+        channels (a distorted excitation: the harmonics then neither leak into
+        the fundamental of a record of non-whole periods nor count as noise).
 
     Returns
     -------
     PairFit
     """
-    fr = fit_sine(reference, t, freq=freq, drift=drift)
+    fr = fit_sine(reference, t, freq=freq, drift=drift, harmonics=harmonics)
     f = float(fr.frequency)
-    fo = fit_sine(output, t, freq=f, drift=drift)
+    fo = fit_sine(output, t, freq=f, drift=drift, harmonics=harmonics)
     names = fr.parameter_names
     i_a, i_p = names.index("amplitude"), names.index("phase")
     ref_idx = [i_a, i_p] + ([names.index("frequency")] if "frequency" in names else [])
@@ -100,8 +104,8 @@ def fit_pair(reference, output, t, *, freq: float | None = None, drift: bool = F
     if freq is None:
         u_f = float(fr.u_frequency)
         h = max(u_f, 1e-9 * f)
-        plus = fit_sine(output, t, freq=f + h, drift=drift)
-        minus = fit_sine(output, t, freq=f - h, drift=drift)
+        plus = fit_sine(output, t, freq=f + h, drift=drift, harmonics=harmonics)
+        minus = fit_sine(output, t, freq=f - h, drift=drift, harmonics=harmonics)
         d_amp = (plus.amplitude - minus.amplitude) / (2 * h)
         d_ph = float(wrap_phase(plus.phase - minus.phase)) / (2 * h)
         # z = (A_ref, phi_ref, f, A_out | f, phi_out | f): independent blocks.
@@ -213,7 +217,7 @@ def cut_whole_revolutions(angle_deg, t) -> AngleSync:
     return AngleSync(start, stop, revs, direction, float(lr.slope), float(lr.stderr))
 
 
-def fit_against_angle(y, angle_deg, *, harmonics: int = 1) -> SineFit:
+def fit_against_angle(y, angle_deg, *, harmonics: int = 1, drift: bool = False) -> SineFit:
     """Three-parameter fit of an output against the turntable angle.
 
     Model ``y = A sin(psi + phi) + C`` with ``psi`` the unwrapped angle in rad
@@ -228,6 +232,8 @@ def fit_against_angle(y, angle_deg, *, harmonics: int = 1) -> SineFit:
         Turntable angle in degrees over the same samples.
     harmonics : int
         Harmonics of the revolution fitted with the fundamental.
+    drift : bool
+        Also fit an offset drift linear in the angle (in time, at constant speed).
 
     Returns
     -------
@@ -236,4 +242,4 @@ def fit_against_angle(y, angle_deg, *, harmonics: int = 1) -> SineFit:
     """
     a = np.unwrap(np.asarray(angle_deg, dtype=float), period=360.0)
     psi = np.radians(a if a[-1] >= a[0] else -a)
-    return fit_sine(y, psi, freq=1.0 / TWO_PI, harmonics=harmonics)
+    return fit_sine(y, psi, freq=1.0 / TWO_PI, harmonics=harmonics, drift=drift)

@@ -19,13 +19,16 @@ from typing import Sequence
 import numpy as np
 
 from senscal._result import ResultMixin
-from senscal.errors import InputError
+from senscal.errors import FileFormatError, InputError
 from senscal.sinefit import fit_sine, wrap_phase
-from senscal.vibration.budget import UncertaintyBudget, make_budget, mean_with_budget
+from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget
 from senscal.vibration.fits import AngleSync, cut_whole_revolutions, fit_against_angle, fit_pair
 
 __all__ = ["ResponsePoint", "FrequencyResponse", "RepeatedPoint", "response_point", "frequency_response",
-           "combine_repeats"]
+           "combine_repeats", "save_response", "load_response"]
+
+FORMAT = "senscal.vibration.FrequencyResponse"
+FORMAT_VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -144,8 +147,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
     drift : bool
         Also fit a linear offset drift.
     harmonics : int
-        Harmonics fitted with the fundamental on known-input records (1 =
-        fundamental only).  A nonlinear sensor puts harmonics in its output;
+        Harmonics fitted with the fundamental (1 = fundamental only).  A nonlinear sensor puts harmonics in its output;
         fitting them keeps them out of the residual, so the fundamental's
         uncertainty stays the noise's (the fundamental itself is orthogonal to
         them over whole revolutions).
@@ -175,7 +177,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
             raise InputError("give either a reference channel (back-to-back) or a known input amplitude, not both")
         if reference_sensitivity is None or not reference_sensitivity > 0:
             raise InputError("back-to-back comparison needs the reference sensitivity (> 0, reference unit per m/s^2)")
-        pf = fit_pair(reference, y, t, freq=freq, drift=drift)
+        pf = fit_pair(reference, y, t, freq=freq, drift=drift, harmonics=harmonics)
         a_ref, a_out = pf.reference_amplitude, pf.output_amplitude
         if a_ref <= 0:
             raise InputError("the reference channel carries no sinusoid; check --reference")
@@ -196,7 +198,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         if angle_deg is not None:
             sync = cut_whole_revolutions(angle_deg, t)
             sl = slice(sync.start, sync.stop)
-            fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics)
+            fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics, drift=drift)
             f, u_f = sync.frequency, sync.u_frequency
             # The axis sees a0 cos(angle) = a0 sin(angle + pi/2).
             delay = float(wrap_phase(fit.phase - 0.5 * math.pi))
@@ -374,3 +376,50 @@ def combine_repeats(points: Sequence[ResponsePoint], *, rel_tol: float = 1e-3) -
             phase_delay=None if db is None else db.value, u_phase_delay=None if db is None else db.combined,
             sensitivity_budget=sb, normalized_budget=nb, phase_delay_budget=db))
     return tuple(out)
+
+
+def save_response(resp: FrequencyResponse, path) -> "Path":
+    """Save a frequency response as JSON that carries its type and format version."""
+    import json
+    from pathlib import Path
+
+    from senscal._result import to_jsonable
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    doc = {"type": FORMAT, "format_version": FORMAT_VERSION, **to_jsonable(resp)}
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    return path
+
+
+def _budget_from(d):
+    if d is None:
+        return None
+    comps = tuple(BudgetComponent(**c) for c in d["components"])
+    return UncertaintyBudget(d["quantity"], d["value"], d["unit"], comps, d["combined"], d["coverage_factor"],
+                             d["expanded"])
+
+
+def load_response(path) -> FrequencyResponse:
+    """Load a response written by :func:`save_response` (type and version checked)."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise FileFormatError(f"cannot read a frequency response from {path}: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("type") != FORMAT:
+        raise FileFormatError(f"{path} is not a senscal frequency response (type {doc.get('type') if isinstance(doc, dict) else None!r})")
+    if doc.get("format_version", 0) > FORMAT_VERSION:
+        raise FileFormatError(f"{path} has format version {doc['format_version']}; this senscal reads up to "
+                              f"{FORMAT_VERSION}: upgrade senscal")
+    pts = []
+    for d in doc["points"]:
+        kw = dict(d)
+        for k in ("sensitivity_budget", "normalized_budget", "phase_delay_budget"):
+            kw[k] = _budget_from(d[k])
+        kw["sync"] = None if d["sync"] is None else AngleSync(**d["sync"])
+        pts.append(ResponsePoint(**kw))
+    return FrequencyResponse(tuple(pts), doc["unit"], doc["static_sensitivity"])

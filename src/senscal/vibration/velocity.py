@@ -68,7 +68,7 @@ class VelocityPoint(ResultMixin):
     snr_db: float
 
 
-def velocity_point(position, output, t, *, freq: float | None = None, drift: bool = True,
+def velocity_point(position, output, t, *, freq: float | None = None, drift: bool = True, harmonics: int = 1,
                    u_position: float = 0.0, source: str = "", unit: str = "V/(m/s)") -> VelocityPoint:
     """Sensitivity and phase of a velocity sensor from one sinusoidal record.
 
@@ -91,6 +91,9 @@ def velocity_point(position, output, t, *, freq: float | None = None, drift: boo
         Fit a linear offset drift in both channels (default True: real
         sensors drift, and an unmodelled ramp leaks into the amplitude of a
         record of non-whole periods).
+    harmonics : int
+        Harmonics of the motion fitted with the fundamental (a servo
+        cylinder's motion is not a pure sine; 1 = fundamental only).
     u_position : float
         Type B relative standard uncertainty of the position reference's
         scale (e.g. 0.001 for 0.1 %).
@@ -109,7 +112,7 @@ def velocity_point(position, output, t, *, freq: float | None = None, drift: boo
     """
     if u_position < 0:
         raise InputError(f"u_position must be a non-negative relative uncertainty, got {u_position!r}")
-    pf = fit_pair(position, output, t, freq=freq, drift=drift)
+    pf = fit_pair(position, output, t, freq=freq, drift=drift, harmonics=harmonics)
     f, a_p, a_s = pf.frequency, pf.reference_amplitude, pf.output_amplitude
     if a_p <= 0:
         raise InputError("the position channel has no sinusoidal motion; check --position")
