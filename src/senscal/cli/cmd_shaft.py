@@ -260,8 +260,10 @@ def simulate_shaft_cmd(
         sync_ripple=sync_ripple, cal_duration=cal_duration, test_speed_rps=test_speed, modulation=modulation,
         modulation_freq=modulation_freq, test_duration=test_duration, wrap=wrap, seed=seed)
     al = truth.pop("_test_angular_acceleration")
-    p1 = write_recording(cal, out / "shaft_cal.csv")
-    p2 = write_recording(test, out / "shaft_test.csv")
-    write_recording(type(test)(channels={"angular_acceleration": al}, t=test.time), out / "shaft_test_truth.csv")
+    # Units ride in the headers ("angle [deg]"), so the angle unit need not be given for these files.
+    p1 = write_recording(cal, out / "shaft_cal.csv", units_in_header=True)
+    p2 = write_recording(test, out / "shaft_test.csv", units_in_header=True)
+    write_recording(type(test)(channels={"angular_acceleration": al}, t=test.time, units={"angular_acceleration": "rad/s^2"}),
+                    out / "shaft_test_truth.csv", units_in_header=True)
     p3 = write_truth(truth, out / "shaft_truth.json")
     console.print(f"wrote {p1}, {p2}, {p3} (angle in deg, accel in {truth['output_unit']})")

@@ -26,8 +26,8 @@ def run(out: Path, seed: int) -> DemoSection:
     folder = out / "shaft"
     cal, test, truth = simulate_shaft(seed=seed)
     alpha_true = truth.pop("_test_angular_acceleration")
-    write_recording(cal, folder / "shaft_cal.csv")
-    write_recording(test, folder / "shaft_test.csv")
+    write_recording(cal, folder / "shaft_cal.csv", units_in_header=True)
+    write_recording(test, folder / "shaft_test.csv", units_in_header=True)
     write_truth(truth, folder / "shaft_truth.json")
     model = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", source="shaft_cal.csv")
     model.save(folder / "model.json")
