@@ -37,7 +37,8 @@ class ShaftCompensation(ResultMixin):
     angle : ndarray
         Unwrapped encoder angle, rad.
     tangential_acceleration : ndarray
-        ``(accel - gravity(angle)) / S`` [- centripetal leakage], m/s^2.
+        ``(accel - gravity(angle)) / S``, m/s^2; with ``remove_centripetal``
+        also minus the leakage and divided by ``cos(misalignment)``.
     angular_acceleration : ndarray
         ``tangential_acceleration / radius``, rad/s^2 (not smoothed).
     angular_acceleration_encoder : ndarray
@@ -238,10 +239,11 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
                             "cannot be estimated and was not removed")
             kr = u_kr = c = u_c = None
         else:
-            at = at - kr * (kin.angular_velocity**2 - model.mean_square_speed)
             k = kr / r
             mis = math.asin(max(-1.0, min(1.0, k)))
             u_mis = u_kr / r / math.sqrt(max(1.0 - k * k, 1e-12))
+            # The same turned axis sees only cos(d) of the tangential acceleration.
+            at = (at - kr * (kin.angular_velocity**2 - model.mean_square_speed)) / math.cos(mis)
     alpha = at / r
     alpha_unc = a / (s * r)
     m = kin.window_samples
