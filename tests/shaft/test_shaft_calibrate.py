@@ -145,15 +145,26 @@ def test_reverse_rotation_same_gravity():
 
 def test_merged_repeated_readings_equal_the_full_least_squares():
     """A slow encoder repeats readings; merging them must not change the least-squares answer."""
+    from senscal.shaft.model import by_angle, fit_angle
+
     cal, _, _ = cached(8, encoder_counts=200, cal_duration=3.0, test_duration=1.0)
     th = np.radians(np.unwrap(cal["angle"], period=360.0))
     assert np.any(np.diff(th) == 0)
-    m = calibrate_gravity(cal["accel"], th, cal.time, ripple_correction=False)
-    x = np.column_stack([np.sin(th), np.cos(th), np.ones_like(th)])
-    coef = np.linalg.lstsq(x, cal["accel"], rcond=None)[0]
+    x, w, (y,) = by_angle(th, np.asarray(cal["accel"]))
+    assert w is not None and w.sum() == th.size
+    m = fit_angle(y, x, w)
+    a = np.column_stack([np.sin(th), np.cos(th), np.ones_like(th)])
+    coef = np.linalg.lstsq(a, cal["accel"], rcond=None)[0]
     assert m.amplitude == pytest.approx(math.hypot(coef[0], coef[1]), rel=1e-10)
     assert m.phase == pytest.approx(math.atan2(coef[1], coef[0]), abs=1e-10)
     assert m.offset == pytest.approx(coef[2], abs=1e-10)
+
+
+def test_coarse_encoder_still_within_uncertainty():
+    """200 counts per turn (several samples per count): the smoothed angle keeps the fit unbiased."""
+    cal, _, truth = cached(8, encoder_counts=200, cal_duration=6.0, test_duration=1.0, misalignment_deg=0.0)
+    m = _cal(cal)
+    assert np.all(np.abs(_z(m, truth)) < 4.0), _z(m, truth)
 
 
 def test_less_than_one_revolution():

@@ -172,6 +172,9 @@ class EncoderKinematics(ResultMixin):
 
     Attributes
     ----------
+    angle : ndarray
+        Savitzky-Golay smoothed angle, rad: the encoder's quantisation
+        (step / sqrt(12)) reduced by ``smoothing_gain``, the motion kept.
     angular_velocity : ndarray
         Savitzky-Golay first derivative of the angle, rad/s.
     angular_acceleration : ndarray
@@ -193,6 +196,7 @@ class EncoderKinematics(ResultMixin):
         deviation s becomes ``s * smoothing_gain`` after :func:`smooth`.
     """
 
+    angle: np.ndarray = field(repr=False)
     angular_velocity: np.ndarray = field(repr=False)
     angular_acceleration: np.ndarray = field(repr=False)
     window_samples: int
@@ -232,6 +236,6 @@ def encoder_kinematics(theta: np.ndarray, dt: float, *, window: float = 0.1) -> 
     h0 = savgol_coeffs(m, POLYORDER)
     h2 = savgol_coeffs(m, POLYORDER, deriv=2, delta=dt)
     s_theta = white_noise_std(theta, m)
-    return EncoderKinematics(angular_velocity=w, angular_acceleration=al, window_samples=int(m), window=m * dt,
+    return EncoderKinematics(angle=smooth(theta, m), angular_velocity=w, angular_acceleration=al, window_samples=int(m), window=m * dt,
                              angle_noise=s_theta, u_angular_acceleration=s_theta * float(np.linalg.norm(h2)),
                              smoothing_gain=float(np.linalg.norm(h0)))

@@ -228,7 +228,8 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
     tt = np.asarray(t, dtype=float) if t is not None else np.arange(n) * dt
     kin = encoder_kinematics(theta, dt, window=model.window if window is None else window)
     s = model.sensitivity
-    at = (a - model.gravity(theta)) / s
+    # Gravity at the smoothed angle: the raw count's quantisation would add amplitude * step/sqrt(12) of noise.
+    at = (a - model.gravity(kin.angle)) / s
     warnings: list[str] = []
     kr = u_kr = c = u_c = mis = u_mis = None
     if remove_centripetal:
@@ -264,7 +265,7 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
     revs = abs(float(theta[-1] - theta[0])) / (2.0 * math.pi)
     res_amp = u_res_amp = None
     if float(np.ptp(theta)) >= 2.0 * math.pi:
-        x, w, (y,) = by_angle(theta[inner], (at - r * al_enc)[inner])
+        x, w, (y,) = by_angle(kin.angle[inner], (at - r * al_enc)[inner])
         fit = fit_angle(y, x, w)
         res_amp, u_res_amp = float(fit.amplitude), float(fit.u_amplitude)
         limit = max(5.0 * u_res_amp, 0.02 * model.amplitude / s)

@@ -404,7 +404,10 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     use_alpha = bool(ripple_correction or radius)
     keep = slice(ei, n - ei) if use_alpha and n > 2 * ei + 2 and abs(theta[n - ei - 1] - theta[ei]) >= 2.0 * math.pi \
         else slice(0, n)
-    x, wts, (ya, yal, yz) = by_angle(theta[keep], a[keep], alpha[keep], inst[keep])
+    # The abscissa is the smoothed angle: the encoder's quantisation would otherwise be an error in
+    # the variable (amplitude * step / sqrt(12) of extra residual and a small sinc bias of the amplitude).
+    th_fit = kin.angle
+    x, wts, (ya, yal, yz) = by_angle(th_fit[keep], a[keep], alpha[keep], inst[keep])
     # Frisch-Waugh-Lovell: the coefficient of alpha from the sine-fit residuals, here by instrumental
     # variables.  (Channel by channel: the engine's batched path is slower on a non-uniform abscissa.)
     plain, fal, finst = (fit_angle(y, x, wts) for y in (ya, yal, yz))
@@ -419,7 +422,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         # ripple unflattened (the cubic one is 0.1-0.5 % low at 1 Hz for 0.1 s, a bias of several u).
         mode, coef = "radius", sensitivity * radius
         alpha = savgol(theta, kin.window_samples, 2, dt, polyorder=5)
-        yal = by_angle(theta[keep], alpha[keep])[2][0]
+        yal = by_angle(th_fit[keep], alpha[keep])[2][0]
     elif ripple_correction and identifiable:
         mode, coef = "regression", b
     else:
@@ -444,7 +447,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         cov += u_b**2 * np.outer(gvec, gvec)
     u = np.sqrt(np.diag(cov))
     amp, ph, off = float(fit.amplitude), float(fit.phase), float(fit.offset)
-    resid = (a - coef * alpha - (amp * np.sin(theta + ph) + off))[keep]
+    resid = (a - coef * alpha - (amp * np.sin(th_fit + ph) + off))[keep]
     rms = float(np.sqrt(np.mean(resid**2)))
     noise = white_noise_std(a, kin.window_samples)
 
