@@ -53,6 +53,11 @@ def test_plain_fit_is_biased_by_ripple_the_correction_is_not():
     # The coefficient of the encoder alpha is S r (the SG filter's small attenuation at the ripple
     # frequency is absorbed by it).
     assert corrected.ripple_coefficient == pytest.approx(truth["radius"], rel=0.1)
+    # What the plain fit would have got wrong is reported; removed, it is no warning.  (Here the plain
+    # fit's own residual, full of r*alpha, makes its uncertainty cover the leak: no warning either.)
+    assert abs(corrected.ripple_leak) > 2 * corrected.u_amplitude
+    assert abs(plain.amplitude - truth["gravity"]["amplitude"]) < 4 * plain.u_amplitude
+    assert not any("NOT removed" in w for w in corrected.warnings + plain.warnings)
 
 
 def test_uncertainties_honest_monte_carlo():
@@ -78,12 +83,15 @@ def test_synchronous_ripple_needs_the_radius():
     plain = _cal(cal, ripple_correction=False)
     with_r = _cal(cal, radius=truth["radius"])
     assert abs(_z(plain, truth)[0]) > 10 or abs(_z(plain, truth)[1]) > 10
-    assert any("moved the gravity amplitude" in w for w in plain.warnings)
+    assert any("NOT removed" in w for w in plain.warnings)
     assert np.all(np.abs(_z(with_r, truth)) < 4.0), _z(with_r, truth)
     assert with_r.ripple_correction == "radius"
     # Regression cannot separate it: it must then say so through a large uncertainty, not a wrong answer.
     reg = _cal(cal)
     assert np.all(np.abs(_z(reg, truth)) < 4.0)
+    assert reg.u_amplitude > 3 * with_r.u_amplitude
+    assert any("locked to the rotation" in w for w in reg.warnings)
+    assert not any("locked to the rotation" in w for w in _cal(cached(1)[0]).warnings)
 
 
 def test_sensitivity_gives_tilt_and_bias_in_si():
@@ -93,6 +101,14 @@ def test_sensitivity_gives_tilt_and_bias_in_si():
     # 1 % sensitivity uncertainty dominates the tilt uncertainty: d tilt = cot(tilt) * 0.01.
     assert math.degrees(m.u_tilt) == pytest.approx(math.degrees(0.01 / math.tan(math.radians(20))), rel=0.05)
     assert m.bias == pytest.approx(truth["gravity"]["offset"] / 0.05, abs=4 * m.u_bias)
+
+
+def test_output_in_volts_without_sensitivity_warns():
+    cal, _, _ = cached(1)
+    m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", output_unit="V")
+    assert any("give the sensitivity" in w for w in m.warnings)
+    m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", output_unit="m/s^2")
+    assert not any("give the sensitivity" in w for w in m.warnings)
 
 
 def test_amplitude_above_g_warns():
@@ -129,15 +145,26 @@ def test_reverse_rotation_same_gravity():
 
 def test_merged_repeated_readings_equal_the_full_least_squares():
     """A slow encoder repeats readings; merging them must not change the least-squares answer."""
+    from senscal.shaft.model import by_angle, fit_angle
+
     cal, _, _ = cached(8, encoder_counts=200, cal_duration=3.0, test_duration=1.0)
     th = np.radians(np.unwrap(cal["angle"], period=360.0))
     assert np.any(np.diff(th) == 0)
-    m = calibrate_gravity(cal["accel"], th, cal.time, ripple_correction=False)
-    x = np.column_stack([np.sin(th), np.cos(th), np.ones_like(th)])
-    coef = np.linalg.lstsq(x, cal["accel"], rcond=None)[0]
+    x, w, (y,) = by_angle(th, np.asarray(cal["accel"]))
+    assert w is not None and w.sum() == th.size
+    m = fit_angle(y, x, w)
+    a = np.column_stack([np.sin(th), np.cos(th), np.ones_like(th)])
+    coef = np.linalg.lstsq(a, cal["accel"], rcond=None)[0]
     assert m.amplitude == pytest.approx(math.hypot(coef[0], coef[1]), rel=1e-10)
     assert m.phase == pytest.approx(math.atan2(coef[1], coef[0]), abs=1e-10)
     assert m.offset == pytest.approx(coef[2], abs=1e-10)
+
+
+def test_coarse_encoder_still_within_uncertainty():
+    """200 counts per turn (several samples per count): the smoothed angle keeps the fit unbiased."""
+    cal, _, truth = cached(8, encoder_counts=200, cal_duration=6.0, test_duration=1.0, misalignment_deg=0.0)
+    m = _cal(cal)
+    assert np.all(np.abs(_z(m, truth)) < 4.0), _z(m, truth)
 
 
 def test_less_than_one_revolution():
@@ -183,3 +210,24 @@ def test_irregular_time_and_nan_refused():
     a[10] = np.nan
     with pytest.raises(DataError, match="NaN"):
         calibrate_gravity(a, cal["angle"], cal.time, angle_unit="deg")
+
+
+def test_vertical_shaft_sees_no_gravity():
+    cal, _, truth = cached(10, tilt_deg=90.0, misalignment_deg=0.0)
+    m = _cal(cal)
+    assert truth["gravity"]["amplitude"] < 1e-12
+    # The amplitude of pure noise is Rayleigh-like: positive, a few u at most.
+    assert m.amplitude < 4 * m.u_amplitude
+    assert abs(math.degrees(m.tilt) - 90.0) < 4 * math.degrees(m.u_tilt)
+    assert abs(m.offset - truth["gravity"]["offset"]) < 4 * m.u_offset
+
+
+def test_radius_correction_not_overconfident():
+    """Once-per-turn ripple removed with the radius: the spread over runs stays within the reported u."""
+    zs = []
+    for s in range(8):
+        cal, _, truth = cached(300 + s, ripple=0.0, sync_ripple=0.04, misalignment_deg=0.0, cal_duration=4.0,
+                               test_duration=1.0)
+        zs.append(_z(_cal(cal, radius=truth["radius"]), truth))
+    # With 8 runs a unit spread would exceed 1.7 with probability < 1 %.
+    assert np.all(np.std(zs, axis=0, ddof=1) < 1.7), np.std(zs, axis=0, ddof=1)

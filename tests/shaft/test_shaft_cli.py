@@ -30,6 +30,13 @@ def test_simulate_writes_recordings_and_truth(sim):
     rec = read_recording(sim / "shaft_cal.csv")
     assert rec.names == ["angle", "accel"]
     assert rec["angle"].min() >= 0 and rec["angle"].max() < 360  # wrapped encoder
+    assert rec.unit("angle") == "deg" and rec.unit("accel") == "m/s^2"  # units in the header
+
+
+def test_calibrate_takes_the_angle_unit_from_the_header(cli, sim):
+    r = cli("shaft", "calibrate", sim / "shaft_cal.csv", "--angle", "angle", "--accel", "accel", "--json")
+    assert r.code == 0, r.err
+    assert json.loads(r.out)["output_unit"] == "m/s^2"
 
 
 def test_calibrate_json_contract_and_model(cli, sim, tmp_path):
@@ -63,12 +70,13 @@ def test_compensate_csv_columns_json_and_plot(cli, sim, tmp_path):
     assert r.code == 0, r.err
     df = pd.read_csv(out)
     assert list(df.columns) == ["t", "tangential_acceleration", "angular_acceleration", "angular_acceleration_encoder"]
+    back = read_recording(out)
     doc = json.loads(r.out)
     assert doc["correlation"] > 0.999
     assert doc["rms_difference"] < 2 * doc["expected_rms_difference"]
     assert doc["uncompensated_rms_difference"] > 50 * doc["rms_difference"]
-    truth = pd.read_csv(sim / "shaft_test_truth.csv")["angular_acceleration"].to_numpy()
-    err = np.sqrt(np.mean((df["angular_acceleration"].to_numpy() - truth) ** 2))
+    truth = read_recording(sim / "shaft_test_truth.csv")["angular_acceleration"]
+    err = np.sqrt(np.mean((back["angular_acceleration"] - truth) ** 2))
     json_truth = json.loads((sim / "shaft_truth.json").read_text())
     assert err == pytest.approx(json_truth["angular_acceleration_noise_floor"], rel=0.06)
     assert (tmp_path / "c.png").exists()
@@ -95,7 +103,13 @@ def _one_line_error(r):
 def test_bad_inputs_give_one_line_errors(cli, sim, tmp_path):
     cal = sim / "shaft_cal.csv"
     base = ["shaft", "calibrate", cal, "--angle", "angle", "--accel", "accel"]
-    _one_line_error(cli(*base))  # degrees read as radians: the angle reverses
+    # A file without units, in degrees, read as radians: the angle seems to reverse at each wrap.
+    df = pd.read_csv(cal)
+    df.columns = [c.split(" [")[0] for c in df.columns]
+    df.to_csv(tmp_path / "plain.csv", index=False)
+    r = cli("shaft", "calibrate", tmp_path / "plain.csv", "--angle", "angle", "--accel", "accel")
+    _one_line_error(r)
+    assert "--angle-unit" in r.err
     _one_line_error(cli(*base, "--angle-unit", "grad"))
     _one_line_error(cli("shaft", "calibrate", cal, "--angle", "nope", "--accel", "accel"))
     # Less than one revolution.
@@ -105,9 +119,8 @@ def test_bad_inputs_give_one_line_errors(cli, sim, tmp_path):
     _one_line_error(r)
     assert "revolution" in r.err
     # Not monotonic.
-    df = pd.read_csv(cal)
     df.loc[3000:3004, "angle"] = df.loc[3000:3004, "angle"].to_numpy()[::-1]
-    df.to_csv(tmp_path / "back.csv", index=False)
+    df.to_csv(tmp_path / "back.csv", index=False)  # (units dropped: --angle-unit deg below)
     r = cli("shaft", "calibrate", tmp_path / "back.csv", "--angle", "angle", "--accel", "accel", "--angle-unit", "deg")
     _one_line_error(r)
     assert "monotonic" in r.err

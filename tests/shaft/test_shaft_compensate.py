@@ -9,8 +9,7 @@ import pytest
 from hypothesis import given, strategies as st
 
 from senscal.errors import FileFormatError, InputError
-from senscal.shaft import GravityModel, angle_to_rad, calibrate_gravity, load_model
-from senscal.shaft.compensate import compensate
+from senscal.shaft import GravityModel, angle_to_rad, calibrate_gravity, compensate, load_model
 
 from ._shaft_sim import cached
 
@@ -179,3 +178,16 @@ def test_encoder_zero_and_output_scale(shift, scale):
     assert m.offset == pytest.approx(scale * base.offset, rel=1e-6, abs=1e-9 * scale)
     d = math.remainder(m.phase - (base.phase - math.radians(shift)), 2 * math.pi)
     assert abs(d) < 1e-9
+
+
+def test_large_misalignment_scales_the_tangential_reading_by_cos():
+    """5 deg: cos(d) = 0.9962, i.e. 0.05 rad/s^2 RMS on this profile, as large as the noise floor here."""
+    model, test, truth = _setup(11, misalignment_deg=5.0, noise=0.005)
+    al = truth["_test_angular_acceleration"]
+    res = compensate(model, test["accel"], test["angle"], test.time, radius=0.1, angle_unit="deg",
+                     remove_centripetal=True)
+    assert abs(math.degrees(res.misalignment) - 5.0) < 4 * math.degrees(res.u_misalignment)
+    floor = truth["angular_acceleration_noise_floor"]
+    assert _rms(res.angular_acceleration - al) == pytest.approx(floor, rel=0.05)
+    # Without the cos(d) the error would be sqrt(floor^2 + ((1 - cos d) * rms(alpha))^2).
+    assert (1 - math.cos(math.radians(5.0))) * _rms(al) > 0.9 * floor

@@ -12,7 +12,7 @@ from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, print_json,
-                                table, write_json)
+                                progress_bar, table)
 from senscal.errors import DiagnosticError, InputError
 
 shaft_app = typer.Typer(help="Rotating shaft: gravity identification and compensation (angular acceleration "
@@ -46,9 +46,12 @@ def angle_unit_of(rec, name: str, given: str | None) -> str:
     return g
 
 
-def _warn(warnings, strict: bool) -> None:
+def _warn(warnings) -> None:
     for w in warnings:
         err_console.print(f"[yellow]warning:[/yellow] {w}")
+
+
+def _strict(warnings, strict: bool) -> None:
     if strict and warnings:
         raise DiagnosticError(f"{len(warnings)} warning(s) with --strict: {warnings[0]}")
 
@@ -103,11 +106,12 @@ def calibrate_cmd(
 
     rec = load(file, time_column=time_column, fs=fs, names=names, channels=[angle, accel])
     unit = angle_unit_of(rec, angle, angle_unit)
-    model = calibrate_gravity(
-        rec[accel], rec[angle], rec.time, angle_unit=unit, sensitivity=sensitivity, u_sensitivity=u_sensitivity,
-        output_unit=rec.unit(accel), radius=radius, ripple_correction=ripple_correction, g=g,
-        window=0.1 if window is None else window,
-        max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"), source=str(file))
+    with progress_bar("gravity fit against the encoder angle", None):
+        model = calibrate_gravity(
+            rec[accel], rec[angle], rec.time, angle_unit=unit, sensitivity=sensitivity, u_sensitivity=u_sensitivity,
+            output_unit=rec.unit(accel), radius=radius, ripple_correction=ripple_correction, g=g,
+            window=0.1 if window is None else window,
+            max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"), source=str(file))
     doc = calibration_summary(model)
     if out is not None:
         doc["model"] = str(model.save(out))
@@ -119,7 +123,7 @@ def calibrate_cmd(
         a = rec[accel]
         doc["plot"] = str(plot_compensation(plot, model, th, a, (a - model.gravity(th)) / sensitivity,
                                             unit=rec.unit(accel), title=f"gravity calibration: {file.name}"))
-    _warn(model.warnings, False)
+    _warn(model.warnings)
     if json_out:
         print_json(doc)
     else:
@@ -130,14 +134,15 @@ def calibrate_cmd(
                 ["bias (m/s^2)", model.bias, 2 * model.u_bias, "m/s^2"],
                 ["residual RMS", model.residual_rms, None, model.output_unit],
                 ["revolutions", model.revolutions, None, ""],
-                ["speed (rev/s)", doc["mean_speed_rps"], None, f"varies {100 * model.speed_variation:.2g}%"]]
+                ["speed (rev/s)", doc["mean_speed_rps"], None, f"varies {100 * model.speed_variation:.2g}%"],
+                [f"ripple leak ({model.ripple_correction})", model.ripple_leak, None,
+                 "removed" if model.ripple_correction != "none" else "left in the fit"]]
         console.print(table(f"Gravity calibration of {file}  (U = expanded uncertainty, k=2)",
                             ["quantity", "value", "U (k=2)", "unit"], rows))
         for k in ("model", "plot"):
             if k in doc:
                 console.print(f"wrote {doc[k]}")
-    if strict and model.warnings:
-        raise DiagnosticError(f"{len(model.warnings)} warning(s) with --strict: {model.warnings[0]}")
+    _strict(model.warnings, strict)
 
 
 @shaft_app.command("compensate")
@@ -164,13 +169,14 @@ def compensate_cmd(
     """Remove gravity at the measured angle: tangential and angular acceleration, checked against the encoder."""
     from senscal.io import Recording, write_recording
     from senscal.shaft import load_model
-    from senscal.shaft.compensate import compensate
+    from senscal.shaft import compensate
 
     model = load_model(model_path)
     rec = load(file, time_column=time_column, fs=fs, names=names, channels=[angle, accel])
     unit = angle_unit_of(rec, angle, angle_unit)
-    res = compensate(model, rec[accel], rec[angle], rec.time, radius=radius, angle_unit=unit, window=window,
-                     remove_centripetal=centripetal, accel_unit=rec.unit(accel))
+    with progress_bar("gravity compensation and encoder check", None):
+        res = compensate(model, rec[accel], rec[angle], rec.time, radius=radius, angle_unit=unit, window=window,
+                         remove_centripetal=centripetal, accel_unit=rec.unit(accel))
     doc = res.to_dict()
     doc = {"file": str(file), "model": str(model_path), **doc}
     if out is not None:
@@ -191,7 +197,7 @@ def compensate_cmd(
             alphas={"uncompensated (smoothed)": _smoothed(res.uncompensated_angular_acceleration, res),
                     "compensated (smoothed)": res.angular_acceleration_smoothed,
                     "encoder (Savitzky-Golay)": res.angular_acceleration_encoder}))
-    _warn(res.warnings, False)
+    _warn(res.warnings)
     if json_out:
         print_json(doc)
     else:
@@ -210,8 +216,7 @@ def compensate_cmd(
         for k in ("out", "plot"):
             if k in doc:
                 console.print(f"wrote {doc[k]}")
-    if strict and res.warnings:
-        raise DiagnosticError(f"{len(res.warnings)} warning(s) with --strict: {res.warnings[0]}")
+    _strict(res.warnings, strict)
 
 
 def _smoothed(x, res):
@@ -255,8 +260,10 @@ def simulate_shaft_cmd(
         sync_ripple=sync_ripple, cal_duration=cal_duration, test_speed_rps=test_speed, modulation=modulation,
         modulation_freq=modulation_freq, test_duration=test_duration, wrap=wrap, seed=seed)
     al = truth.pop("_test_angular_acceleration")
-    p1 = write_recording(cal, out / "shaft_cal.csv")
-    p2 = write_recording(test, out / "shaft_test.csv")
-    write_recording(type(test)(channels={"angular_acceleration": al}, t=test.time), out / "shaft_test_truth.csv")
+    # Units ride in the headers ("angle [deg]"), so the angle unit need not be given for these files.
+    p1 = write_recording(cal, out / "shaft_cal.csv", units_in_header=True)
+    p2 = write_recording(test, out / "shaft_test.csv", units_in_header=True)
+    write_recording(type(test)(channels={"angular_acceleration": al}, t=test.time, units={"angular_acceleration": "rad/s^2"}),
+                    out / "shaft_test_truth.csv", units_in_header=True)
     p3 = write_truth(truth, out / "shaft_truth.json")
     console.print(f"wrote {p1}, {p2}, {p3} (angle in deg, accel in {truth['output_unit']})")

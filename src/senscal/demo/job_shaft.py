@@ -9,8 +9,7 @@ import numpy as np
 
 from senscal.demo import DemoSection
 from senscal.io import Recording, write_recording
-from senscal.shaft import calibrate_gravity
-from senscal.shaft.compensate import compensate
+from senscal.shaft import calibrate_gravity, compensate
 from senscal.shaft.plotting import plot_compensation
 from senscal.simulate.common import write_truth
 from senscal.simulate.shaft import simulate_shaft
@@ -27,8 +26,8 @@ def run(out: Path, seed: int) -> DemoSection:
     folder = out / "shaft"
     cal, test, truth = simulate_shaft(seed=seed)
     alpha_true = truth.pop("_test_angular_acceleration")
-    write_recording(cal, folder / "shaft_cal.csv")
-    write_recording(test, folder / "shaft_test.csv")
+    write_recording(cal, folder / "shaft_cal.csv", units_in_header=True)
+    write_recording(test, folder / "shaft_test.csv", units_in_header=True)
     write_truth(truth, folder / "shaft_truth.json")
     model = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", source="shaft_cal.csv")
     model.save(folder / "model.json")
@@ -38,7 +37,9 @@ def run(out: Path, seed: int) -> DemoSection:
     write_recording(Recording(channels={"tangential_acceleration": res.tangential_acceleration,
                                         "angular_acceleration": res.angular_acceleration,
                                         "angular_acceleration_encoder": res.angular_acceleration_encoder},
-                              t=res.t), folder / "compensated.csv")
+                              t=res.t, units={"tangential_acceleration": "m/s^2", "angular_acceleration": "rad/s^2",
+                                              "angular_acceleration_encoder": "rad/s^2"}),
+                    folder / "compensated.csv")
     plot_compensation(folder / "compensation.png", model, res.angle, np.asarray(test["accel"]),
                       res.tangential_acceleration, unit=truth["output_unit"],
                       title=f"test run, r = {r} m: before/after gravity compensation", t=res.t,

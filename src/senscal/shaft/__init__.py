@@ -10,7 +10,8 @@ second derivative (``shared/METHODS.md`` section 1c, seed 000).
 """
 
 from senscal.shaft.angle import EncoderKinematics, angle_to_rad, encoder_kinematics
+from senscal.shaft.compensate import ShaftCompensation, centripetal_leakage, compensate
 from senscal.shaft.model import G, GravityModel, calibrate_gravity, load_model
 
-__all__ = ["G", "GravityModel", "EncoderKinematics", "angle_to_rad", "calibrate_gravity", "encoder_kinematics",
-           "load_model"]
+__all__ = ["G", "GravityModel", "EncoderKinematics", "ShaftCompensation", "angle_to_rad", "calibrate_gravity",
+           "centripetal_leakage", "compensate", "encoder_kinematics", "load_model"]

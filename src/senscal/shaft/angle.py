@@ -19,13 +19,13 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.signal import savgol_coeffs, savgol_filter
+from scipy.signal import oaconvolve, savgol_coeffs, savgol_filter
 
 from senscal._result import ResultMixin
 from senscal.errors import DataError, InputError, TooFewSamplesError
 
 __all__ = ["white_noise_std", "angle_to_rad", "check_radius", "check_uniform", "EncoderKinematics", "encoder_kinematics",
-           "savgol_window", "smooth"]
+           "savgol", "savgol_window", "smooth"]
 
 TWO_PI = 2.0 * math.pi
 POLYORDER = 3
@@ -126,9 +126,28 @@ def savgol_window(window: float, dt: float, n: int) -> int:
     return m
 
 
+def savgol(x: np.ndarray, m: int, deriv: int = 0, dt: float = 1.0, polyorder: int = POLYORDER) -> np.ndarray:
+    """``scipy.signal.savgol_filter(x, m, polyorder, deriv, delta=dt, mode="interp")``, FFT-convolved inside.
+
+    Long windows on long records make the direct convolution O(N m); the
+    interior is convolved by overlap-add instead and the first and last
+    half windows come from ``savgol_filter`` itself (polynomial fit), so the
+    result equals scipy's to rounding.
+    """
+    n = x.size
+    if n < 4 * m or m < 64:
+        return savgol_filter(x, m, polyorder, deriv=deriv, delta=dt, mode="interp")
+    h = savgol_coeffs(m, polyorder, deriv=deriv, delta=dt)
+    out = oaconvolve(x, h, mode="same")
+    e = m // 2
+    out[:e] = savgol_filter(x[:m], m, polyorder, deriv=deriv, delta=dt, mode="interp")[:e]
+    out[n - e:] = savgol_filter(x[n - m:], m, polyorder, deriv=deriv, delta=dt, mode="interp")[m - e:]
+    return out
+
+
 def smooth(x: np.ndarray, m: int) -> np.ndarray:
     """Savitzky-Golay smoothing (cubic, ``m`` samples): the same low-pass the encoder derivative has."""
-    return savgol_filter(x, m, POLYORDER, mode="interp")
+    return savgol(x, m)
 
 
 def white_noise_std(x: np.ndarray, m: int) -> float:
@@ -153,6 +172,9 @@ class EncoderKinematics(ResultMixin):
 
     Attributes
     ----------
+    angle : ndarray
+        Savitzky-Golay smoothed angle, rad: the encoder's quantisation
+        (step / sqrt(12)) reduced by ``smoothing_gain``, the motion kept.
     angular_velocity : ndarray
         Savitzky-Golay first derivative of the angle, rad/s.
     angular_acceleration : ndarray
@@ -174,6 +196,7 @@ class EncoderKinematics(ResultMixin):
         deviation s becomes ``s * smoothing_gain`` after :func:`smooth`.
     """
 
+    angle: np.ndarray = field(repr=False)
     angular_velocity: np.ndarray = field(repr=False)
     angular_acceleration: np.ndarray = field(repr=False)
     window_samples: int
@@ -208,11 +231,11 @@ def encoder_kinematics(theta: np.ndarray, dt: float, *, window: float = 0.1) -> 
     """
     n = theta.size
     m = savgol_window(window, dt, n)
-    w = savgol_filter(theta, m, POLYORDER, deriv=1, delta=dt, mode="interp")
-    al = savgol_filter(theta, m, POLYORDER, deriv=2, delta=dt, mode="interp")
+    w = savgol(theta, m, 1, dt)
+    al = savgol(theta, m, 2, dt)
     h0 = savgol_coeffs(m, POLYORDER)
     h2 = savgol_coeffs(m, POLYORDER, deriv=2, delta=dt)
     s_theta = white_noise_std(theta, m)
-    return EncoderKinematics(angular_velocity=w, angular_acceleration=al, window_samples=int(m), window=m * dt,
+    return EncoderKinematics(angle=smooth(theta, m), angular_velocity=w, angular_acceleration=al, window_samples=int(m), window=m * dt,
                              angle_noise=s_theta, u_angular_acceleration=s_theta * float(np.linalg.norm(h2)),
                              smoothing_gain=float(np.linalg.norm(h0)))

@@ -37,7 +37,8 @@ class ShaftCompensation(ResultMixin):
     angle : ndarray
         Unwrapped encoder angle, rad.
     tangential_acceleration : ndarray
-        ``(accel - gravity(angle)) / S`` [- centripetal leakage], m/s^2.
+        ``(accel - gravity(angle)) / S``, m/s^2; with ``remove_centripetal``
+        also minus the leakage and divided by ``cos(misalignment)``.
     angular_acceleration : ndarray
         ``tangential_acceleration / radius``, rad/s^2 (not smoothed).
     angular_acceleration_encoder : ndarray
@@ -210,6 +211,13 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
         Radius <= 0, unit mismatch, bad arguments.
     DataError
         NaN/inf, irregular time stamps.
+
+    References
+    ----------
+    .. [1] Yang X., Li C., Mu D., Chen C., Transducer and Microsystem
+       Technologies, 2014 (seed 000, experiment 2: compensation by the
+       identified gravity term; METHODS.md 1c).
+    .. [2] Savitzky A., Golay M. J. E., Analytical Chemistry 36 (1964).
     """
     r = check_radius(radius)
     model.check_applicable(accel_unit=accel_unit)
@@ -220,7 +228,8 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
     tt = np.asarray(t, dtype=float) if t is not None else np.arange(n) * dt
     kin = encoder_kinematics(theta, dt, window=model.window if window is None else window)
     s = model.sensitivity
-    at = (a - model.gravity(theta)) / s
+    # Gravity at the smoothed angle: the raw count's quantisation would add amplitude * step/sqrt(12) of noise.
+    at = (a - model.gravity(kin.angle)) / s
     warnings: list[str] = []
     kr = u_kr = c = u_c = mis = u_mis = None
     if remove_centripetal:
@@ -231,10 +240,11 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
                             "cannot be estimated and was not removed")
             kr = u_kr = c = u_c = None
         else:
-            at = at - kr * (kin.angular_velocity**2 - model.mean_square_speed)
             k = kr / r
             mis = math.asin(max(-1.0, min(1.0, k)))
             u_mis = u_kr / r / math.sqrt(max(1.0 - k * k, 1e-12))
+            # The same turned axis sees only cos(d) of the tangential acceleration.
+            at = (at - kr * (kin.angular_velocity**2 - model.mean_square_speed)) / math.cos(mis)
     alpha = at / r
     alpha_unc = a / (s * r)
     m = kin.window_samples
@@ -255,7 +265,7 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
     revs = abs(float(theta[-1] - theta[0])) / (2.0 * math.pi)
     res_amp = u_res_amp = None
     if float(np.ptp(theta)) >= 2.0 * math.pi:
-        x, w, (y,) = by_angle(theta[inner], (at - r * al_enc)[inner])
+        x, w, (y,) = by_angle(kin.angle[inner], (at - r * al_enc)[inner])
         fit = fit_angle(y, x, w)
         res_amp, u_res_amp = float(fit.amplitude), float(fit.u_amplitude)
         limit = max(5.0 * u_res_amp, 0.02 * model.amplitude / s)
@@ -268,7 +278,7 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
     if math.isfinite(corr) and rms > 3.0 * expected and rms > 0.1 * float(np.std(se)):
         warnings.append(f"accelerometer and encoder angular accelerations differ by {rms:.3g} rad/s^2 RMS "
                         f"(noise alone would give {expected:.3g}); check the radius and the model"
-                        + ("" if remove_centripetal else ", or remove the centripetal leakage of a misaligned axis"))
+                        + ("" if remove_centripetal else ", or remove the centripetal leakage of a misaligned axis (--centripetal)"))
     return ShaftCompensation(
         t=tt, angle=theta, tangential_acceleration=at, angular_acceleration=alpha, angular_acceleration_encoder=al_enc,
         angular_velocity_encoder=kin.angular_velocity, uncompensated_angular_acceleration=alpha_unc, radius=r,

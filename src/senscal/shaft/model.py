@@ -28,17 +28,15 @@ import dataclasses
 import datetime as _dt
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from senscal._result import ResultMixin, to_jsonable
+from senscal._result import ResultMixin
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
-from scipy.signal import savgol_filter
-
-from senscal.shaft.angle import POLYORDER, angle_to_rad, check_radius, check_uniform, encoder_kinematics, white_noise_std
+from senscal.shaft.angle import angle_to_rad, check_radius, check_uniform, encoder_kinematics, savgol, white_noise_std
 from senscal.sinefit import fit_sine, wrap_phase
 
 __all__ = ["G", "GravityModel", "calibrate_gravity", "load_model"]
@@ -113,7 +111,9 @@ class GravityModel(ResultMixin):
     window : float
         Savitzky-Golay window of the encoder derivatives, s.
     warnings : tuple of str
-        What the data say about the run (speed far from constant, ...).
+        What the data say about the run: speed far from constant, ripple
+        leaking into the fit uncorrected or locked to the rotation, amplitude
+        above ``S g``, an output unit that is not m/s^2 without a sensitivity.
     source : str or None
         File the calibration came from.
     created : str
@@ -360,6 +360,12 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         NaN/inf, a reversing angle, irregular time stamps.
     InputError
         Bad arguments (sensitivity <= 0, radius <= 0, ...).
+
+    References
+    ----------
+    .. [1] Yang X., Li C., Mu D., Chen C., Transducer and Microsystem
+       Technologies, 2014 (seed 000, experiment 2; METHODS.md 1c).
+    .. [2] Frisch R., Waugh F. V., Econometrica 1 (1933).
     """
     theta = angle_to_rad(angle, angle_unit, monotonic=True)
     n = theta.size
@@ -390,7 +396,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     # Its quantisation noise is far smaller and nearly independent of alpha's, so the coefficient is
     # not pulled toward zero by the noise in alpha (errors in variables), as least squares would be.
     ninst = min(n - 1 + n % 2, 3 * kin.window_samples)
-    inst = savgol_filter(theta, ninst, POLYORDER, deriv=2, delta=dt, mode="interp")
+    inst = savgol(theta, ninst, 2, dt)
     ei = ninst // 2
 
     # The filters extrapolate over their first and last half window: keep those samples out of the
@@ -398,21 +404,25 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     use_alpha = bool(ripple_correction or radius)
     keep = slice(ei, n - ei) if use_alpha and n > 2 * ei + 2 and abs(theta[n - ei - 1] - theta[ei]) >= 2.0 * math.pi \
         else slice(0, n)
-    x, wts, (ya, yal, yz) = by_angle(theta[keep], a[keep], alpha[keep], inst[keep])
-    plain = fit_angle(ya, x, wts)
+    # The abscissa is the smoothed angle: the encoder's quantisation would otherwise be an error in
+    # the variable (amplitude * step / sqrt(12) of extra residual and a small sinc bias of the amplitude).
+    th_fit = kin.angle
+    x, wts, (ya, yal, yz) = by_angle(th_fit[keep], a[keep], alpha[keep], inst[keep])
     # Frisch-Waugh-Lovell: the coefficient of alpha from the sine-fit residuals, here by instrumental
-    # variables (residual of the instrument against the residuals of accel and alpha).
-    fal = fit_angle(yal, x, wts)
-    ra = ya - plain.evaluate(x)
-    ral = yal - fal.evaluate(x)
-    rz = yz - fit_angle(yz, x, wts).evaluate(x)
+    # variables.  (Channel by channel: the engine's batched path is slower on a non-uniform abscissa.)
+    plain, fal, finst = (fit_angle(y, x, wts) for y in (ya, yal, yz))
+    ra, ral, rz = ya - plain.evaluate(x), yal - fal.evaluate(x), yz - finst.evaluate(x)
     ww = np.ones_like(x) if wts is None else wts
     szz = float(np.sum(ww * rz * rz))
     sza = float(np.sum(ww * rz * ral))
     identifiable = szz > 0 and abs(sza) > 0
     b = float(np.sum(ww * rz * ra) / sza) if identifiable else 0.0
     if radius is not None:
+        # Subtracting S r alpha needs alpha's true size: a quintic window keeps the once-per-turn
+        # ripple unflattened (the cubic one is 0.1-0.5 % low at 1 Hz for 0.1 s, a bias of several u).
         mode, coef = "radius", sensitivity * radius
+        alpha = savgol(theta, kin.window_samples, 2, dt, polyorder=5)
+        yal = by_angle(th_fit[keep], alpha[keep])[2][0]
     elif ripple_correction and identifiable:
         mode, coef = "regression", b
     else:
@@ -422,7 +432,8 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     dof = fit.dof
     u_b = math.nan
     if identifiable:
-        sigma2 = float(np.sum(ww * (ya - b * yal - fit_angle(ya - b * yal, x, wts).evaluate(x)) ** 2)) / max(dof - 1, 1)
+        # The sine fit is linear in the data: the residual of ya - b*yal is ra - b*ral.
+        sigma2 = float(np.sum(ww * (ra - b * ral) ** 2)) / max(dof - 1, 1)
         u_b = math.sqrt(sigma2 * szz) / abs(sza)
     if mode == "regression":
         # Covariance = fixed-coefficient covariance + u_b^2 * g g^T, where g is how (amplitude, phase,
@@ -436,7 +447,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         cov += u_b**2 * np.outer(gvec, gvec)
     u = np.sqrt(np.diag(cov))
     amp, ph, off = float(fit.amplitude), float(fit.phase), float(fit.offset)
-    resid = (a - coef * alpha - (amp * np.sin(theta + ph) + off))[keep]
+    resid = (a - coef * alpha - (amp * np.sin(th_fit + ph) + off))[keep]
     rms = float(np.sqrt(np.mean(resid**2)))
     noise = white_noise_std(a, kin.window_samples)
 
@@ -455,12 +466,19 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
                         f"{100 * max_speed_variation:.3g}%); angular acceleration leaks into the gravity fit, "
                         "calibrate at a steadier speed")
     leak = float(plain.amplitude) - amp if mode != "none" else -b * float(fal.amplitude) * math.cos(ph - fal.phase)
-    if abs(leak) > 2.0 * u[0] and math.isfinite(leak):
-        what = {"regression": "it was removed by regression on the encoder's angular acceleration",
-                "radius": "it was removed with the given radius",
-                "none": "it was NOT removed: enable the ripple correction or give the radius"}[mode]
-        warnings.append(f"angular acceleration during the run moved the gravity amplitude by {leak:.3g} "
-                        f"({abs(leak) / u[0]:.3g} standard uncertainties); {what}")
+    # A leak that was removed is reported in ripple_leak; only one left in the fit is a warning.
+    if mode == "none" and abs(leak) > 2.0 * u[0] and math.isfinite(leak):
+        warnings.append(f"angular acceleration during the run moved the gravity amplitude by about {leak:.3g} "
+                        f"({abs(leak) / u[0]:.3g} standard uncertainties) and was NOT removed: enable the ripple "
+                        "correction or give the radius")
+    if mode == "regression" and u[0] > 3.0 * math.sqrt(fit.covariance[0][0]):
+        warnings.append(f"the speed ripple is mostly locked to the rotation, so the fit can hardly tell it from "
+                        f"gravity: the amplitude uncertainty grew {u[0] / math.sqrt(fit.covariance[0][0]):.3g} times; "
+                        "give the sensor radius (--radius) to remove it, or calibrate at a steadier speed")
+    unit = str(output_unit or "").strip()
+    if unit and sensitivity == 1.0 and unit.replace(" ", "").replace("²", "^2") not in ("m/s^2", "m/s2", "ms^-2", "m*s^-2"):
+        warnings.append(f"the accelerometer output is in '{unit}' but no sensitivity was given: tilt and bias "
+                        "assume m/s^2; give the sensitivity (output per m/s^2)")
     if ratio - 1.0 > 3.0 * u_ratio:
         warnings.append(f"gravity amplitude {amp:.6g} exceeds sensitivity * g = {sensitivity * g:.6g}; "
                         "check --sensitivity (the output may not be in m/s^2)")
