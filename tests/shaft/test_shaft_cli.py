@@ -144,3 +144,15 @@ def test_strict_turns_warnings_into_exit_3(cli, sim, tmp_path):
             "--sensitivity", "0.5", "--strict", "--json")
     assert r.code == 3
     assert "exceeds sensitivity" in r.err
+
+
+def test_calibrate_save_to_registry(cli, tmp_path):
+    sim = tmp_path / "sim"
+    assert cli("simulate", "shaft", "--out", sim, "--seed", "4").code == 0
+    db = tmp_path / "r.sqlite"
+    r = cli("shaft", "calibrate", sim / "shaft_cal.csv", "--angle", "angle", "--accel", "accel", "--json",
+            "--save", "--sensor", "SHAFT-1", "--create-sensor", "accelerometer", "--db", db)
+    assert r.code == 0, r.err
+    amp = json.loads(r.out)["amplitude"]
+    h = json.loads(cli("registry", "history", "SHAFT-1", "--db", db, "--json").out)["records"]
+    assert any(x["quantity"] == "gravity_amplitude" and x["value"] == pytest.approx(amp) for x in h)

@@ -13,6 +13,8 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, print_json,
                                 progress_bar, table)
+from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted,
+                                       save_if_requested)
 from senscal.errors import DiagnosticError, InputError
 
 shaft_app = typer.Typer(help="Rotating shaft: gravity identification and compensation (angular acceleration "
@@ -99,6 +101,8 @@ def calibrate_cmd(
     fs: FsOpt = None,
     names: NamesOpt = None,
     json_out: JsonOpt = False,
+    save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None,
 ) -> None:
     """Identify the gravity sinusoid against the encoder angle: amplitude, phase, offset, tilt, bias."""
     from senscal.cli.common import parse_relative
@@ -124,6 +128,11 @@ def calibrate_cmd(
         doc["plot"] = str(plot_compensation(plot, model, th, a, (a - model.gravity(th)) / sensitivity,
                                             unit=rec.unit(accel), title=f"gravity calibration: {file.name}"))
     _warn(model.warnings)
+    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      job="shaft", method="gravity sine fit against the encoder angle (Yang et al. 2014)",
+                      quantities=lambda: [quoted(doc, "gravity_amplitude", "amplitude", "u_amplitude", model.output_unit),
+                                          quoted(doc, "bias", "offset", "u_offset", model.output_unit)],
+                      input_files=[file])
     if json_out:
         print_json(doc)
     else:
