@@ -227,14 +227,34 @@ def _design(tau: np.ndarray, w: float, harmonics: int, drift: bool) -> np.ndarra
 
 
 def _lstsq_many(a: np.ndarray, y2: np.ndarray, sw: np.ndarray | None):
-    """Weighted LS for many right-hand sides: coefs (C, p), rss (C,), inv normal matrix (p, p)."""
+    """Weighted LS for many right-hand sides: coefs (C, p), rss (C,), inv normal matrix (p, p).
+
+    The normal matrix, scaled to unit diagonal, is Cholesky-factored when it
+    is well conditioned (the centred sin/cos/1 basis nearly always is): one
+    pass over the data instead of an SVD of the N x p matrix.  Residuals are
+    then computed explicitly, so no precision is lost in the residual
+    variance.  Ill-conditioned problems fall back to the SVD.
+    """
     aw = a if sw is None else a * sw[:, None]
-    yw = y2.T if sw is None else y2.T * sw[:, None]
+    # Channels stay rows (contiguous) throughout: (C, N) products are fast.
+    yw = y2 if sw is None else y2 * sw[None, :]
+    gram = aw.T @ aw
+    d = np.sqrt(np.diag(gram))
+    if np.all(d > 0):
+        gs = gram / d[:, None] / d[None, :]
+        ev = np.linalg.eigvalsh(gs)
+        if ev[0] > ev[-1] * 1e-10:
+            cho = scipy.linalg.cho_factor(gs)
+            coef = (scipy.linalg.cho_solve(cho, (yw @ aw).T / d[:, None]) / d[:, None]).T
+            resid = yw - coef @ aw.T
+            rss = np.einsum("ij,ij->i", resid, resid)
+            ginv = scipy.linalg.cho_solve(cho, np.eye(gs.shape[0])) / d[:, None] / d[None, :]
+            return coef, rss, ginv
     u, s, vt = np.linalg.svd(aw, full_matrices=False)
     _check_rank(s)
-    coef = ((vt.T / s) @ (u.T @ yw)).T
-    resid = yw - aw @ coef.T
-    rss = np.einsum("ij,ij->j", resid, resid)
+    coef = ((vt.T / s) @ (u.T @ yw.T)).T
+    resid = yw - coef @ aw.T
+    rss = np.einsum("ij,ij->i", resid, resid)
     ginv = (vt.T / s**2) @ vt
     return coef, rss, ginv
 
