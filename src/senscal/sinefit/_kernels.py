@@ -1,10 +1,12 @@
 """Compiled kernels for the uniform-time, unweighted fast path of the sine fit.
 
-The basis is generated once by a rotation recurrence (re-anchored with exact
-sin/cos every block, so rounding cannot accumulate) and the projections
-``A^T y`` and ``sum(y^2)`` of every channel are taken in one streaming pass
-over the data, blocked so the basis block stays in cache while all channels
-of a thread read it.
+The projections ``A^T y`` and ``sum(y^2)`` of every channel are taken in one
+streaming pass over the data.  For the fundamental the sin/cos basis is never
+stored: each block of ``_TEMPLATE`` samples is the template
+``sin(k w dt), cos(k w dt)`` rotated by the block's exact start angle (one
+sin/cos per block), so the only memory traffic is the data itself and the
+basis is exact to rounding (no accumulated recurrence error).  Harmonics and
+drift use a stored basis from a re-anchored rotation recurrence.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import numpy as np
 
 _ANCHOR = 512   # samples between exact re-anchoring of the recurrence
 _BLOCK = 2048   # samples per cache block in the projection
+_TEMPLATE = 1024  # samples per rotated template block (two 8 KiB tables stay in L1)
 
 
 def _harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
@@ -105,48 +108,86 @@ def residual_ss(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool
     return out
 
 
+@nb.njit(cache=True)
+def _template(w_dt: float):
+    k = np.arange(_TEMPLATE) * w_dt
+    return np.sin(k), np.cos(k)
+
+
 @nb.njit(cache=True, fastmath=True)
-def _row_fundamental(yr, b0, b1, pv):
-    # Scalar accumulators over a contiguous block: LLVM vectorises this loop
-    # (fastmath only lets it re-associate the sums into SIMD lanes).
+def _row_rotated(yr, ts, tc, sa, ca, pv):
+    # b0 = sin(a + k w dt), b1 = cos(a + k w dt) by the angle-sum identities:
+    # independent per sample, so the loop vectorises.
     a0 = 0.0
     a1 = 0.0
     a2 = 0.0
     sq = 0.0
-    for i in range(yr.size):
-        v = yr[i] - pv
-        a0 += v * b0[i]
-        a1 += v * b1[i]
+    for k in range(yr.size):
+        v = yr[k] - pv
+        b0 = sa * tc[k] + ca * ts[k]
+        b1 = ca * tc[k] - sa * ts[k]
+        a0 += v * b0
+        a1 += v * b1
         a2 += v
         sq += v * v
     return a0, a1, a2, sq
 
 
-def _project_fundamental(y: np.ndarray, basis: np.ndarray, pilot: np.ndarray):
-    """:func:`project` specialised to the fundamental with offset (p = 3).
-
-    One streaming pass per channel; block partial sums (``_BLOCK * 8``
-    samples) bound the rounding error of the long sums.
-    """
+def _project_rotated(y: np.ndarray, w_dt: float, tau0_w: float, pilot: np.ndarray):
+    """``A^T (y - pilot)`` and ``sum((y - pilot)^2)`` for the fundamental + offset, basis generated on the fly."""
     nch, n = y.shape
+    ts, tc = _template(w_dt)
     aty = np.zeros((nch, 3))
     yy = np.zeros(nch)
-    blk = _BLOCK * 8
     for c in nb.prange(nch):
         pv = pilot[c]
-        for s in range(0, n, blk):
-            e = min(s + blk, n)
-            a0, a1, a2, sq = _row_fundamental(y[c, s:e], basis[0, s:e], basis[1, s:e], pv)
-            aty[c, 0] += a0
-            aty[c, 1] += a1
-            aty[c, 2] += a2
-            yy[c] += sq
+        for s in range(0, n, _TEMPLATE):
+            e = min(s + _TEMPLATE, n)
+            a = tau0_w + s * w_dt
+            r0, r1, r2, r3 = _row_rotated(y[c, s:e], ts, tc, math.sin(a), math.cos(a), pv)
+            aty[c, 0] += r0
+            aty[c, 1] += r1
+            aty[c, 2] += r2
+            yy[c] += r3
     return aty, yy
+
+
+@nb.njit(cache=True, fastmath=True)
+def gram_rotated(n: int, w_dt: float, tau0_w: float):
+    """Normal matrix of [sin, cos, 1] on the same on-the-fly basis, shape (3, 3)."""
+    ts, tc = _template(w_dt)
+    ss = 0.0
+    sc = 0.0
+    cc = 0.0
+    s1 = 0.0
+    c1 = 0.0
+    for s in range(0, n, _TEMPLATE):
+        e = min(s + _TEMPLATE, n)
+        a = tau0_w + s * w_dt
+        sa = math.sin(a)
+        ca = math.cos(a)
+        for k in range(e - s):
+            b0 = sa * tc[k] + ca * ts[k]
+            b1 = ca * tc[k] - sa * ts[k]
+            ss += b0 * b0
+            sc += b0 * b1
+            cc += b1 * b1
+            s1 += b0
+            c1 += b1
+    g = np.empty((3, 3))
+    g[0, 0] = ss
+    g[0, 1] = g[1, 0] = sc
+    g[1, 1] = cc
+    g[0, 2] = g[2, 0] = s1
+    g[1, 2] = g[2, 1] = c1
+    g[2, 2] = n
+    return g
 
 
 # Threads pay only on large arrays; on small ones (and on a busy machine)
 # the serial build is much faster than waking the thread pool.
-project_fundamental = nb.njit(cache=True, parallel=True)(_project_fundamental)
+project_rotated = nb.njit(cache=True, parallel=True)(_project_rotated)
+project_rotated_serial = nb.njit(cache=True)(_project_rotated)
 project_parallel = nb.njit(cache=True, parallel=True)(_project)
 project_serial = nb.njit(cache=True)(_project)
 harmonic_basis_parallel = nb.njit(cache=True, parallel=True)(_harmonic_basis)
@@ -157,5 +198,4 @@ def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.nda
     """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics, shape (2K, n)."""
     fn = harmonic_basis_parallel if n * harmonics >= PARALLEL_MIN_SAMPLES // 4 else harmonic_basis_serial
     return fn(n, float(w_dt), float(tau0_w), int(harmonics))
-project_fundamental_serial = nb.njit(cache=True)(_project_fundamental)
 PARALLEL_MIN_SAMPLES = 1 << 20

@@ -274,19 +274,24 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
 
     from senscal.sinefit import _kernels as kern
 
-    basis = kern.harmonic_basis(n, w * dt, w * tau0, harmonics)
-    tau = tau0 + np.arange(n) * dt if drift else np.empty(0)
     p = 2 * harmonics + 1 + int(drift)
-    # Normal matrix from the same basis the projections use.
     nb_ = 2 * harmonics
-    gram = np.empty((p, p))
-    gram[:nb_, :nb_] = basis @ basis.T
-    gram[:nb_, nb_] = gram[nb_, :nb_] = basis.sum(axis=1)
-    gram[nb_, nb_] = n
-    if drift:
-        gram[:nb_, nb_ + 1] = gram[nb_ + 1, :nb_] = basis @ tau
-        gram[nb_, nb_ + 1] = gram[nb_ + 1, nb_] = tau.sum()
-        gram[nb_ + 1, nb_ + 1] = tau @ tau
+    rotated = harmonics == 1 and not drift
+    tau = tau0 + np.arange(n) * dt if drift else np.empty(0)
+    if rotated:
+        # Fundamental + offset: the basis is generated inside the pass.
+        basis = None
+        gram = kern.gram_rotated(n, w * dt, w * tau0)
+    else:
+        basis = kern.harmonic_basis(n, w * dt, w * tau0, harmonics)
+        gram = np.empty((p, p))
+        gram[:nb_, :nb_] = basis @ basis.T
+        gram[:nb_, nb_] = gram[nb_, :nb_] = basis.sum(axis=1)
+        gram[nb_, nb_] = n
+        if drift:
+            gram[:nb_, nb_ + 1] = gram[nb_ + 1, :nb_] = basis @ tau
+            gram[nb_, nb_ + 1] = gram[nb_ + 1, nb_] = tau.sum()
+            gram[nb_ + 1, nb_ + 1] = tau @ tau
     # Scale to unit diagonal so the condition number means something.
     sc = 1.0 / np.sqrt(np.diag(gram))
     gs = gram * sc[:, None] * sc[None, :]
@@ -299,8 +304,8 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
     pilot = y2[:, 0].copy()
     yc = np.ascontiguousarray(y2)
     big = yc.size >= kern.PARALLEL_MIN_SAMPLES and yc.shape[0] > 1
-    if harmonics == 1 and not drift:
-        aty, yy = (kern.project_fundamental if big else kern.project_fundamental_serial)(yc, basis, pilot)
+    if rotated:
+        aty, yy = (kern.project_rotated if big else kern.project_rotated_serial)(yc, w * dt, w * tau0, pilot)
     else:
         proj = kern.project_parallel if big else kern.project_serial
         aty, yy = proj(yc, basis, tau, drift, pilot, int(nb.get_num_threads()) if big else 1)
@@ -314,6 +319,8 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
     coef[:, 2 * harmonics] += pilot
     redo = np.flatnonzero(rss < 1e-9 * np.maximum(yy, 1e-300))
     if redo.size:
+        if basis is None:
+            basis = kern.harmonic_basis(n, w * dt, w * tau0, harmonics)
         rss[redo] = kern.residual_ss(yc, basis, tau, drift, coef, redo)
     rss = np.maximum(rss, 0.0)
     ginv = scipy.linalg.cho_solve(cho, np.eye(p)) * sc[:, None] * sc[None, :]
