@@ -17,7 +17,7 @@ from senscal.kalman import fixed_lag_smoother, kalman_filter, rts_smoother
 __all__ = ["DriftResult", "correct_drift", "DEFAULT_FALSE_ALARM_RATE"]
 
 #: Default false-alarm rate of the drift-onset detector [alarms per hour per channel].
-DEFAULT_FALSE_ALARM_RATE = 1e-3
+DEFAULT_FALSE_ALARM_RATE = 1e-4
 
 
 @dataclass(frozen=True)
