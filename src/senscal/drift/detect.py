@@ -12,6 +12,7 @@ the Brook-Evans Markov-chain method rather than an asymptotic formula.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numba as nb
 import numpy as np
@@ -24,7 +25,7 @@ from senscal.errors import InputError
 __all__ = ["CusumResult", "cusum_arl", "cusum_threshold", "cusum"]
 
 
-def cusum_arl(h: float, k: float, shift: float = 0.0, *, n_states: int = 300) -> float:
+def cusum_arl(h: float, k: float, shift: float = 0.0, *, n_states: int = 200) -> float:
     """Average run length of a one-sided CUSUM on N(shift, 1) samples [samples].
 
     Brook & Evans (1972): the statistic discretised into ``n_states``
@@ -58,7 +59,13 @@ def cusum_threshold(arl0: float, k: float = 0.5) -> float:
     """Threshold h of a two-sided CUSUM with in-control ARL ``arl0`` [samples].
 
     Two one-sided charts that alarm independently: ``1/ARL = 2/ARL_one``.
+    Solved to 1e-4 relative in ARL (cached: detection reruns it often).
     """
+    return _threshold(float(f"{float(arl0):.6g}"), float(k))
+
+
+@lru_cache(maxsize=256)
+def _threshold(arl0: float, k: float) -> float:
     if not arl0 > 2.0:
         raise InputError(f"the in-control run length must exceed 2 samples (false-alarm rate too high), got {arl0:.3g}")
     target = 2.0 * arl0
@@ -68,7 +75,7 @@ def cusum_threshold(arl0: float, k: float = 0.5) -> float:
         hi *= 2.0
         if hi > 1e3:
             raise InputError(f"false-alarm rate too small to reach (run length {arl0:.3g} samples)")
-    return float(brentq(f, 1e-6, hi, xtol=1e-6))
+    return float(brentq(f, 1e-6, hi, xtol=1e-5, rtol=1e-5))
 
 
 @nb.njit(cache=True)
