@@ -53,3 +53,23 @@ def test_bad_rates():
         cusum_threshold(1.0)
     with pytest.raises(InputError):
         cusum(np.zeros(10), 100.0, k=0.0)
+
+
+def test_channel_residuals_remove_common_mode_and_are_standard_normal():
+    from senscal.drift.core import channel_residuals
+
+    rng = np.random.default_rng(33)
+    m, T = 3, 20000
+    A = rng.normal(size=(m, m))
+    S = A @ A.T + np.eye(m)
+    Hs = np.ones((m, 1))
+    v = np.linalg.cholesky(S) @ rng.standard_normal((m, T))
+    Sc = np.repeat(S[:, :, None], T, axis=2)
+    z = channel_residuals(v, Sc, Hs)
+    # Unit variance within 4 sd of the sample variance of T normals.
+    assert np.all(np.abs(z.var(axis=1) - 1) < 4 * np.sqrt(2 / T))
+    shifted = channel_residuals(v + 5.0, Sc, Hs)  # a common shift (signal misfit) is invisible
+    assert np.allclose(shifted, z, atol=1e-9)
+    one = v.copy()
+    one[1] += 5.0  # a single channel's shift is not
+    assert channel_residuals(one, Sc, Hs)[1].mean() > 1.0

@@ -140,13 +140,63 @@ def _starting_levels(setup: DriftSetup, y: np.ndarray, dt: float, duration: floa
     return start
 
 
+def channel_residuals(innovation: np.ndarray, innovation_cov: np.ndarray, H_signal: np.ndarray) -> np.ndarray:
+    """Standardised innovations with the common (signal) part removed.
+
+    With redundant sensors, a misfit of the signal model (a smooth trend
+    that a random walk follows with a lag) shifts every channel's innovation
+    alike; a channel's own drift does not.  Removing the generalised
+    least-squares fit of the signal directions ``H_s`` leaves the parity
+    residual ``r = v - H_s (H_s' S^-1 H_s)^-1 H_s' S^-1 v`` with covariance
+    ``S - H_s (H_s' S^-1 H_s)^-1 H_s'``; each component is divided by its
+    standard deviation.  Without redundancy (as many channels as signal
+    states) the plain standardised innovation is returned.
+
+    Parameters
+    ----------
+    innovation : ndarray, (m, T)
+    innovation_cov : ndarray, (m, m, T)
+    H_signal : ndarray, (m, ns)
+
+    Returns
+    -------
+    ndarray, (m, T)
+        N(0, 1) per component under the model; NaN where a measurement is
+        missing or the component carries no channel-specific information.
+
+    References
+    ----------
+    J. E. Potter, M. C. Suman, "Thresholdless redundancy management with
+    arrays of skewed instruments", AGARDograph 224 (1977) (parity space).
+    """
+    v = np.moveaxis(innovation, -1, 0)
+    S = np.moveaxis(innovation_cov, -1, 0)
+    m, ns = H_signal.shape
+    sd = np.sqrt(np.diagonal(S, axis1=1, axis2=2))
+    if np.linalg.matrix_rank(H_signal) >= m:
+        return (v / sd).T
+    ok = ~np.isnan(v).any(axis=1)
+    z = np.full(v.shape, np.nan)
+    Si = np.linalg.inv(S[ok])
+    A = np.einsum("ia,tij,jb->tab", H_signal, Si, H_signal)
+    G = np.einsum("ia,tab,jb->tij", H_signal, np.linalg.inv(A), H_signal)
+    r = v[ok] - np.einsum("tij,tjk,tk->ti", G, Si, v[ok])
+    var = np.diagonal(S[ok] - G, axis1=1, axis2=2)
+    scale = np.diagonal(S[ok], axis1=1, axis2=2)
+    good = var > 1e-9 * scale
+    zz = np.where(good, r / np.sqrt(np.where(good, var, 1.0)), np.nan)
+    z[ok] = zz
+    return z.T
+
+
 def _detect(build, setup: DriftSetup, levels: Mapping[str, float], yy: np.ndarray, rows: list[int], dt: float,
             false_alarm_rate: float, detect_shift: float):
-    """CUSUM drift onsets on the no-drift model's standardised innovations.
+    """CUSUM drift onsets on the no-drift model's channel residuals.
 
     Under the no-drift hypothesis every bias is constant (zero process
-    noise).  A drifting channel also pulls the shared signal estimate and
-    so leaks into the others' innovations; once a channel alarms, its
+    noise).  The residuals are the standardised innovations with the common
+    signal part removed (:func:`channel_residuals`).  A drifting channel
+    still leaks into the others' residuals; once a channel alarms, its
     biases are freed (their estimated levels) and the remaining channels are
     tested again, until no new channel alarms (isolation of the faulty
     sensor).
@@ -156,13 +206,15 @@ def _detect(build, setup: DriftSetup, levels: Mapping[str, float], yy: np.ndarra
     onset = {c: -1 for c in chans}
     alarm = {c: -1 for c in chans}
     free: set[str] = set()
+    ns = setup.signal.n_states
     det = None
     for _ in range(len(rows)):
         lv = dict(levels)
         lv.update({b.level_name: 0.0 for b in setup.biases if b.channel not in free})
-        nres = kalman_filter(build(lv), yy)
-        S = np.diagonal(nres.innovation_cov, axis1=0, axis2=1).T  # (m, T)
-        z = nres.innovation / np.sqrt(S)
+        model = build(lv)
+        nres = kalman_filter(model, yy)
+        Hs = (model.H if model.H.ndim == 2 else model.H[0])[:, :ns]
+        z = channel_residuals(nres.innovation, nres.innovation_cov, Hs)
         test = [i for i, c in enumerate(chans) if c not in free]
         det = cusum(z[[rows[i] for i in test]], arl0, k=0.5 * detect_shift)
         hit = [(det.alarm[j], test[j], det.onset[j]) for j in range(len(test)) if det.alarm[j] >= 0]
