@@ -488,19 +488,20 @@ def check_observable(setup: DriftSetup, dt: np.ndarray, covariates: Mapping[str,
     Phi = np.eye(n)
     Ft = model._F
     Ht = model._H
-    j = 0
-    for t in range(T):
-        if t > 0:
-            Phi = (Ft[0] if Ft.shape[0] == 1 else Ft[t]) @ Phi
-            nrm = np.abs(Phi).max()
-            if not np.isfinite(nrm) or nrm > 1e150:
-                break
-        if j < pick.size and pick[j] == t:
-            Hp = (Ht[0] if Ht.shape[0] == 1 else Ht[t]) @ Phi
-            W += Hp.T @ Hp
-            j += 1
-        if j >= pick.size:
+    prev = 0
+    for t in pick:
+        if Ft.shape[0] == 1:
+            # Time-invariant transition: jump between the picked samples.
+            Phi = np.linalg.matrix_power(Ft[0], int(t - prev)) @ Phi
+        else:
+            for s in range(prev + 1, t + 1):
+                Phi = Ft[s] @ Phi
+        prev = t
+        nrm = np.abs(Phi).max()
+        if not np.isfinite(nrm) or nrm > 1e150:
             break
+        Hp = (Ht[0] if Ht.shape[0] == 1 else Ht[t]) @ Phi
+        W += Hp.T @ Hp
     d = np.sqrt(np.diag(W))
     names = setup.state_names
     dead = [names[i] for i in range(n) if d[i] == 0]

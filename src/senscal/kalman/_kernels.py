@@ -301,27 +301,103 @@ def _steady(F, B, H, K, L, P, x, y, u, t0, store, xf, Pf, xp_out, Pp_out, v_out,
 
 @nb.njit(cache=True)
 def smoother_gains(F, Pf, Pp):
-    """RTS gains C_t = P_t F_{t+1}^T Pp_{t+1}^{-1}, t = 0..T-2 (time-major)."""
+    """RTS gains C_t = P_t F_{t+1}^T Pp_{t+1}^{-1}, t = 0..T-2 (time-major).
+
+    Pp is symmetric positive definite: C^T = Pp^{-1} (F P) by a Cholesky
+    solve on preallocated buffers (LU fallback if rounding broke definiteness).
+    """
     T, n, _ = Pf.shape
     C = np.zeros((T, n, n))
+    L = np.zeros((n, n))
+    FP = np.empty((n, n))
+    X = np.empty((n, n))
     for t in range(T - 1):
         Ft1 = _at(F, t + 1)
-        # Pp symmetric: C^T = Pp^{-1} F P.
-        C[t] = np.linalg.solve(Pp[t + 1], Ft1 @ Pf[t]).T
+        A = Pp[t + 1]
+        Pt = Pf[t]
+        for i in range(n):
+            for j in range(n):
+                acc = 0.0
+                for l in range(n):
+                    acc += Ft1[i, l] * Pt[l, j]
+                FP[i, j] = acc
+        ok = True
+        for i in range(n):
+            for j in range(i + 1):
+                acc = A[i, j]
+                for l in range(j):
+                    acc -= L[i, l] * L[j, l]
+                if i == j:
+                    if not acc > 0.0:
+                        ok = False
+                        break
+                    L[i, i] = math.sqrt(acc)
+                else:
+                    L[i, j] = acc / L[j, j]
+            if not ok:
+                break
+        if not ok:
+            C[t] = np.linalg.solve(A, FP).T
+            continue
+        for c in range(n):
+            for i in range(n):
+                acc = FP[i, c]
+                for l in range(i):
+                    acc -= L[i, l] * X[l, c]
+                X[i, c] = acc / L[i, i]
+            for i in range(n - 1, -1, -1):
+                acc = X[i, c]
+                for l in range(i + 1, n):
+                    acc -= L[l, i] * X[l, c]
+                X[i, c] = acc / L[i, i]
+        for i in range(n):
+            for j in range(n):
+                C[t, i, j] = X[j, i]
     return C
+
+
+@nb.njit(cache=True)
+def _rts_step(Ct, xf_t, Pf_t, xp_n, Pp_n, x, P, D, CD):
+    """One backward step in place: x <- xf + C (x - xp), P <- Pf + C (P - Pp) C^T."""
+    n = x.shape[0]
+    for i in range(n):
+        D[i, 0] = x[i] - xp_n[i]
+    for i in range(n):
+        acc = xf_t[i]
+        for j in range(n):
+            acc += Ct[i, j] * D[j, 0]
+        x[i] = acc
+    for i in range(n):
+        for j in range(n):
+            D[i, j] = P[i, j] - Pp_n[i, j]
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for l in range(n):
+                acc += Ct[i, l] * D[l, j]
+            CD[i, j] = acc
+    for i in range(n):
+        for j in range(i + 1):
+            acc = Pf_t[i, j]
+            for l in range(n):
+                acc += CD[i, l] * Ct[j, l]
+            P[i, j] = acc
+            P[j, i] = acc
 
 
 @nb.njit(cache=True)
 def rts_series(C, xf, Pf, xp, Pp, xs, Ps):
     """Rauch-Tung-Striebel backward pass (time-major, in place)."""
-    T = xf.shape[0]
-    xs[T - 1] = xf[T - 1]
-    Ps[T - 1] = Pf[T - 1]
+    T, n = xf.shape
+    x = xf[T - 1].copy()
+    P = Pf[T - 1].copy()
+    D = np.empty((n, n))
+    CD = np.empty((n, n))
+    xs[T - 1] = x
+    Ps[T - 1] = P
     for t in range(T - 2, -1, -1):
-        Ct = C[t]
-        xs[t] = xf[t] + Ct @ (xs[t + 1] - xp[t + 1])
-        P = Pf[t] + Ct @ (Ps[t + 1] - Pp[t + 1]) @ Ct.T
-        _sym(P)
+        _rts_step(C[t], xf[t], Pf[t], xp[t + 1], Pp[t + 1], x, P, D, CD)
+        xs[t] = x
         Ps[t] = P
 
 
@@ -333,14 +409,15 @@ def fixed_lag_series(C, xf, Pf, xp, Pp, lag, xs, Ps):
     not depend on the end point, so each window reuses them.
     """
     T, n = xf.shape
+    x = np.empty(n)
+    P = np.empty((n, n))
+    D = np.empty((n, n))
+    CD = np.empty((n, n))
     for t in range(T):
         end = min(t + lag, T - 1)
-        x = xf[end].copy()
-        P = Pf[end].copy()
+        x[:] = xf[end]
+        P[:, :] = Pf[end]
         for s in range(end - 1, t - 1, -1):
-            Cs = C[s]
-            x = xf[s] + Cs @ (x - xp[s + 1])
-            P = Pf[s] + Cs @ (P - Pp[s + 1]) @ Cs.T
-        _sym(P)
+            _rts_step(C[s], xf[s], Pf[s], xp[s + 1], Pp[s + 1], x, P, D, CD)
         xs[t] = x
         Ps[t] = P
