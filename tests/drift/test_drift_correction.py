@@ -104,14 +104,18 @@ def _model_data(setup, levels, dt, T, rng, cov=None):
     return y, truth
 
 
+def _two_sensors():
+    """Trusted a and drifting b, every level given (no estimation)."""
+    setup = DriftSetup(("a", "b"), SignalModel(level=0.05), (Bias("b", level=0.01),),
+                       noise_std={"a": 0.1, "b": 0.1}, trusted=("a",))
+    return setup, {"signal_rate_std": 0.05, "b_bias_rate_std": 0.01, "a_noise_std": 0.1, "b_noise_std": 0.1}
+
+
 def test_reported_bias_std_matches_monte_carlo_spread():
     rng = np.random.default_rng(21)
-    setup = redundant_setup(["a", "b", "c"], trusted=["a"])
-    setup = DriftSetup(setup.channels, setup.signal, setup.biases,
-                       noise_std={"a": 0.1, "b": 0.1, "c": 0.2}, trusted=setup.trusted)
     levels = {"signal_rate_std": 0.05, "b_bias_rate_std": 0.01, "c_bias_rate_std": 0.02}
-    setup = DriftSetup(setup.channels, SignalModel(level=0.05),
-                       (Bias("b", level=0.01), Bias("c", level=0.02)), setup.noise_std, setup.trusted)
+    setup = DriftSetup(("a", "b", "c"), SignalModel(level=0.05), (Bias("b", level=0.01), Bias("c", level=0.02)),
+                       noise_std={"a": 0.1, "b": 0.1, "c": 0.2}, trusted=("a",))
     M, T = 40, 150
     z2 = []
     for _ in range(M):
@@ -121,17 +125,16 @@ def test_reported_bias_std_matches_monte_carlo_spread():
             i = res.channels.index(name)
             z2.append((res.bias[i, -1] - x[j, -1]) / res.bias_std[i, -1])
     z2 = np.square(z2)
-    # Mean of 2M squared standard normals: 99.9% chi-square interval.
-    lo, hi = chi2.ppf([0.0005, 0.9995], z2.size) / z2.size
+    # Mean of 2M squared standard normals; b and c share the signal error,
+    # so take the 99.9% chi-square interval of M (not 2M) degrees of freedom.
+    lo, hi = chi2.ppf([0.0005, 0.9995], M) / M
     assert lo < z2.mean() < hi
 
 
 def test_window_and_smoother_trade_latency_for_variance():
     rng = np.random.default_rng(22)
-    setup = DriftSetup(("a", "b"), SignalModel(level=0.05), (Bias("b", level=0.01),),
-                       noise_std={"a": 0.1, "b": 0.1}, trusted=("a",))
-    y, x = _model_data(setup, {"signal_rate_std": 0.05, "b_bias_rate_std": 0.01, "a_noise_std": 0.1,
-                               "b_noise_std": 0.1}, 1.0, 400, rng)
+    setup, levels = _two_sensors()
+    y, x = _model_data(setup, levels, 1.0, 400, rng)
     t = np.arange(400.0)
     f = correct_drift(setup, y, t, estimate=False)
     w = correct_drift(setup, y, t, window=20, estimate=False)
@@ -148,10 +151,8 @@ def test_window_and_smoother_trade_latency_for_variance():
 
 def test_missing_samples_are_skipped():
     rng = np.random.default_rng(23)
-    setup = DriftSetup(("a", "b"), SignalModel(level=0.05), (Bias("b", level=0.01),),
-                       noise_std={"a": 0.1, "b": 0.1}, trusted=("a",))
-    y, x = _model_data(setup, {"signal_rate_std": 0.05, "b_bias_rate_std": 0.01, "a_noise_std": 0.1,
-                               "b_noise_std": 0.1}, 1.0, 300, rng)
+    setup, levels = _two_sensors()
+    y, x = _model_data(setup, levels, 1.0, 300, rng)
     y[1, 100:150] = np.nan
     res = correct_drift(setup, y, np.arange(300.0), estimate=False)
     assert np.all(np.isnan(res.corrected[0, 100:150])) and np.all(np.isfinite(res.bias[0]))
@@ -176,8 +177,7 @@ def test_unobservable_redundant_set_is_refused_with_names_and_remedies():
 
 
 def test_bad_inputs_raise_one_line_errors():
-    setup = DriftSetup(("a", "b"), SignalModel(level=0.05), (Bias("b", level=0.01),),
-                       noise_std={"a": 0.1, "b": 0.1}, trusted=("a",))
+    setup, _ = _two_sensors()
     y = np.zeros((2, 50))
     t = np.arange(50.0)
     with pytest.raises(InputError, match="shape"):
