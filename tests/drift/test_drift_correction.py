@@ -64,6 +64,9 @@ def test_ramp_onset_detected_within_stated_delay(scenario):
     assert res.alarm_t["drift"] is not None
     assert t_on < res.alarm_t["drift"] <= t_on + delay
     assert abs(res.onset_t["drift"] - t_on) <= delay
+    # The thermal channel does not drift: an alarm has probability
+    # rate * duration = 1e-4/h * 192 h ~ 2 %.
+    assert res.onset_t["thermal"] is None
 
 
 def test_noise_levels_estimated_with_uncertainties(scenario):
@@ -196,3 +199,38 @@ def test_bad_inputs_raise_one_line_errors():
 
 def test_detector_threshold_monotone_in_false_alarm_rate():
     assert cusum_threshold(1e6) > cusum_threshold(1e4) > cusum_threshold(1e2)
+
+
+def test_channel_order_does_not_matter():
+    rng = np.random.default_rng(24)
+    setup = DriftSetup(("a", "b", "c"), SignalModel(level=0.05), (Bias("b", level=0.01), Bias("c", level=0.02)),
+                       noise_std={"a": 0.1, "b": 0.1, "c": 0.2}, trusted=("a",))
+    y, _ = _model_data(setup, {"signal_rate_std": 0.05, "b_bias_rate_std": 0.01, "c_bias_rate_std": 0.02,
+                               "a_noise_std": 0.1, "b_noise_std": 0.1, "c_noise_std": 0.2}, 1.0, 200, rng)
+    t = np.arange(200.0)
+    perm = DriftSetup(("c", "a", "b"), setup.signal, setup.biases[::-1], setup.noise_std, setup.trusted)
+    r1 = correct_drift(setup, y, t, estimate=False)
+    r2 = correct_drift(perm, y[[2, 0, 1]], t, estimate=False)
+    for c in ("b", "c"):
+        i, j = r1.channels.index(c), r2.channels.index(c)
+        assert np.allclose(r1.bias[i], r2.bias[j], rtol=1e-9, atol=1e-12)
+        assert np.allclose(r1.bias_std[i], r2.bias_std[j], rtol=1e-9, atol=1e-12)
+
+
+def test_gauss_markov_bias_and_signal():
+    rng = np.random.default_rng(25)
+    setup = DriftSetup(("a", "b"), SignalModel(kind="gauss_markov", tau=50.0, level=1.0, mean=5.0),
+                       (Bias("a", dynamics="gauss_markov", tau=400.0, level=0.5),
+                        Bias("b", dynamics="gauss_markov", tau=400.0, level=0.5)),
+                       noise_std={"a": 0.1, "b": 0.1})
+    levels = {"signal_std": 1.0, "a_bias_std": 0.5, "b_bias_std": 0.5, "a_noise_std": 0.1, "b_noise_std": 0.1}
+    # No trusted sensor: the known signal model (mean 5, tau 50 s) makes the biases observable.
+    z = []
+    for _ in range(20):
+        y, x = _model_data(setup, levels, 1.0, 600, rng)
+        y = y + 5.0  # the model: mean 5 plus the Gauss-Markov deviation
+        res = correct_drift(setup, y, np.arange(600.0), estimate=False)
+        z += [(res.bias[i, -1] - x[1 + i, -1]) / res.bias_std[i, -1] for i in range(2)]
+    z2 = np.square(z)
+    lo, hi = chi2.ppf([0.0005, 0.9995], 20) / 20
+    assert lo < z2.mean() < hi
