@@ -12,9 +12,9 @@ import pkgutil
 import sys
 from typing import Sequence
 
-import click
 import typer
 
+from senscal.cli import _clickcompat as cx
 from senscal.cli.app import app, simulate_app
 from senscal.errors import SenscalError
 
@@ -43,11 +43,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     except SenscalError as exc:
         print(f"senscal: error: {exc}", file=sys.stderr)
         sys.exit(exc.exit_code)
-    except click.exceptions.Abort:
+    except cx.Abort:
         print("senscal: aborted", file=sys.stderr)
         sys.exit(130)
-    except click.ClickException as exc:
+    except cx.ClickException as exc:
         exc.show()
+        sys.exit(exc.exit_code)
+    except cx.Exit as exc:
         sys.exit(exc.exit_code)
     except BrokenPipeError:
         sys.exit(0)

@@ -12,6 +12,8 @@ from typing_extensions import Annotated
 
 from senscal.cli.app import app
 from senscal.cli.common import FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, load, print_json, table
+from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted,
+                                       save_if_requested)
 from senscal.sinefit import SineFit, fit_sine
 
 
@@ -52,6 +54,14 @@ def fit_recording(path: Path, *, channels: list[str] | None, freq: float | None,
     return {"file": str(path), "channels": {c: fit_summary(f) for c, f in zip(chans, fits)}}
 
 
+def fit_quantities(doc: dict) -> list:
+    """The registry quantities of a fit: amplitude, phase, offset, frequency per channel."""
+    return [quoted(doc, f"{ch}.{name}", f"channels.{ch}.{key}", f"channels.{ch}.u_{key}", unit)
+            for ch in doc["channels"]
+            for name, key, unit in (("amplitude", "amplitude", ""), ("phase", "phase_deg", "deg"),
+                                    ("offset", "offset", ""), ("frequency", "frequency_hz", "Hz"))]
+
+
 @app.command("fit")
 def fit_cmd(
     file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ).")],
@@ -62,10 +72,19 @@ def fit_cmd(
     fs: FsOpt = None,
     names: NamesOpt = None,
     json_out: JsonOpt = False,
+    save: SaveOpt = False,
+    sensor: SensorOpt = None,
+    db: DbOpt = None,
+    create_sensor: CreateSensorOpt = None,
+    date: DateOpt = None,
+    operator: OperatorOpt = None,
 ) -> None:
     """Least-squares sine fit: amplitude, phase, offset, frequency with uncertainties."""
     doc = fit_recording(file, channels=channel, freq=freq, harmonics=harmonics,
                         time_column=time_column, fs=fs, names=names)
+    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      job="fit", method=f"sine-fit, {harmonics} harmonic(s), frequency {'known' if freq else 'estimated'}",
+                      quantities=lambda: fit_quantities(doc), input_files=[file])
     if json_out:
         print_json(doc)
         return

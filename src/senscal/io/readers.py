@@ -310,11 +310,15 @@ def _read_npz(path: Path, *, names=None, group=None):
 
 # -- writers -----------------------------------------------------------------
 
-def write_recording(rec: Recording, path: str | Path, *, format: str | None = None, time_column: str = "t") -> Path:
+def write_recording(rec: Recording, path: str | Path, *, format: str | None = None, time_column: str = "t",
+                    units_in_header: bool = False) -> Path:
     """Write a recording to CSV, Parquet, HDF5, TDMS or NPZ.
 
     CSV always gets an explicit time column; the binary formats keep ``fs``
-    (and ``t0``) for uniform recordings made from a sample rate.
+    (and ``t0``) for uniform recordings made from a sample rate, and units.
+    With ``units_in_header`` CSV headers read ``name [unit]`` (the reader
+    parses that back); by default they are the bare channel names, which
+    output-file contracts rely on.
 
     Returns
     -------
@@ -330,7 +334,10 @@ def write_recording(rec: Recording, path: str | Path, *, format: str | None = No
     if kind == "csv":
         import pandas as pd
 
-        df = pd.DataFrame({time_column: rec.time, **{n: rec.channels[n] for n in rec.names}})
+        # Units ride in the header as "name [unit]", which the reader parses back.
+        df = pd.DataFrame({time_column: rec.time,
+                           **{(f"{n} [{rec.units[n]}]" if units_in_header and rec.units.get(n) else n): rec.channels[n]
+                              for n in rec.names}})
         df.to_csv(path, index=False, float_format="%.17g")
     elif kind == "parquet":
         import pyarrow as pa

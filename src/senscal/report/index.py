@@ -30,7 +30,7 @@ nav a{margin-right:1em}
 <section id="{{ s.key }}"><h2>{{ s.title }}</h2>
 <p>{{ s.summary }}</p>
 {% if s.rows %}<table><tr><th>quantity</th><th>truth</th><th>estimate</th><th>u (k=1)</th><th>U (k=2)</th><th>unit</th></tr>
-{% for r in s.rows %}<tr><td>{{ r.quantity }}</td><td>{{ fmt(r.truth) }}</td><td>{{ fmt(r.estimate) }}</td><td>{{ fmt(r.uncertainty) }}</td><td>{{ fmt2(r.uncertainty) }}</td><td>{{ r.unit or "" }}</td></tr>
+{% for r in s.rows %}<tr><td>{{ r.quantity }}</td><td>{{ fmt(r.truth) }}</td><td>{{ fmt(r.estimate) }}</td><td>{{ fmtu(r.uncertainty) }}</td><td>{{ fmt2(r.uncertainty) }}</td><td>{{ r.unit or "" }}</td></tr>
 {% endfor %}</table>{% endif %}
 {% for t in s.tables %}<h3>{{ t.title }}</h3><table><tr>{% for c in t.columns %}<th>{{ c }}</th>{% endfor %}</tr>
 {% for row in t.rows %}<tr>{% for v in row %}<td>{{ fmt(v) }}</td>{% endfor %}</tr>{% endfor %}</table>{% endfor %}
@@ -64,7 +64,9 @@ def write_index(sections: Sequence, out: Path, *, seed: int | None = None) -> Pa
         return png_data_uri(p) if p.suffix.lower() == ".png" else rel
 
     text = _TEMPLATE.render(sections=sections, fmt=_fmt,
-                            fmt2=lambda u: _fmt(None if u is None else 2 * float(u)),
+                            # Uncertainties to two significant digits (GUM 7.2.6).
+                            fmtu=lambda u: "-" if u is None else f"{float(u):.2g}",
+                            fmt2=lambda u: "-" if u is None else f"{2 * float(u):.2g}",
                             img=img, seed=seed if seed is not None else "",
                             when=_dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"))
     path = out / "index.html"

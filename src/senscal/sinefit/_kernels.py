@@ -18,8 +18,7 @@ _ANCHOR = 512   # samples between exact re-anchoring of the recurrence
 _BLOCK = 2048   # samples per cache block in the projection
 
 
-@nb.njit(cache=True, parallel=True, fastmath=False)
-def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
+def _harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
     """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics.
 
     Returns an array of shape (2*harmonics, n).
@@ -43,8 +42,7 @@ def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.nda
     return out
 
 
-@nb.njit(cache=True, parallel=True, fastmath=False)
-def project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, pilot: np.ndarray, nthreads: int):
+def _project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, pilot: np.ndarray, nthreads: int):
     """One pass: ``A^T (y - pilot)`` and ``sum((y - pilot)^2)`` per channel.
 
     The design matrix ``A`` has the rows of ``basis``, then a constant row,
@@ -105,3 +103,59 @@ def residual_ss(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool
             acc += part
         out[r] = acc
     return out
+
+
+@nb.njit(cache=True, fastmath=True)
+def _row_fundamental(yr, b0, b1, pv):
+    # Scalar accumulators over a contiguous block: LLVM vectorises this loop
+    # (fastmath only lets it re-associate the sums into SIMD lanes).
+    a0 = 0.0
+    a1 = 0.0
+    a2 = 0.0
+    sq = 0.0
+    for i in range(yr.size):
+        v = yr[i] - pv
+        a0 += v * b0[i]
+        a1 += v * b1[i]
+        a2 += v
+        sq += v * v
+    return a0, a1, a2, sq
+
+
+def _project_fundamental(y: np.ndarray, basis: np.ndarray, pilot: np.ndarray):
+    """:func:`project` specialised to the fundamental with offset (p = 3).
+
+    One streaming pass per channel; block partial sums (``_BLOCK * 8``
+    samples) bound the rounding error of the long sums.
+    """
+    nch, n = y.shape
+    aty = np.zeros((nch, 3))
+    yy = np.zeros(nch)
+    blk = _BLOCK * 8
+    for c in nb.prange(nch):
+        pv = pilot[c]
+        for s in range(0, n, blk):
+            e = min(s + blk, n)
+            a0, a1, a2, sq = _row_fundamental(y[c, s:e], basis[0, s:e], basis[1, s:e], pv)
+            aty[c, 0] += a0
+            aty[c, 1] += a1
+            aty[c, 2] += a2
+            yy[c] += sq
+    return aty, yy
+
+
+# Threads pay only on large arrays; on small ones (and on a busy machine)
+# the serial build is much faster than waking the thread pool.
+project_fundamental = nb.njit(cache=True, parallel=True)(_project_fundamental)
+project_parallel = nb.njit(cache=True, parallel=True)(_project)
+project_serial = nb.njit(cache=True)(_project)
+harmonic_basis_parallel = nb.njit(cache=True, parallel=True)(_harmonic_basis)
+harmonic_basis_serial = nb.njit(cache=True)(_harmonic_basis)
+
+
+def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
+    """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics, shape (2K, n)."""
+    fn = harmonic_basis_parallel if n * harmonics >= PARALLEL_MIN_SAMPLES // 4 else harmonic_basis_serial
+    return fn(n, float(w_dt), float(tau0_w), int(harmonics))
+project_fundamental_serial = nb.njit(cache=True)(_project_fundamental)
+PARALLEL_MIN_SAMPLES = 1 << 20

@@ -196,10 +196,12 @@ def _time_base(n: int, t, fs) -> tuple[np.ndarray | None, float, float, float, b
     return t, 0.5 * (t[0] + t[-1]), dt_mean, float(t[0]), uniform
 
 
-def _check_y(y) -> np.ndarray:
+def _check_y(y, full: bool = True) -> np.ndarray:
     y = np.asarray(y, dtype=np.float64)
     if y.ndim == 0:
         raise InputError("y must hold samples along its last axis")
+    if not full:
+        return y
     bad = ~np.isfinite(y)
     if bad.any():
         idx = np.argwhere(bad)[0]
@@ -225,20 +227,41 @@ def _design(tau: np.ndarray, w: float, harmonics: int, drift: bool) -> np.ndarra
 
 
 def _lstsq_many(a: np.ndarray, y2: np.ndarray, sw: np.ndarray | None):
-    """Weighted LS for many right-hand sides: coefs (C, p), rss (C,), inv normal matrix (p, p)."""
+    """Weighted LS for many right-hand sides: coefs (C, p), rss (C,), inv normal matrix (p, p).
+
+    The normal matrix, scaled to unit diagonal, is Cholesky-factored when it
+    is well conditioned (the centred sin/cos/1 basis nearly always is): one
+    pass over the data instead of an SVD of the N x p matrix.  Residuals are
+    then computed explicitly, so no precision is lost in the residual
+    variance.  Ill-conditioned problems fall back to the SVD.
+    """
     aw = a if sw is None else a * sw[:, None]
-    yw = y2.T if sw is None else y2.T * sw[:, None]
+    # Channels stay rows (contiguous) throughout: (C, N) products are fast.
+    yw = y2 if sw is None else y2 * sw[None, :]
+    gram = aw.T @ aw
+    d = np.sqrt(np.diag(gram))
+    if np.all(d > 0):
+        gs = gram / d[:, None] / d[None, :]
+        ev = np.linalg.eigvalsh(gs)
+        if ev[0] > ev[-1] * 1e-10:
+            cho = scipy.linalg.cho_factor(gs)
+            coef = (scipy.linalg.cho_solve(cho, (yw @ aw).T / d[:, None]) / d[:, None]).T
+            resid = yw - coef @ aw.T
+            rss = np.einsum("ij,ij->i", resid, resid)
+            ginv = scipy.linalg.cho_solve(cho, np.eye(gs.shape[0])) / d[:, None] / d[None, :]
+            return coef, rss, ginv
     u, s, vt = np.linalg.svd(aw, full_matrices=False)
     _check_rank(s)
-    coef = ((vt.T / s) @ (u.T @ yw)).T
-    resid = yw - aw @ coef.T
-    rss = np.einsum("ij,ij->j", resid, resid)
+    coef = ((vt.T / s) @ (u.T @ yw.T)).T
+    resid = yw - coef @ aw.T
+    rss = np.einsum("ij,ij->i", resid, resid)
     ginv = (vt.T / s**2) @ vt
     return coef, rss, ginv
 
 
 def _check_rank(s: np.ndarray) -> None:
-    if s[-1] <= s[0] * 1e-10:
+    # Beyond a condition number of 1e8 the parameters lose half their digits.
+    if not s[-1] > s[0] * 1e-8:
         raise DataError(
             "the record is too short (or the frequency too low) to tell the sine from the offset/drift: "
             "the fit matrix is singular; record at least one full period"
@@ -255,22 +278,35 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
     tau = tau0 + np.arange(n) * dt if drift else np.empty(0)
     p = 2 * harmonics + 1 + int(drift)
     # Normal matrix from the same basis the projections use.
-    a_rows = np.empty((p, n))
-    a_rows[: 2 * harmonics] = basis
-    a_rows[2 * harmonics] = 1.0
+    nb_ = 2 * harmonics
+    gram = np.empty((p, p))
+    gram[:nb_, :nb_] = basis @ basis.T
+    gram[:nb_, nb_] = gram[nb_, :nb_] = basis.sum(axis=1)
+    gram[nb_, nb_] = n
     if drift:
-        a_rows[2 * harmonics + 1] = tau
-    gram = a_rows @ a_rows.T
-    del a_rows
+        gram[:nb_, nb_ + 1] = gram[nb_ + 1, :nb_] = basis @ tau
+        gram[nb_, nb_ + 1] = gram[nb_ + 1, nb_] = tau.sum()
+        gram[nb_ + 1, nb_ + 1] = tau @ tau
     # Scale to unit diagonal so the condition number means something.
     sc = 1.0 / np.sqrt(np.diag(gram))
     gs = gram * sc[:, None] * sc[None, :]
     ev = np.linalg.eigvalsh(gs)
     _check_rank(np.sqrt(np.maximum(ev[::-1], 0.0)))
-    cho = scipy.linalg.cho_factor(gs)
+    try:
+        cho = scipy.linalg.cho_factor(gs)
+    except np.linalg.LinAlgError:
+        _check_rank(np.array([1.0, 0.0]))
     pilot = y2[:, 0].copy()
     yc = np.ascontiguousarray(y2)
-    aty, yy = kern.project(yc, basis, tau, drift, pilot, int(nb.get_num_threads()))
+    big = yc.size >= kern.PARALLEL_MIN_SAMPLES and yc.shape[0] > 1
+    if harmonics == 1 and not drift:
+        aty, yy = (kern.project_fundamental if big else kern.project_fundamental_serial)(yc, basis, pilot)
+    else:
+        proj = kern.project_parallel if big else kern.project_serial
+        aty, yy = proj(yc, basis, tau, drift, pilot, int(nb.get_num_threads()) if big else 1)
+    if not (np.all(np.isfinite(aty)) and np.all(np.isfinite(yy))):
+        # NaN/inf poisons the sums: locate it for the message.
+        _check_y(y2, full=True)
     coef = scipy.linalg.cho_solve(cho, (aty * sc).T).T * sc
     rss = yy - np.einsum("ij,ij->i", coef, aty)
     # Cancellation guard: where the residual is a tiny fraction of the signal
@@ -471,7 +507,8 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
     the solution.  Uniform, unweighted batches use a compiled one-pass kernel;
     everything else uses an SVD of the (weighted) design matrix.
     """
-    y = _check_y(y)
+    # The compiled path checks finiteness inside its single pass over y.
+    y = _check_y(y, full=False)
     harmonics = int(harmonics)
     if harmonics < 1:
         raise InputError(f"harmonics must be >= 1, got {harmonics}")
@@ -503,9 +540,14 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
             raise InputError("weights must be finite, non-negative and not all zero")
         sw = np.sqrt(wts)
 
+    fast = freq is not None and sw is None and uniform
+    if not fast:
+        _check_y(y, full=True)
     y2 = y.reshape(-1, n)
     nch = y2.shape[0]
-    tau = (tvec - t_mid) if tvec is not None else (np.arange(n) - 0.5 * (n - 1)) * dt
+    tau0 = float(tvec[0] - t_mid) if tvec is not None else -0.5 * (n - 1) * dt
+    # The compiled path generates its own basis; only the others need tau.
+    tau = None if fast else ((tvec - t_mid) if tvec is not None else (np.arange(n) - 0.5 * (n - 1)) * dt)
     q_names = None
     vals = []
     covs = []
@@ -516,8 +558,8 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
 
     if freq is not None:
         w = TWO_PI * freq
-        if sw is None and uniform:
-            coef, rss, ginv = _fast_uniform(y2, n, dt, float(tau[0]), w, harmonics, drift)
+        if fast:
+            coef, rss, ginv = _fast_uniform(y2, n, dt, tau0, w, harmonics, drift)
             coef_all = coef
             ginv_all = [ginv] * nch
         elif per_channel_w:

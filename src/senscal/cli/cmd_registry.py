@@ -1,0 +1,294 @@
+"""``senscal registry ...``: sensors, calibration history, drift and due dates."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from typing_extensions import Annotated
+
+from senscal.cli.app import app, simulate_app
+from senscal.cli.common import JsonOpt, console, err_console, parse_relative, print_json, table, write_json
+from senscal.cli.registry_opts import CreateSensorOpt, DbOpt, OperatorOpt
+from senscal.errors import FileFormatError, InputError
+
+registry_app = typer.Typer(
+    help="Sensor registry: calibration history, drift between calibrations, due dates.",
+    no_args_is_help=True,
+)
+app.add_typer(registry_app, name="registry")
+
+SerialArg = Annotated[str, typer.Argument(help="Sensor serial number.")]
+
+
+def _open(db: str | None):
+    from senscal.registry import open_registry
+
+    return open_registry(db)
+
+
+def _parse_nominal(items: list[str] | None) -> dict:
+    """``NAME=VALUE [UNIT]`` items into ``{name: {"value", "unit"}}``."""
+    out = {}
+    for item in items or []:
+        name, sep, rest = item.partition("=")
+        parts = rest.split(None, 1)
+        try:
+            if not sep or not name.strip() or not parts:
+                raise ValueError
+            value = float(parts[0])
+        except ValueError:
+            raise InputError(f"--nominal must look like NAME=VALUE [UNIT], e.g. 'sensitivity=0.01 V/(m/s^2)', "
+                             f"got {item!r}") from None
+        out[name.strip()] = {"value": value, "unit": parts[1].strip() if len(parts) > 1 else ""}
+    return out
+
+
+@registry_app.command("sensors")
+def sensors_cmd(db: DbOpt = None, json_out: JsonOpt = False) -> None:
+    """List the registered sensors and their number of calibration records."""
+    with _open(db) as reg:
+        sens = reg.sensors()
+        counts = reg.counts()
+        url = reg.url
+    if json_out:
+        print_json({"database": url, "sensors": [dict(s.to_dict(), n_calibrations=counts.get(s.serial, 0))
+                                                 for s in sens]})
+        return
+    rows = [[s.serial, s.kind, s.model or "", s.manufacturer or "", str(counts.get(s.serial, 0)), s.notes or ""]
+            for s in sens]
+    console.print(table(f"Sensors in {url}", ["serial", "kind", "model", "manufacturer", "records", "notes"], rows))
+
+
+@registry_app.command("add")
+def add_cmd(
+    serial: SerialArg,
+    kind: Annotated[str, typer.Option("--kind", help="accelerometer, velocity sensor, magnetometer, ...")],
+    model: Annotated[Optional[str], typer.Option("--model", help="Model designation.")] = None,
+    manufacturer: Annotated[Optional[str], typer.Option("--manufacturer", help="Manufacturer.")] = None,
+    nominal: Annotated[Optional[List[str]], typer.Option(
+        "--nominal", help="Nominal value NAME=VALUE [UNIT] (repeatable), e.g. 'sensitivity=0.01 V/(m/s^2)'.")] = None,
+    notes: Annotated[Optional[str], typer.Option("--notes", help="Free text.")] = None,
+    db: DbOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Register a sensor (serials are unique)."""
+    nom = _parse_nominal(nominal)
+    with _open(db) as reg:
+        s = reg.add_sensor(serial, kind, model=model, manufacturer=manufacturer, nominal=nom, notes=notes)
+        url = reg.url
+    if json_out:
+        print_json(s.to_dict())
+    else:
+        console.print(f"registered {s.kind} {s.serial} in {url}")
+
+
+@registry_app.command("record")
+def record_cmd(
+    serial: SerialArg,
+    quantity: Annotated[str, typer.Option("--quantity", help="Quantity name, e.g. sensitivity or sensitivity@160Hz.")],
+    value: Annotated[float, typer.Option("--value", help="Calibrated value.")],
+    uncertainty: Annotated[float, typer.Option(
+        "--uncertainty", help="Uncertainty as quoted on the certificate (expanded with --k; standard if k=1).")],
+    unit: Annotated[str, typer.Option("--unit", help="Unit of the value, e.g. 'mV/(m/s^2)'.")],
+    date: Annotated[str, typer.Option("--date", metavar="ISO", help="Calibration date (ISO 8601; no offset = UTC).")],
+    k: Annotated[float, typer.Option("--k", help="Coverage factor of --uncertainty (certificates usually quote k=2).")] = 1.0,
+    note: Annotated[Optional[str], typer.Option("--note", help="Free text (certificate number, lab, ...).")] = None,
+    certificate: Annotated[Optional[str], typer.Option("--certificate", help="Certificate file or reference.")] = None,
+    supersedes: Annotated[Optional[str], typer.Option(
+        "--supersedes", metavar="ID", help="Id of a record this one corrects (records are never edited).")] = None,
+    operator: OperatorOpt = None,
+    create_sensor: CreateSensorOpt = None,
+    db: DbOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Enter a calibration done elsewhere (e.g. an old paper certificate)."""
+    from senscal.registry import Quantity
+
+    if not k > 0:
+        raise InputError(f"--k must be positive, got {k}")
+    q = Quantity(quantity, value, uncertainty / k, unit, k)
+    with _open(db) as reg:
+        rec = reg.record(serial, [q], performed_at=_date(date), job="manual", method="external certificate",
+                         certificate=certificate, note=note, supersedes=supersedes, operator=operator,
+                         create_kind=create_sensor)
+        url = reg.url
+    if json_out:
+        print_json(rec.to_dict())
+    else:
+        console.print(f"recorded {quantity} = {value:.6g} ± {2 * q.uncertainty:.2g} {unit} (k=2) for {serial} "
+                      f"on {rec.performed_at.isoformat()} as {rec.uid[:8]} in {url}")
+
+
+def _date(text: str):
+    from senscal.registry import parse_date
+
+    return parse_date(text)
+
+
+@registry_app.command("history")
+def history_cmd(
+    serial: SerialArg,
+    quantity: Annotated[Optional[str], typer.Option("--quantity", help="Only this quantity.")] = None,
+    plot: Annotated[Optional[Path], typer.Option("--plot", metavar="FILE.png", help="Plot with uncertainty bars.")] = None,
+    all_records: Annotated[bool, typer.Option("--all", help="Include superseded records.")] = False,
+    db: DbOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """A sensor's calibration history (table, JSON, plot)."""
+    with _open(db) as reg:
+        points = reg.history(serial, quantity, include_superseded=all_records)
+        report = None
+        if plot is not None and quantity is not None and sum(p.superseded_by is None for p in points) >= 2:
+            report = reg.drift(serial, quantity)
+    if plot is not None:
+        if not points:
+            raise InputError(f"sensor {serial!r} has no calibration records to plot")
+        from senscal.registry.plot import plot_history
+
+        plot_history(points, plot, report=report, title=f"{serial}: calibration history")
+        err_console.print(f"plot written to {plot}")
+    if json_out:
+        print_json({"serial": serial, "records": [p.to_dict() for p in points]})
+        return
+    # Midnight means "a date" (paper certificates): show the time only when there is one.
+    rows = [[p.date[:10] if p.date[11:19] == "00:00:00" else p.date[:16].replace("T", " ")]
+            + ([] if quantity else [p.quantity])
+            + [p.value, 2 * p.uncertainty, p.unit, p.uid[:8], p.job,
+               ("superseded by " + p.superseded_by[:8]) if p.superseded_by else (p.note or "")] for p in points]
+    title = f"Calibration history of {serial}" + (f" {quantity}" if quantity else "")
+    console.print(table(f"{title}  (U = expanded uncertainty, k=2)",
+                        ["date"] + ([] if quantity else ["quantity"]) + ["value", "U", "unit", "id", "job", "note"],
+                        rows))
+
+
+@registry_app.command("due")
+def due_cmd(
+    serial: SerialArg,
+    quantity: Annotated[str, typer.Option("--quantity", help="Quantity whose drift decides the due date.")],
+    tolerance: Annotated[str, typer.Option(
+        "--tolerance", help="Allowed deviation, relative: 1% or 0.01 (of --nominal, else of the first record).")],
+    nominal: Annotated[Optional[float], typer.Option("--nominal", help="Reference value (default: first record).")] = None,
+    k: Annotated[float, typer.Option("--k", help="Coverage factor added to the predicted deviation.")] = 2.0,
+    plot: Annotated[Optional[Path], typer.Option("--plot", metavar="FILE.png", help="History, drift line, due date.")] = None,
+    db: DbOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Drift per year (weighted line through the history), its significance, and the due date."""
+    tol = parse_relative(tolerance, "--tolerance")
+    if tol == 0:
+        raise InputError("--tolerance must be larger than zero")
+    with _open(db) as reg:
+        rep = reg.drift(serial, quantity, tolerance=tol, nominal=nominal, k=k)
+        points = reg.history(serial, quantity) if plot is not None else []
+    if plot is not None:
+        from senscal.registry.plot import plot_history
+
+        plot_history(points, plot, report=rep, title=f"{serial}: {quantity} drift and due date")
+        err_console.print(f"plot written to {plot}")
+    doc = due_document(rep, tol)
+    if json_out:
+        print_json(doc)
+        return
+    rows = [
+        ["drift per year", f"{rep.drift_per_year:.6g} {rep.unit}/yr", f"{2 * rep.u_drift_per_year:.2g}"],
+        ["relative drift per year", f"{100 * rep.relative_drift_per_year:.4g} %/yr",
+         f"{200 * rep.u_relative_drift_per_year:.2g} %"],
+        ["significant", f"{'yes' if rep.significant else 'no'} (p = {rep.fit.p_value:.3g})", ""],
+        ["Birge ratio", f"{rep.fit.birge_ratio:.3g}" if rep.fit.dof > 0 else "- (2 records)", ""],
+        ["reference", f"{rep.reference:.6g} {rep.unit} ({rep.reference_source})", ""],
+        ["tolerance", f"± {rep.tolerance:.4g} {rep.unit} ({100 * tol:.4g} %)", ""],
+        ["due date", doc["due_date"] or "none within 100 years", ""],
+    ]
+    console.print(table(f"{serial} {quantity}: drift from {rep.fit.n_records} records  (U: k=2)",
+                        ["", "value", "U"], rows))
+    if rep.due is not None and rep.due.overdue:
+        err_console.print(f"[bold red]{serial} is overdue[/]: at the last calibration the deviation plus "
+                          f"{k:g} standard uncertainties already reaches the tolerance")
+
+
+def due_document(rep, tol: float) -> dict:
+    """The JSON of ``registry due`` (CLI contract)."""
+    return {
+        "serial": rep.serial, "quantity": rep.quantity, "unit": rep.unit,
+        "drift_per_year": rep.drift_per_year, "u_drift_per_year": rep.u_drift_per_year,
+        "relative_drift_per_year": rep.relative_drift_per_year,
+        "u_relative_drift_per_year": rep.u_relative_drift_per_year,
+        "significant": rep.significant, "p_value": rep.fit.p_value, "birge_ratio": rep.fit.birge_ratio,
+        "n_records": rep.fit.n_records, "first_date": rep.first_date.isoformat(),
+        "last_date": rep.last_date.isoformat(), "reference": rep.reference, "reference_source": rep.reference_source,
+        "tolerance_relative": tol, "tolerance": rep.tolerance, "k": rep.due.k,
+        "due_date": rep.due_date.isoformat() if rep.due_date is not None else None,
+        "overdue": rep.due.overdue,
+        "deviation_at_due": rep.due.deviation_at_due, "u_deviation_at_due": rep.due.u_deviation_at_due,
+    }
+
+
+@registry_app.command("export")
+def export_cmd(
+    file: Annotated[Path, typer.Argument(help="Output JSON file.")],
+    db: DbOpt = None,
+) -> None:
+    """Write every sensor and record to a JSON file (import reads it back exactly)."""
+    with _open(db) as reg:
+        doc = reg.export()
+        url = reg.url
+    write_json(doc, file)
+    n = sum(len(s["calibrations"]) for s in doc["sensors"])
+    err_console.print(f"exported {len(doc['sensors'])} sensors and {n} records from {url} to {file}")
+
+
+@registry_app.command("import")
+def import_cmd(
+    file: Annotated[Path, typer.Argument(help="JSON file written by 'senscal registry export'.")],
+    db: DbOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Add the sensors and records of an export file (records already present are skipped)."""
+    try:
+        doc = json.loads(Path(file).read_text())
+    except OSError as exc:
+        raise FileFormatError(f"cannot read {file}: {exc.strerror}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise FileFormatError(f"{file} is not valid JSON: {exc}") from None
+    with _open(db) as reg:
+        added = reg.import_(doc)
+        url = reg.url
+    if json_out:
+        print_json(added)
+    else:
+        console.print(f"imported {added['sensors']} sensors and {added['calibrations']} records into {url} "
+                      f"({added['skipped']} already present)")
+
+
+@simulate_app.command("registry")
+def simulate_registry_cmd(
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
+    records: Annotated[int, typer.Option("--records", help="Number of yearly calibrations.")] = 7,
+    drift: Annotated[float, typer.Option("--drift", help="True relative drift per year, e.g. 0.0012 = 0.12 %/yr.")] = 0.0012,
+    u_rel: Annotated[float, typer.Option("--u-rel", help="Relative standard uncertainty of each calibration.")] = 4e-4,
+) -> None:
+    """A calibration history with known drift as a registry export (history.json) and its truth."""
+    from senscal.registry import Quantity, open_registry
+    from senscal.simulate.common import write_truth
+    from senscal.simulate.registry import simulate_calibration_history
+
+    if records < 1 or u_rel <= 0:
+        raise InputError("--records must be at least 1 and --u-rel positive")
+    value = 0.0100
+    recs, truth = simulate_calibration_history(n_records=records, value=value, drift_per_year=drift * value,
+                                               u_rel=u_rel, seed=seed)
+    # Written through an in-memory registry, so the file is exactly what 'registry export' produces.
+    with open_registry("sqlite://") as reg:
+        reg.add_sensor("SIM-001", "accelerometer", model="simulated",
+                       nominal={"sensitivity": {"value": value, "unit": "V/(m/s^2)"}})
+        for r in recs:
+            reg.record("SIM-001", [Quantity("sensitivity", r["value"], r["uncertainty"], "V/(m/s^2)", 2.0)],
+                       performed_at=r["date"], method="simulated certificate", operator="simulator")
+        doc = reg.export()
+    p = write_json(doc, out / "history.json")
+    q = write_truth(truth, out / "history_truth.json")
+    console.print(f"wrote {p} and {q}; try: senscal registry import {p}")

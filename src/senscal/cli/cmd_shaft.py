@@ -1,0 +1,278 @@
+"""``senscal shaft calibrate|compensate`` and ``senscal simulate shaft``."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from typing_extensions import Annotated
+
+from senscal.cli.app import app, simulate_app
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, print_json,
+                                progress_bar, table)
+from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted,
+                                       save_if_requested)
+from senscal.errors import DiagnosticError, InputError
+
+shaft_app = typer.Typer(help="Rotating shaft: gravity identification and compensation (angular acceleration "
+                             "from one tangential accelerometer).", no_args_is_help=True)
+app.add_typer(shaft_app, name="shaft")
+
+AngleOpt = Annotated[str, typer.Option("--angle", help="Encoder angle channel.")]
+AccelOpt = Annotated[str, typer.Option("--accel", help="Accelerometer channel (tangential).")]
+AngleUnitOpt = Annotated[Optional[str], typer.Option(
+    "--angle-unit", help="deg or rad; default: the channel's unit in the file, else rad.")]
+WindowOpt = Annotated[Optional[float], typer.Option(
+    "--window", help="Savitzky-Golay window of the encoder derivatives, s.")]
+PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Before/after compensation against angle (PNG).")]
+StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 3 when the data raise a warning.")]
+
+_UNIT_WORDS = {"deg": "deg", "degree": "deg", "degrees": "deg", "°": "deg", "rad": "rad", "radian": "rad",
+               "radians": "rad"}
+
+
+def angle_unit_of(rec, name: str, given: str | None) -> str:
+    """The angle unit: as given, else from the file, else rad; conflicts are errors."""
+    in_file = _UNIT_WORDS.get(rec.unit(name).strip().lower()) if rec.unit(name) else None
+    if given is None:
+        return in_file or "rad"
+    g = given.strip().lower()
+    if g not in ("deg", "rad"):
+        raise InputError(f"--angle-unit must be deg or rad, got {given!r}")
+    if in_file and in_file != g:
+        raise InputError(f"--angle-unit {g} contradicts the file, which says channel '{name}' is in {in_file}; "
+                         "drop --angle-unit or fix the file")
+    return g
+
+
+def _warn(warnings) -> None:
+    for w in warnings:
+        err_console.print(f"[yellow]warning:[/yellow] {w}")
+
+
+def _strict(warnings, strict: bool) -> None:
+    if strict and warnings:
+        raise DiagnosticError(f"{len(warnings)} warning(s) with --strict: {warnings[0]}")
+
+
+def calibration_summary(model) -> dict:
+    """The JSON fields of ``senscal shaft calibrate`` (CLI contract)."""
+    d = {
+        "amplitude": model.amplitude, "u_amplitude": model.u_amplitude,
+        "phase_deg": math.degrees(model.phase), "u_phase_deg": math.degrees(model.u_phase),
+        "offset": model.offset, "u_offset": model.u_offset, "residual_rms": model.residual_rms,
+        "tilt_deg": math.degrees(model.tilt), "u_tilt_deg": math.degrees(model.u_tilt),
+        "revolutions": model.revolutions,
+        "bias": model.bias, "u_bias": model.u_bias, "noise": model.noise,
+        "sensitivity": model.sensitivity, "output_unit": model.output_unit,
+        "mean_speed_rps": model.mean_speed / (2 * math.pi), "speed_variation": model.speed_variation,
+        "angular_acceleration_rms": model.angular_acceleration_rms,
+        "ripple_correction": model.ripple_correction, "ripple_coefficient": model.ripple_coefficient,
+        "u_ripple_coefficient": model.u_ripple_coefficient, "ripple_leak": model.ripple_leak,
+        "n_samples": model.n_samples, "window_s": model.window, "warnings": list(model.warnings),
+    }
+    return d
+
+
+@shaft_app.command("calibrate")
+def calibrate_cmd(
+    file: Annotated[Path, typer.Argument(help="Constant-speed run: encoder angle and accelerometer.")],
+    angle: AngleOpt,
+    accel: AccelOpt,
+    angle_unit: AngleUnitOpt = None,
+    sensitivity: Annotated[float, typer.Option("--sensitivity", help="Output per m/s^2 (1: output in m/s^2).")] = 1.0,
+    u_sensitivity: Annotated[float, typer.Option("--u-sensitivity", help="Standard uncertainty of --sensitivity.")] = 0.0,
+    radius: Annotated[Optional[float], typer.Option(
+        "--radius", help="Sensor radius (m): subtract S*r*alpha_encoder before the fit (ripple locked to the turn).")] = None,
+    ripple_correction: Annotated[bool, typer.Option(
+        "--ripple-correction/--no-ripple-correction",
+        help="Estimate the response to encoder angular acceleration with the fit (off: the paper's plain fit).")] = True,
+    g: Annotated[float, typer.Option("--g", help="Local gravity, m/s^2.")] = 9.80665,
+    window: WindowOpt = None,
+    max_speed_variation: Annotated[str, typer.Option(
+        "--max-speed-variation", help="Warn above this speed std/mean (e.g. 10% or 0.1).")] = "10%",
+    out: Annotated[Optional[Path], typer.Option("--out", help="Write the model (JSON) for 'shaft compensate'.")] = None,
+    plot: PlotOpt = None,
+    strict: StrictOpt = False,
+    time_column: TimeColumnOpt = "t",
+    fs: FsOpt = None,
+    names: NamesOpt = None,
+    json_out: JsonOpt = False,
+    save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None,
+) -> None:
+    """Identify the gravity sinusoid against the encoder angle: amplitude, phase, offset, tilt, bias."""
+    from senscal.cli.common import parse_relative
+    from senscal.shaft import calibrate_gravity
+
+    rec = load(file, time_column=time_column, fs=fs, names=names, channels=[angle, accel])
+    unit = angle_unit_of(rec, angle, angle_unit)
+    with progress_bar("gravity fit against the encoder angle", None):
+        model = calibrate_gravity(
+            rec[accel], rec[angle], rec.time, angle_unit=unit, sensitivity=sensitivity, u_sensitivity=u_sensitivity,
+            output_unit=rec.unit(accel), radius=radius, ripple_correction=ripple_correction, g=g,
+            window=0.1 if window is None else window,
+            max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"), source=str(file))
+    doc = calibration_summary(model)
+    if out is not None:
+        doc["model"] = str(model.save(out))
+    if plot is not None:
+        from senscal.shaft.angle import angle_to_rad
+        from senscal.shaft.plotting import plot_compensation
+
+        th = angle_to_rad(rec[angle], unit)
+        a = rec[accel]
+        doc["plot"] = str(plot_compensation(plot, model, th, a, (a - model.gravity(th)) / sensitivity,
+                                            unit=rec.unit(accel), title=f"gravity calibration: {file.name}"))
+    _warn(model.warnings)
+    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      job="shaft", method="gravity sine fit against the encoder angle (Yang et al. 2014)",
+                      quantities=lambda: [quoted(doc, "gravity_amplitude", "amplitude", "u_amplitude", model.output_unit),
+                                          quoted(doc, "bias", "offset", "u_offset", model.output_unit)],
+                      input_files=[file])
+    if json_out:
+        print_json(doc)
+    else:
+        rows = [["amplitude", model.amplitude, 2 * model.u_amplitude, model.output_unit],
+                ["phase (deg)", doc["phase_deg"], 2 * doc["u_phase_deg"], "deg"],
+                ["offset", model.offset, 2 * model.u_offset, model.output_unit],
+                ["tilt from horizontal (deg)", doc["tilt_deg"], 2 * doc["u_tilt_deg"], "deg"],
+                ["bias (m/s^2)", model.bias, 2 * model.u_bias, "m/s^2"],
+                ["residual RMS", model.residual_rms, None, model.output_unit],
+                ["revolutions", model.revolutions, None, ""],
+                ["speed (rev/s)", doc["mean_speed_rps"], None, f"varies {100 * model.speed_variation:.2g}%"],
+                [f"ripple leak ({model.ripple_correction})", model.ripple_leak, None,
+                 "removed" if model.ripple_correction != "none" else "left in the fit"]]
+        console.print(table(f"Gravity calibration of {file}  (U = expanded uncertainty, k=2)",
+                            ["quantity", "value", "U (k=2)", "unit"], rows))
+        for k in ("model", "plot"):
+            if k in doc:
+                console.print(f"wrote {doc[k]}")
+    _strict(model.warnings, strict)
+
+
+@shaft_app.command("compensate")
+def compensate_cmd(
+    file: Annotated[Path, typer.Argument(help="Any run: encoder angle and accelerometer.")],
+    model_path: Annotated[Path, typer.Option("--model", help="MODEL.json from 'shaft calibrate --out'.")],
+    angle: AngleOpt,
+    accel: AccelOpt,
+    radius: Annotated[float, typer.Option("--radius", help="Sensor distance from the axis, m.")],
+    angle_unit: AngleUnitOpt = None,
+    window: WindowOpt = None,
+    centripetal: Annotated[bool, typer.Option(
+        "--centripetal/--no-centripetal",
+        help="Estimate and remove the centripetal leakage k r (w^2 - w_cal^2) of a misaligned axis.")] = False,
+    out: Annotated[Optional[Path], typer.Option("--out", help="CSV: t, tangential_acceleration, angular_acceleration, "
+                                                             "angular_acceleration_encoder.")] = None,
+    plot: PlotOpt = None,
+    strict: StrictOpt = False,
+    time_column: TimeColumnOpt = "t",
+    fs: FsOpt = None,
+    names: NamesOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Remove gravity at the measured angle: tangential and angular acceleration, checked against the encoder."""
+    from senscal.io import Recording, write_recording
+    from senscal.shaft import load_model
+    from senscal.shaft import compensate
+
+    model = load_model(model_path)
+    rec = load(file, time_column=time_column, fs=fs, names=names, channels=[angle, accel])
+    unit = angle_unit_of(rec, angle, angle_unit)
+    with progress_bar("gravity compensation and encoder check", None):
+        res = compensate(model, rec[accel], rec[angle], rec.time, radius=radius, angle_unit=unit, window=window,
+                         remove_centripetal=centripetal, accel_unit=rec.unit(accel))
+    doc = res.to_dict()
+    doc = {"file": str(file), "model": str(model_path), **doc}
+    if out is not None:
+        if out.resolve() == Path(file).resolve():
+            raise InputError(f"--out {out} would overwrite the input file; choose another name")
+        outrec = Recording(channels={"tangential_acceleration": res.tangential_acceleration,
+                                     "angular_acceleration": res.angular_acceleration,
+                                     "angular_acceleration_encoder": res.angular_acceleration_encoder},
+                           t=res.t, units={"tangential_acceleration": "m/s^2", "angular_acceleration": "rad/s^2",
+                                           "angular_acceleration_encoder": "rad/s^2"})
+        doc["out"] = str(write_recording(outrec, out))
+    if plot is not None:
+        from senscal.shaft.plotting import plot_compensation
+
+        doc["plot"] = str(plot_compensation(
+            plot, model, res.angle, np.asarray(rec[accel]), res.tangential_acceleration, unit=rec.unit(accel),
+            title=f"gravity compensation: {file.name} (r = {radius:g} m)", t=res.t,
+            alphas={"uncompensated (smoothed)": _smoothed(res.uncompensated_angular_acceleration, res),
+                    "compensated (smoothed)": res.angular_acceleration_smoothed,
+                    "encoder (Savitzky-Golay)": res.angular_acceleration_encoder}))
+    _warn(res.warnings)
+    if json_out:
+        print_json(doc)
+    else:
+        rows = [["RMS difference accel vs encoder (smoothed)", res.rms_difference, "rad/s^2"],
+                ["expected from noise", res.expected_rms_difference, "rad/s^2"],
+                ["correlation", res.correlation, ""],
+                ["RMS difference without compensation", res.uncompensated_rms_difference, "rad/s^2"],
+                ["noise floor per sample (noise / S r)", res.noise_floor, "rad/s^2"],
+                ["smoothing window", res.window, "s"]]
+        if res.centripetal_coefficient is not None:
+            rows += [["centripetal leakage k r", res.centripetal_coefficient, "m"],
+                     ["U (k=2)", 2 * res.u_centripetal_coefficient, "m"],
+                     ["axis misalignment", math.degrees(res.misalignment), "deg"],
+                     ["U (k=2)", 2 * math.degrees(res.u_misalignment), "deg"]]
+        console.print(table(f"Gravity compensation of {file}", ["quantity", "value", "unit"], rows))
+        for k in ("out", "plot"):
+            if k in doc:
+                console.print(f"wrote {doc[k]}")
+    _strict(res.warnings, strict)
+
+
+def _smoothed(x, res):
+    from senscal.shaft.angle import smooth
+
+    dt = (res.t[-1] - res.t[0]) / (res.t.size - 1)
+    return smooth(x, int(round(res.window / dt)) | 1)
+
+
+@simulate_app.command("shaft")
+def simulate_shaft_cmd(
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
+    tilt: Annotated[float, typer.Option("--tilt", help="Shaft tilt from horizontal, deg.")] = 20.0,
+    radius: Annotated[float, typer.Option("--radius", help="Sensor radius, m.")] = 0.1,
+    sensitivity: Annotated[float, typer.Option("--sensitivity", help="Output per m/s^2 (1: output in m/s^2).")] = 1.0,
+    bias: Annotated[float, typer.Option("--bias", help="Sensor bias, output unit.")] = 0.05,
+    misalignment: Annotated[float, typer.Option("--misalignment", help="Sensitive axis toward the centre, deg.")] = 0.5,
+    noise: Annotated[float, typer.Option("--noise", help="Output noise standard deviation.")] = 0.02,
+    encoder_counts: Annotated[int, typer.Option("--encoder-counts", help="Encoder counts per revolution.")] = 4096,
+    fs: Annotated[float, typer.Option("--fs", help="Sample rate, Hz.")] = 1000.0,
+    speed: Annotated[float, typer.Option("--speed", help="Calibration speed, rev/s.")] = 1.0,
+    ripple: Annotated[float, typer.Option("--ripple", help="Relative speed ripple of the calibration run.")] = 0.03,
+    ripple_freq: Annotated[float, typer.Option("--ripple-freq", help="Ripple frequency, Hz.")] = 2.7,
+    sync_ripple: Annotated[float, typer.Option("--sync-ripple", help="Relative ripple locked to the turn.")] = 0.0,
+    cal_duration: Annotated[float, typer.Option("--cal-duration", help="Calibration run, s.")] = 20.0,
+    test_speed: Annotated[float, typer.Option("--test-speed", help="Test run mean speed, rev/s.")] = 2.0,
+    modulation: Annotated[float, typer.Option("--modulation", help="Test run relative speed modulation.")] = 0.5,
+    modulation_freq: Annotated[float, typer.Option("--modulation-freq", help="Its frequency, Hz.")] = 0.5,
+    test_duration: Annotated[float, typer.Option("--test-duration", help="Test run, s.")] = 10.0,
+    wrap: Annotated[bool, typer.Option("--wrap/--no-wrap", help="Encoder angle wrapped to 0..360 deg.")] = True,
+) -> None:
+    """A tilted shaft with a tangential accelerometer: shaft_cal.csv, shaft_test.csv, shaft_truth.json."""
+    from senscal.io import write_recording
+    from senscal.simulate.common import write_truth
+    from senscal.simulate.shaft import simulate_shaft
+
+    cal, test, truth = simulate_shaft(
+        tilt_deg=tilt, radius=radius, sensitivity=sensitivity, bias=bias, misalignment_deg=misalignment, noise=noise,
+        encoder_counts=encoder_counts, fs=fs, speed_rps=speed, ripple=ripple, ripple_freq=ripple_freq,
+        sync_ripple=sync_ripple, cal_duration=cal_duration, test_speed_rps=test_speed, modulation=modulation,
+        modulation_freq=modulation_freq, test_duration=test_duration, wrap=wrap, seed=seed)
+    al = truth.pop("_test_angular_acceleration")
+    # Units ride in the headers ("angle [deg]"), so the angle unit need not be given for these files.
+    p1 = write_recording(cal, out / "shaft_cal.csv", units_in_header=True)
+    p2 = write_recording(test, out / "shaft_test.csv", units_in_header=True)
+    write_recording(type(test)(channels={"angular_acceleration": al}, t=test.time, units={"angular_acceleration": "rad/s^2"}),
+                    out / "shaft_test_truth.csv", units_in_header=True)
+    p3 = write_truth(truth, out / "shaft_truth.json")
+    console.print(f"wrote {p1}, {p2}, {p3} (angle in deg, accel in {truth['output_unit']})")

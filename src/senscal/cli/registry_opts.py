@@ -1,0 +1,134 @@
+"""``--save --sensor SERIAL [--db URL] [--create-sensor KIND] [--date ISO]`` for calibration commands.
+
+A calibration command records its result in the sensor registry by adding
+the option aliases below to its signature and calling
+:func:`save_if_requested` once with its JSON document::
+
+    from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt,
+                                           SensorOpt, quoted, save_if_requested)
+
+    @app.command("velocity")
+    def velocity_cmd(file: ..., save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None,
+                     create_sensor: CreateSensorOpt = None, date: DateOpt = None,
+                     operator: OperatorOpt = None) -> None:
+        doc = ...  # the command's JSON result
+        save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
+                          operator=operator, job="velocity", method="sine-approximation",
+                          quantities=[quoted(doc, "sensitivity", "sensitivity", "u_sensitivity", "V/(m/s)")],
+                          input_files=[file])
+
+Nothing happens without ``--save``; the confirmation goes to stderr so
+``--json`` output stays clean.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Iterable, Mapping, Optional, Sequence
+
+import typer
+from typing_extensions import Annotated
+
+from senscal.cli.common import err_console
+from senscal.errors import InputError
+
+__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "quoted",
+           "save_if_requested"]
+
+_PANEL = "Sensor registry"
+
+SaveOpt = Annotated[bool, typer.Option("--save", help="Record the result in the sensor registry (needs --sensor).",
+                                       rich_help_panel=_PANEL)]
+SensorOpt = Annotated[Optional[str], typer.Option("--sensor", metavar="SERIAL", help="Serial number of the calibrated sensor.",
+                                                  rich_help_panel=_PANEL)]
+DbOpt = Annotated[Optional[str], typer.Option(
+    "--db", metavar="URL", help="Registry database: SQLAlchemy URL or SQLite file (default: $SENSCAL_DB or the "
+                                "user data folder).", rich_help_panel=_PANEL)]
+CreateSensorOpt = Annotated[Optional[str], typer.Option(
+    "--create-sensor", metavar="KIND", help="Register the sensor with this kind if it is new (e.g. accelerometer).",
+    rich_help_panel=_PANEL)]
+DateOpt = Annotated[Optional[str], typer.Option(
+    "--date", metavar="ISO", help="When the calibration was done (ISO 8601; no offset = UTC; default now).",
+    rich_help_panel=_PANEL)]
+OperatorOpt = Annotated[Optional[str], typer.Option("--operator", help="Who calibrated (default: login name).",
+                                                    rich_help_panel=_PANEL)]
+
+
+def quoted(doc: Mapping[str, Any], name: str, value_path: str, u_path: str, unit: str = "", *, k: float = 2.0):
+    """A :class:`~senscal.registry.Quantity` read from a result document.
+
+    Parameters
+    ----------
+    doc : mapping
+        The command's JSON result.
+    name : str
+        Name the quantity gets in the registry.
+    value_path, u_path : str
+        Dotted paths of the value and its standard uncertainty in ``doc``
+        (``"channels.ch1.amplitude"``).
+    unit : str
+    k : float
+        Coverage factor the quantity is quoted with on certificates.
+
+    Raises
+    ------
+    UnknownQuantityError
+        The result does not contain the path.
+    """
+    from senscal.registry import Quantity, UnknownQuantityError
+
+    def get(path: str) -> float:
+        node: Any = doc
+        for part in path.split("."):
+            if not isinstance(node, Mapping) or part not in node:
+                have = ", ".join(sorted(node)) if isinstance(node, Mapping) else "nothing"
+                raise UnknownQuantityError(f"the result has no quantity {path!r} to save (at {part!r} it has: {have})")
+            node = node[part]
+        if node is None:
+            raise UnknownQuantityError(f"the result's {path!r} is empty (not finite); nothing to save")
+        return float(node)
+
+    return Quantity(name, get(value_path), get(u_path), unit, k)
+
+
+def save_if_requested(doc: Mapping[str, Any], *, save: bool, sensor: str | None, db: str | None = None,
+                      create_sensor: str | None = None, date: str | None = None, operator: str | None = None,
+                      job: str, method: str | None, quantities: Sequence[Any] | None = None,
+                      input_files: Iterable[str | Path] = (), conditions: Mapping[str, Any] | None = None,
+                      certificate: str | Path | None = None, note: str | None = None):
+    """Record a calibration command's result if ``--save`` was given.
+
+    ``quantities`` may be a sequence of Quantity or a callable returning one
+    (so that reading them from ``doc`` only happens when saving).
+
+    Returns
+    -------
+    Calibration or None
+        The stored record, or None without ``--save``.
+
+    Raises
+    ------
+    InputError
+        ``--save`` without ``--sensor``, or registry options without ``--save``.
+    UnknownSensorError
+        Serial not registered and no ``--create-sensor``.
+    """
+    if not save:
+        given = [opt for opt, v in (("--sensor", sensor), ("--db", db), ("--create-sensor", create_sensor),
+                                    ("--date", date), ("--operator", operator)) if v is not None]
+        if given:
+            raise InputError(f"{', '.join(given)} only apply when saving; add --save to record the result in the registry")
+        return None
+    if not sensor:
+        raise InputError("--save needs --sensor SERIAL (the serial number of the calibrated sensor)")
+    from senscal.registry import open_registry, parse_date
+
+    when = parse_date(date)  # checked before opening the database: a typo costs nothing
+    qs = list(quantities() if callable(quantities) else (quantities or []))
+    with open_registry(db) as reg:
+        rec = reg.record(sensor, qs, performed_at=when, job=job, method=method, conditions=conditions,
+                         result=doc, certificate=certificate, input_files=input_files, operator=operator,
+                         note=note, create_kind=create_sensor)
+        err_console.print(f"saved calibration {rec.uid[:8]} of sensor {sensor} ({len(qs)} quantities) "
+                          f"to {reg.url}")
+    return rec

@@ -1,0 +1,27 @@
+"""Gyro-free angular velocity from an accelerometer array.
+
+Array kinematics for any layout, the three classic methods (integration,
+square root, differential), the independent Kalman filter (and an extended
+Kalman filter on the quadratic terms), attitude and error statistics.
+
+References
+----------
+.. [1] Wang W., Dai Y., Chen H., Wang P., "Application of Kalman filter to
+   calculate angular velocity of complicated vibration by full acceleration
+   sensor", China Measurement & Test, 2017(5) (seed 001).
+"""
+
+from senscal.gfimu.attitude import AttitudeError, attitude_error, integrate_attitude
+from senscal.gfimu.core import METHODS, ErrorStatistics, RateEstimate, angular_velocity, error_statistics
+from senscal.gfimu.filter import OBSERVATIONS, RateFilterResult, kalman_rate
+from senscal.gfimu.layout import (KinematicSolution, Layout, paper_layout, read_layout, solve_kinematics,
+                                  write_layout)
+from senscal.gfimu.methods import differential_rate, estimate_noise_std, integration_rate, sqrt_rate
+
+__all__ = [
+    "AttitudeError", "attitude_error", "integrate_attitude",
+    "METHODS", "ErrorStatistics", "RateEstimate", "angular_velocity", "error_statistics",
+    "OBSERVATIONS", "RateFilterResult", "kalman_rate",
+    "KinematicSolution", "Layout", "paper_layout", "read_layout", "solve_kinematics", "write_layout",
+    "differential_rate", "estimate_noise_std", "integration_rate", "sqrt_rate",
+]

@@ -1,0 +1,251 @@
+"""The independent Kalman filter for the array's angular velocity.
+
+State: ``w = (wx, wy, wz)``.  Process (the integration method):
+``w_k = w_{k-1} + D_k + noise``, with ``D_k`` the trapezoid increment of the
+array's angular acceleration as the control input and the process noise the
+white-noise variance of that increment.  Observation: ``w`` from the
+square-root method or from the differential method, each with a noise
+covariance that follows its own conditioning (the square root's error
+grows as ``1 / |w|``, the differential's as ``1 / |D|``), or (beyond the
+paper) the six quadratic terms ``w w^T - |w|^2 I`` themselves through an
+extended Kalman filter.  Ill-conditioned observations are dropped and
+innovation gating rejects gross outliers.  The linear filters run on the
+shared :mod:`senscal.kalman` engine.
+
+References
+----------
+.. [1] Wang W., Dai Y., Chen H., Wang P., "Application of Kalman filter to
+   calculate angular velocity of complicated vibration by full acceleration
+   sensor", China Measurement & Test, 2017(5), section 3 (seed 001);
+   METHODS.md 2d.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.stats import chi2
+
+from senscal._result import ResultMixin
+from senscal.errors import InputError
+from senscal.kalman import StateSpaceModel, kalman_filter
+from senscal.gfimu._kernels import quadratic_ekf
+from senscal.gfimu.layout import KinematicSolution, square_map
+from senscal.gfimu.methods import differential_rate, integration_rate, rate_increments, sqrt_rate
+
+OBSERVATIONS = ("quadratic", "sqrt", "differential")
+
+__all__ = ["RateFilterResult", "channel_covariance", "OBSERVATIONS", "kalman_rate", "sqrt_observation",
+           "differential_observation"]
+
+
+@dataclass(frozen=True)
+class RateFilterResult(ResultMixin):
+    """Output of :func:`kalman_rate`.
+
+    Attributes
+    ----------
+    omega : ndarray, shape (3, T)
+        Filtered angular velocity, rad/s.
+    u_omega : ndarray, shape (3, T)
+        Its standard uncertainty from the filter covariance (white noise
+        only; constant sensor errors are not in it), rad/s.
+    observation : str
+        ``"quadratic"``, ``"sqrt"`` or ``"differential"``.
+    n_observed : int
+        Samples with at least one observation component used.
+    n_dropped : int
+        Observation components dropped as ill-conditioned.
+    n_gated : int
+        Samples whose observation the innovation gate rejected.
+    passes : int
+        Filter passes run (the square-root observation takes its sign from
+        the previous pass).
+    """
+
+    omega: np.ndarray = field(repr=False)
+    u_omega: np.ndarray = field(repr=False)
+    observation: str
+    n_observed: int
+    n_dropped: int
+    n_gated: int
+    passes: int
+
+
+def sqrt_observation(squares: np.ndarray, cov_squares: np.ndarray, sign_reference: np.ndarray,
+                     magnitude_reference: np.ndarray | None = None, *, min_snr: float = 5.0):
+    """Square-root observation of ``w`` and its conditioning-aware covariance.
+
+    Parameters
+    ----------
+    squares : ndarray, shape (3, T)
+        ``wx^2, wy^2, wz^2``, (rad/s)^2.
+    cov_squares : ndarray, shape (3, 3)
+        Covariance of one sample of the squares from white channel noise, (rad/s)^4.
+    sign_reference : ndarray, shape (3, T)
+        Angular velocity that gives the sign, rad/s.
+    magnitude_reference : ndarray, shape (3, T), optional
+        ``|w|`` used to linearise the root (default: the observation itself), rad/s.
+    min_snr : float
+        Components whose square is below ``min_snr`` standard deviations are
+        dropped: there the root is biased and its sign unknowable.
+
+    Returns
+    -------
+    z : ndarray, shape (3, T)
+        Observation (NaN where dropped), rad/s.
+    R : ndarray, shape (3, 3, T)
+        ``cov(sqrt) = J C J`` with ``J = diag(1 / (2 |w|))``, (rad/s)^2.
+    """
+    s = np.sqrt(np.diag(cov_squares))
+    z = sqrt_rate(squares, sign_reference)
+    z[squares < min_snr * s[:, None]] = np.nan
+    mag = np.abs(z) if magnitude_reference is None else np.abs(magnitude_reference)
+    # Below sqrt(s) the linearisation of the root fails: floor the magnitude there.
+    mag = np.maximum(np.nan_to_num(mag, nan=0.0), np.sqrt(s)[:, None])
+    j = 0.5 / mag
+    R = cov_squares[:, :, None] * j[:, None, :] * j[None, :, :]
+    return z, R
+
+
+def differential_observation(squares: np.ndarray, alpha: np.ndarray, t: np.ndarray, cov_squares: np.ndarray,
+                             *, lag: int = 1, reject_factor: float = 3.0):
+    """Differential observation of ``w`` and its covariance (diagonal).
+
+    Returns ``z`` (3, T) with NaN where rejected and ``R`` (3, 3, T).
+    """
+    s = np.sqrt(np.diag(cov_squares))
+    z, u, _ = differential_rate(squares, alpha, t, lag=lag, squares_std=s, reject_factor=reject_factor)
+    R = np.zeros((3, 3, z.shape[1]))
+    u2 = np.where(np.isfinite(u), u * u, 1.0)
+    for i in range(3):
+        R[i, i] = u2[i]
+    return z, R
+
+
+def channel_covariance(kin: KinematicSolution, noise_std) -> np.ndarray:
+    """Covariance (12, 12) of one sample of the kinematic unknowns.
+
+    Parameters
+    ----------
+    kin : KinematicSolution
+    noise_std : float or ndarray, shape (M,)
+        White-noise standard deviation of each channel, m/s^2.
+    """
+    s = np.broadcast_to(np.asarray(noise_std, float), (kin.sensitivity.shape[1],))
+    return (kin.sensitivity * s * s) @ kin.sensitivity.T
+
+
+def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation: str = "quadratic",
+                initial=None, initial_std: float = 1e-3, lag: int = 1, gate_probability: float = 1e-4,
+                passes: int = 3) -> RateFilterResult:
+    """Independent Kalman filter: integration as process, the array's quadratic terms as observation.
+
+    Parameters
+    ----------
+    kin : KinematicSolution
+        Output of :func:`~senscal.gfimu.solve_kinematics`.
+    t : ndarray, shape (T,)
+        Time, s.
+    noise_std : float or ndarray, shape (M,)
+        White-noise standard deviation of each channel, m/s^2.
+    observation : {"quadratic", "sqrt", "differential"}
+        ``"sqrt"`` (paper section 3.2) and ``"differential"`` (paper
+        section 4): linear filter on ``w`` from that method, with a
+        conditioning-aware covariance per sample.  ``"quadratic"`` (beyond
+        the paper): extended Kalman filter whose measurement is the six
+        quadratic terms ``w w^T - |w|^2 I`` themselves, with their exact
+        covariance from the solve; no square root, no sign test, and the
+        cross products keep every axis observable while any axis turns.
+    initial : sequence of 3 floats, optional
+        Angular velocity at ``t[0]`` (rad/s).  Linear filters without it
+        start from their first observations (diffuse prior); the quadratic
+        filter, whose measurement cannot tell ``w`` from ``-w``, starts at
+        rest.
+    initial_std : float
+        Standard uncertainty of ``initial`` (or of the rest start), rad/s.
+    lag : int
+        Span of the differential observation in samples; with ``lag > 1``
+        only every ``lag``-th sample is observed so that observation errors
+        stay independent.
+    gate_probability : float
+        False-rejection probability of the innovation gate (chi-square on
+        the normalised innovation squared); 0 disables gating.
+    passes : int
+        Maximum passes for the square-root observation: pass 1 takes the
+        sign from the integration method as the paper does, later passes
+        from the previous pass's filtered estimate (stops when no sign
+        changes).
+
+    Returns
+    -------
+    RateFilterResult
+
+    References
+    ----------
+    .. [1] Wang et al. 2017 (seed 001), section 3, eq. (10)-(17).
+    """
+    if observation not in OBSERVATIONS:
+        raise InputError(f"observation must be one of {', '.join(OBSERVATIONS)}, got {observation!r}")
+    if not 0 <= gate_probability < 1:
+        raise InputError("gate_probability must be in [0, 1)")
+    if not initial_std > 0:
+        raise InputError("initial_std must be positive (rad/s)")
+    t = np.asarray(t, float)
+    C = channel_covariance(kin, noise_std)
+    alpha = kin.angular_acceleration
+    inc = rate_increments(alpha, t)
+    u = np.zeros_like(inc)
+    u[:, :-1] = inc[:, 1:]  # control of step k-1 drives the prediction of step k
+    dt = float(np.median(np.diff(t)))
+    Q = dt * dt * C[3:6, 3:6]
+    if initial is None and observation != "quadratic":
+        x0, P0 = np.zeros(3), np.eye(3) * 1e6
+    else:
+        x0 = np.zeros(3) if initial is None else np.asarray(initial, float).reshape(3)
+        P0 = np.eye(3) * initial_std ** 2
+    m = 6 if observation == "quadratic" else 3
+    gate = float(chi2.isf(gate_probability, m)) if gate_probability > 0 else 0.0
+    if observation == "quadratic":
+        x, P, _, rej = quadratic_ekf(np.ascontiguousarray(kin.W), u, Q, np.linalg.inv(C[6:12, 6:12]), x0, P0, gate)
+        return _result(x, P, rej, np.ones((6, x.shape[1]), bool), observation, 1)
+    S = square_map()
+    cov_sq = S @ C[6:9, 6:9] @ S.T
+    squares = kin.squares
+    if observation == "differential":
+        z, R = differential_observation(squares, alpha, t, cov_sq, lag=lag)
+        if lag > 1:
+            keep = np.zeros(z.shape[1], bool)
+            keep[lag::lag] = True
+            z[:, ~keep] = np.nan
+        x, P, _, rej = _filter(z, u, Q, R, x0, P0, gate)
+        return _result(x, P, rej, np.isfinite(z), observation, 1)
+    ref = integration_rate(alpha, t, x0)
+    z, R = sqrt_observation(squares, cov_sq, ref)
+    x, P, _, rej = _filter(z, u, Q, R, x0, P0, gate)
+    n_pass = 1
+    while n_pass < passes:
+        z_new, R = sqrt_observation(squares, cov_sq, x, x)
+        same = np.array_equal(np.signbit(np.nan_to_num(z_new)), np.signbit(np.nan_to_num(z)))
+        z = z_new
+        x, P, _, rej = _filter(z, u, Q, R, x0, P0, gate)
+        n_pass += 1
+        if same:
+            break
+    return _result(x, P, rej, np.isfinite(z), observation, n_pass)
+
+
+def _result(x, P, rej, ok, observation, passes) -> RateFilterResult:
+    u_om = np.sqrt(np.maximum(np.einsum("iik->ik", P), 0.0))
+    return RateFilterResult(omega=x, u_omega=u_om, observation=observation,
+                            n_observed=int(np.any(ok, axis=0).sum()), n_dropped=int((~ok).sum()),
+                            n_gated=int(rej.sum()), passes=passes)
+
+
+def _filter(z, u, Q, R, x0, P0, gate):
+    """The linear filters run on the shared engine: F = H = B = I, R per step."""
+    eye = np.eye(3)
+    model = StateSpaceModel(F=eye, H=eye, Q=Q, R=np.moveaxis(R, -1, 0), B=eye, x0=x0, P0=P0)
+    res = kalman_filter(model, z, u, gate=gate if gate > 0 else None)
+    return res.x, res.P, res.normalized_innovation, res.rejected

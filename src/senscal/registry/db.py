@@ -1,0 +1,292 @@
+"""Database plumbing of the registry: URLs, engines, schema, migrations.
+
+The default registry is one SQLite file in the user's data folder (or the
+URL/path in ``$SENSCAL_DB``), in WAL mode so readers never block the writer.
+Any SQLAlchemy URL works (``postgresql://user:pw@host/db`` for a lab's shared
+server). Credentials never appear in messages: every URL shown to a person
+goes through :func:`mask_url`.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import sys
+from datetime import datetime, timezone
+from functools import lru_cache
+from pathlib import Path
+
+import sqlalchemy as sa
+from sqlalchemy import event
+from sqlalchemy.engine import URL, Engine, make_url
+from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
+
+from senscal.errors import InputError
+
+__all__ = ["default_url", "parse_url", "mask_url", "create_registry_engine", "upgrade", "metadata",
+           "sensors", "calibrations", "quantities", "UTC"]
+
+UTC = timezone.utc
+MIGRATIONS = Path(__file__).with_name("migrations")
+_PG_LOCK_KEY = 0x5E25CA1  # advisory lock that serialises concurrent schema upgrades
+
+
+def default_url() -> str:
+    """The registry used when no ``--db`` is given.
+
+    ``$SENSCAL_DB`` (a SQLAlchemy URL or a file path) if set, else
+    ``registry.sqlite`` in the user's data folder (``$XDG_DATA_HOME/senscal``,
+    ``~/.local/share/senscal``; ``%LOCALAPPDATA%\\senscal`` on Windows,
+    ``~/Library/Application Support/senscal`` on macOS).
+    """
+    env = os.environ.get("SENSCAL_DB")
+    if env:
+        return env
+    if sys.platform.startswith("win"):
+        base = Path(os.environ.get("LOCALAPPDATA", Path.home() / "AppData" / "Local"))
+    elif sys.platform == "darwin":
+        base = Path.home() / "Library" / "Application Support"
+    else:
+        base = Path(os.environ.get("XDG_DATA_HOME") or Path.home() / ".local" / "share")
+    return f"sqlite:///{base / 'senscal' / 'registry.sqlite'}"
+
+
+_PASSWORD_IN_TEXT = re.compile(r"(://[^:/@\s]*:)([^@\s]*)(@)")
+
+
+def mask_url(url: str | URL) -> str:
+    """The URL with its password replaced by ``***`` (safe to print or log)."""
+    if isinstance(url, URL):
+        return url.render_as_string(hide_password=True)
+    return _PASSWORD_IN_TEXT.sub(r"\1***\3", str(url))
+
+
+def _scrub(text: str, url: URL) -> str:
+    """Remove the password of ``url`` from a driver's message (first line only)."""
+    line = str(text).strip().splitlines()[0] if str(text).strip() else "no detail given"
+    if url.password:
+        line = line.replace(str(url.password), "***")
+    return mask_url(line)
+
+
+def parse_url(url: str | Path | None) -> URL:
+    """Turn ``--db`` (URL, file path or None for the default) into a SQLAlchemy URL.
+
+    Raises
+    ------
+    InputError
+        The text is neither a SQLAlchemy URL nor a usable path.
+    """
+    text = default_url() if url is None else str(url)
+    if not text.strip():
+        raise InputError("empty database URL; give a SQLAlchemy URL such as sqlite:///registry.sqlite "
+                         "or postgresql://user@host/db, or a file path")
+    if "://" not in text:
+        # A bare path is the friendly spelling of a SQLite file.
+        return make_url(f"sqlite:///{Path(text).expanduser()}")
+    try:
+        u = make_url(text)
+    except (ArgumentError, ValueError):
+        raise InputError(f"malformed database URL {mask_url(text)!r}; expected dialect[+driver]://user:password@host:port/"
+                         "database (e.g. postgresql://lab@db.example/senscal) or sqlite:///path/to/file.sqlite") from None
+    if u.drivername == "postgresql":
+        # psycopg (v3) is the driver senscal installs; SQLAlchemy's default is psycopg2.
+        u = u.set(drivername="postgresql+psycopg")
+    return u
+
+
+def _sqlite_pragmas(dbapi_conn, _record) -> None:
+    # Autocommit at the driver level so that SQLAlchemy's "begin" hook below
+    # decides how transactions start.
+    dbapi_conn.isolation_level = None
+    cur = dbapi_conn.cursor()
+    cur.execute("PRAGMA busy_timeout = 60000")
+    cur.execute("PRAGMA journal_mode = WAL")
+    cur.execute("PRAGMA foreign_keys = ON")
+    cur.execute("PRAGMA synchronous = NORMAL")
+    cur.close()
+
+
+def _sqlite_begin(conn) -> None:
+    # Writers: BEGIN IMMEDIATE takes the write lock up front, so two writers
+    # queue on the busy timeout instead of deadlocking when both upgrade a
+    # read lock. Readers (marked by read_connection) take a plain snapshot and
+    # never block a writer in WAL mode.
+    conn.exec_driver_sql("BEGIN" if conn.get_execution_options().get("senscal_read") else "BEGIN IMMEDIATE")
+
+
+def read_connection(engine: Engine):
+    """A connection for reading only (on SQLite it does not take the write lock)."""
+    return engine.connect().execution_options(senscal_read=True)
+
+
+def create_registry_engine(url: str | Path | URL | None = None) -> Engine:
+    """Create an engine for the registry at ``url`` and check it answers.
+
+    Raises
+    ------
+    InputError
+        Malformed URL, missing driver, or a server/file that cannot be reached.
+    """
+    u = url if isinstance(url, URL) else parse_url(url)
+    kwargs: dict = {}
+    if u.get_backend_name() == "sqlite":
+        db = u.database
+        if db and db != ":memory:" and not db.startswith("file:"):
+            path = Path(db)
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise InputError(f"cannot create the folder of the registry {path}: {exc.strerror}") from None
+        kwargs["connect_args"] = {"timeout": 60}
+    elif u.get_backend_name() == "postgresql":
+        kwargs["connect_args"] = {"connect_timeout": 10}
+    try:
+        engine = sa.create_engine(u, **kwargs)
+    except NoSuchModuleError:
+        raise InputError(f"unknown database dialect or driver in {mask_url(u)!r}; use sqlite:///FILE or "
+                         "postgresql://user@host/db") from None
+    except (ImportError, ArgumentError) as exc:
+        raise InputError(f"cannot use database URL {mask_url(u)!r}: {_scrub(exc, u)}") from None
+    if u.get_backend_name() == "sqlite":
+        event.listen(engine, "connect", _sqlite_pragmas)
+        event.listen(engine, "begin", _sqlite_begin)
+    try:
+        with engine.connect():
+            pass
+    except DBAPIError as exc:
+        engine.dispose()
+        raise InputError(f"cannot reach the registry database {mask_url(u)!r}: {_scrub(exc.orig, u)}") from None
+    return engine
+
+
+# --- schema used by the queries (the migrations own the DDL) ---------------
+
+class UTCDateTime(sa.types.TypeDecorator):
+    """Timezone-aware datetimes stored as UTC on every back end.
+
+    SQLite has no timezone type, so values are normalised to UTC before
+    storage and marked UTC again when read.
+    """
+
+    impl = sa.DateTime(timezone=True)
+    cache_ok = True
+
+    def process_bind_param(self, value, dialect):
+        if value is None:
+            return None
+        if value.tzinfo is None:
+            raise InputError("internal: naive datetime given to the registry")
+        value = value.astimezone(UTC)
+        return value.replace(tzinfo=None) if dialect.name == "sqlite" else value
+
+    def process_result_value(self, value, dialect):
+        if value is None:
+            return None
+        if value.tzinfo is None:
+            return value.replace(tzinfo=UTC)
+        return value.astimezone(UTC)
+
+
+metadata = sa.MetaData()
+
+sensors = sa.Table(
+    "sensors", metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("serial", sa.String(200), nullable=False, unique=True),
+    sa.Column("kind", sa.String(200), nullable=False),
+    sa.Column("model", sa.String(200)),
+    sa.Column("manufacturer", sa.String(200)),
+    sa.Column("nominal", sa.JSON),
+    sa.Column("notes", sa.Text),
+    sa.Column("created_at", UTCDateTime, nullable=False),
+)
+
+calibrations = sa.Table(
+    "calibrations", metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("uid", sa.String(36), nullable=False, unique=True),
+    sa.Column("sensor_id", sa.Integer, sa.ForeignKey("sensors.id"), nullable=False),
+    sa.Column("performed_at", UTCDateTime, nullable=False),
+    sa.Column("utc_offset_s", sa.Integer, nullable=False),
+    sa.Column("recorded_at", UTCDateTime, nullable=False),
+    sa.Column("job", sa.String(100), nullable=False),
+    sa.Column("method", sa.String(200)),
+    sa.Column("conditions", sa.JSON),
+    sa.Column("result", sa.JSON),
+    sa.Column("certificate", sa.Text),
+    sa.Column("input_files", sa.JSON),
+    sa.Column("senscal_version", sa.String(50)),
+    sa.Column("operator", sa.String(200)),
+    sa.Column("note", sa.Text),
+    sa.Column("supersedes", sa.String(36), sa.ForeignKey("calibrations.uid")),
+)
+
+quantities = sa.Table(
+    "quantities", metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("calibration_id", sa.Integer, sa.ForeignKey("calibrations.id"), nullable=False),
+    sa.Column("name", sa.String(200), nullable=False),
+    sa.Column("value", sa.Double, nullable=False),
+    sa.Column("uncertainty", sa.Double, nullable=False),
+    sa.Column("unit", sa.String(50), nullable=False),
+    sa.Column("k", sa.Double, nullable=False),
+)
+
+
+# --- migrations --------------------------------------------------------------
+
+def _alembic_config(connection=None):
+    from alembic.config import Config
+
+    cfg = Config()
+    cfg.set_main_option("script_location", str(MIGRATIONS))
+    if connection is not None:
+        cfg.attributes["connection"] = connection
+    return cfg
+
+
+@lru_cache(maxsize=1)
+def head_revision() -> str:
+    """The newest schema revision shipped with this senscal."""
+    from alembic.script import ScriptDirectory
+
+    return ScriptDirectory.from_config(_alembic_config()).get_current_head()
+
+
+def current_revision(engine: Engine) -> str | None:
+    """The schema revision of the database (None for an empty database)."""
+    from alembic.runtime.migration import MigrationContext
+
+    with read_connection(engine) as conn:
+        rev = MigrationContext.configure(conn).get_current_revision()
+        conn.rollback()
+    return rev
+
+
+def upgrade(engine: Engine) -> None:
+    """Bring the database schema to the newest revision (idempotent, concurrency-safe).
+
+    Several processes may open a fresh registry at once: the upgrade runs in
+    one transaction that first takes a lock (SQLite: ``BEGIN IMMEDIATE``;
+    PostgreSQL: a transaction-scoped advisory lock), so exactly one of them
+    creates the schema and the others find it at head.
+    """
+    current = current_revision(engine)
+    if current == head_revision():
+        return
+    from alembic import command
+    from alembic.util import CommandError
+
+    try:
+        with engine.begin() as conn:
+            if conn.dialect.name == "postgresql":
+                conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": _PG_LOCK_KEY})
+            command.upgrade(_alembic_config(conn), "head")
+    except CommandError:
+        raise InputError(f"the registry {mask_url(engine.url)} has schema revision {current!r}, which this "
+                         f"senscal does not know (newest: {head_revision()!r}); upgrade senscal") from None
+
+
+def now_utc() -> datetime:
+    return datetime.now(UTC)

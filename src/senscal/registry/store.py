@@ -1,0 +1,799 @@
+"""The registry: sensors and their append-only calibration history."""
+
+from __future__ import annotations
+
+import functools
+import getpass
+import hashlib
+import math
+import uuid
+from dataclasses import dataclass, field
+from datetime import datetime, timedelta, timezone
+from pathlib import Path
+from typing import Any, Iterable, Mapping, Sequence
+
+import numpy as np
+import sqlalchemy as sa
+from sqlalchemy.exc import DBAPIError, IntegrityError, InterfaceError, OperationalError
+
+from senscal._result import ResultMixin, to_jsonable
+from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
+from senscal.registry import db
+from senscal.registry.db import UTC, calibrations, quantities, sensors
+from senscal.registry.drift import DAYS_PER_YEAR, DriftFit, DueDate, due_time, fit_drift
+
+__all__ = [
+    "Registry", "open_registry", "Sensor", "Quantity", "Calibration", "HistoryPoint", "DriftReport",
+    "UnknownSensorError", "DuplicateSensorError", "UnknownQuantityError", "parse_date", "sha256_file",
+    "EXPORT_FORMAT",
+]
+
+EXPORT_FORMAT = "senscal-registry"
+EXPORT_VERSION = 1
+
+
+class UnknownSensorError(InputError):
+    """A serial number the registry does not hold."""
+
+
+class DuplicateSensorError(InputError):
+    """A serial number that is already registered."""
+
+
+class UnknownQuantityError(InputError):
+    """A quantity a sensor's history (or a result) does not contain."""
+
+
+@dataclass(frozen=True)
+class Sensor(ResultMixin):
+    """A registered sensor.
+
+    Attributes
+    ----------
+    serial : str
+        Unique serial number.
+    kind : str
+        accelerometer, velocity sensor, magnetometer, ...
+    model, manufacturer, notes : str or None
+    nominal : dict
+        Nominal values ``{quantity: {"value": float, "unit": str}}``.
+    created_at : datetime
+        When the sensor was registered (UTC).
+    """
+
+    serial: str
+    kind: str
+    model: str | None = None
+    manufacturer: str | None = None
+    nominal: dict = field(default_factory=dict)
+    notes: str | None = None
+    created_at: datetime | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        d["created_at"] = _iso(self.created_at)
+        return d
+
+
+@dataclass(frozen=True)
+class Quantity(ResultMixin):
+    """One quoted quantity of a calibration.
+
+    Attributes
+    ----------
+    name : str
+        e.g. ``sensitivity@80Hz``, ``ch1.amplitude``.
+    value : float
+        Unit ``unit``.
+    uncertainty : float
+        Standard uncertainty (k=1), unit ``unit``.
+    unit : str
+    k : float
+        Coverage factor the quantity is quoted with (expanded U = k * uncertainty).
+    """
+
+    name: str
+    value: float
+    uncertainty: float
+    unit: str = ""
+    k: float = 2.0
+
+    def __post_init__(self):
+        if not str(self.name).strip():
+            raise InputError("a calibrated quantity needs a name")
+        _check_text(str(self.name), "quantity name")
+        _check_text(str(self.unit), "unit")
+        if not math.isfinite(float(self.value)):
+            raise DataError(f"quantity {self.name!r}: value must be finite, got {self.value}")
+        u = float(self.uncertainty)
+        if not (math.isfinite(u) and u > 0):
+            raise DataError(f"quantity {self.name!r}: standard uncertainty must be positive and finite, got {self.uncertainty}; "
+                            "the drift fit weights records by their uncertainties")
+        if not (math.isfinite(float(self.k)) and float(self.k) > 0):
+            raise InputError(f"quantity {self.name!r}: coverage factor k must be positive, got {self.k}")
+
+
+@dataclass(frozen=True)
+class Calibration(ResultMixin):
+    """One calibration record (never edited; corrections supersede it).
+
+    Attributes
+    ----------
+    uid : str
+        Unique id (UUID), stable across export/import.
+    serial : str
+    performed_at : datetime
+        When the calibration was done (timezone-aware, in its original offset).
+    recorded_at : datetime
+        When it entered the registry (UTC).
+    job, method : str
+        e.g. ``fit`` / ``sine-fit``; ``manual`` for certificates entered by hand.
+    quantities : tuple of Quantity
+    conditions : dict
+        Temperature, humidity, excitation, ... as given.
+    result : dict or None
+        The calibration command's full JSON result.
+    certificate : str or None
+        Path or reference of the certificate.
+    input_files : tuple of dict
+        ``{"path", "sha256"}`` of every input file (traceability).
+    senscal_version, operator, note : str or None
+    supersedes : str or None
+        uid of the record this one corrects.
+    superseded_by : str or None
+        uid of the record that corrects this one (derived, not stored).
+    """
+
+    uid: str
+    serial: str
+    performed_at: datetime
+    recorded_at: datetime
+    job: str
+    method: str | None
+    quantities: tuple[Quantity, ...]
+    conditions: dict
+    result: dict | None
+    certificate: str | None
+    input_files: tuple[dict, ...]
+    senscal_version: str | None
+    operator: str | None
+    note: str | None
+    supersedes: str | None
+    superseded_by: str | None = None
+
+    def quantity(self, name: str) -> Quantity | None:
+        return next((q for q in self.quantities if q.name == name), None)
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        d["performed_at"] = _iso(self.performed_at)
+        d["recorded_at"] = _iso(self.recorded_at)
+        return d
+
+
+@dataclass(frozen=True)
+class HistoryPoint(ResultMixin):
+    """One row of a quantity's history (the JSON of ``registry history``)."""
+
+    date: str
+    quantity: str
+    value: float
+    uncertainty: float
+    unit: str
+    k: float
+    expanded_uncertainty: float
+    uid: str
+    job: str
+    method: str | None
+    operator: str | None
+    note: str | None
+    certificate: str | None
+    supersedes: str | None
+    superseded_by: str | None
+
+
+@dataclass(frozen=True)
+class DriftReport(ResultMixin):
+    """Drift of one quantity of one sensor and the date it is due.
+
+    Attributes
+    ----------
+    serial, quantity, unit : str
+    epoch : datetime
+        Time origin of the fit (the first record).
+    first_date, last_date : datetime
+    fit : DriftFit
+        Weighted line; slope in unit per year.
+    drift_per_year, u_drift_per_year : float
+        Copies of the fit's slope and its standard uncertainty (unit/year).
+    relative_drift_per_year, u_relative_drift_per_year : float
+        The same relative to the reference (1/year).
+    significant : bool
+    reference : float
+        Nominal value, or the first recorded value.
+    reference_source : str
+        ``"nominal"`` or ``"first record"``.
+    tolerance : float or None
+        Allowed absolute deviation (unit).
+    due : DueDate or None
+    due_date : datetime or None
+    """
+
+    serial: str
+    quantity: str
+    unit: str
+    epoch: datetime
+    first_date: datetime
+    last_date: datetime
+    fit: DriftFit
+    drift_per_year: float
+    u_drift_per_year: float
+    relative_drift_per_year: float
+    u_relative_drift_per_year: float
+    significant: bool
+    reference: float
+    reference_source: str
+    tolerance: float | None
+    due: DueDate | None
+    due_date: datetime | None
+
+    def to_dict(self) -> dict[str, Any]:
+        d = super().to_dict()
+        for key in ("epoch", "first_date", "last_date", "due_date"):
+            d[key] = _iso(getattr(self, key))
+        d["overdue"] = bool(self.due.overdue) if self.due is not None else None
+        return d
+
+
+# --- helpers -------------------------------------------------------------------
+
+def _iso(dt: datetime | None) -> str | None:
+    return None if dt is None else dt.isoformat()
+
+
+def parse_date(text: str | datetime | None, *, what: str = "--date") -> datetime:
+    """Parse an ISO 8601 date or date-time into an aware datetime.
+
+    Dates and times without an offset are taken as UTC (so that a history
+    does not depend on the computer's time zone); None means now.
+    """
+    if text is None:
+        return datetime.now(UTC)
+    if isinstance(text, datetime):
+        dt = text
+    else:
+        try:
+            dt = datetime.fromisoformat(str(text).strip())
+        except ValueError:
+            raise InputError(f"{what} must be an ISO 8601 date like 2024-03-01 or 2024-03-01T14:30+01:00, "
+                             f"got {text!r}") from None
+    return dt if dt.tzinfo is not None else dt.replace(tzinfo=UTC)
+
+
+def sha256_file(path: str | Path) -> str:
+    """SHA-256 of a file's bytes (hex), read in 1 MiB blocks."""
+    h = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    except OSError as exc:
+        raise FileFormatError(f"cannot read input file {path} to fingerprint it: {exc.strerror}") from None
+    return h.hexdigest()
+
+
+def _senscal_version() -> str:
+    from senscal import __version__
+
+    return __version__
+
+
+def _offset_s(dt: datetime) -> int:
+    off = dt.utcoffset()
+    return int(off.total_seconds()) if off is not None else 0
+
+
+def _localise(dt_utc: datetime, offset_s: int) -> datetime:
+    return dt_utc.astimezone(timezone(timedelta(seconds=offset_s)))
+
+
+# --- the registry --------------------------------------------------------------
+
+def _sensor_from(row) -> Sensor:
+    return Sensor(serial=row["serial"], kind=row["kind"], model=row["model"], manufacturer=row["manufacturer"],
+                  nominal=row["nominal"] or {}, notes=row["notes"], created_at=row["created_at"])
+
+
+_INSERT_CALIBRATION = calibrations.insert()
+_INSERT_QUANTITY = quantities.insert()
+
+
+def _db_errors(method):
+    """Turn a lost server, a locked or read-only database into a one-line error (password masked)."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except (OperationalError, InterfaceError) as exc:
+            raise InputError(f"registry database {self.url} failed: {db._scrub(exc.orig, self._url)}") from None
+
+    return wrapper
+
+
+class Registry:
+    """Sensors and calibration history in a SQLAlchemy database.
+
+    Parameters
+    ----------
+    url : str, Path or None
+        SQLAlchemy URL (``sqlite:///file``, ``postgresql://user:pw@host/db``),
+        a file path (SQLite), or None for :func:`senscal.registry.db.default_url`.
+        The schema is created or upgraded (Alembic) on open.
+
+    Examples
+    --------
+    >>> reg = Registry("sqlite:///lab.sqlite")                      # doctest: +SKIP
+    >>> reg.add_sensor("A123", kind="accelerometer")                # doctest: +SKIP
+    >>> reg.record("A123", [Quantity("sensitivity", 1.02e-2, 5e-5, "V/(m/s^2)")],
+    ...            performed_at="2024-03-01")                       # doctest: +SKIP
+    """
+
+    def __init__(self, url: str | Path | None = None):
+        self._url = db.parse_url(url)
+        self.engine = db.create_registry_engine(self._url)
+        try:
+            db.upgrade(self.engine)
+        except DBAPIError as exc:
+            self.engine.dispose()
+            raise InputError(f"cannot create or upgrade the registry schema in {self.url}: "
+                             f"{db._scrub(exc.orig, self._url)}") from None
+
+    @property
+    def url(self) -> str:
+        """The database URL with the password masked (safe to print)."""
+        return db.mask_url(self._url)
+
+    def close(self) -> None:
+        self.engine.dispose()
+
+    def __enter__(self) -> "Registry":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # sensors -----------------------------------------------------------------
+
+    @_db_errors
+    def add_sensor(self, serial: str, kind: str, *, model: str | None = None, manufacturer: str | None = None,
+                   nominal: Mapping[str, Any] | None = None, notes: str | None = None) -> Sensor:
+        """Register a sensor.
+
+        Raises
+        ------
+        DuplicateSensorError
+            The serial is already registered.
+        """
+        serial, kind = _clean(serial, "serial"), _clean(kind, "kind")
+        _check_free(model=model, manufacturer=manufacturer, notes=notes)
+        with self.engine.begin() as conn:
+            sid = self._insert_sensor(conn, serial, kind, model, manufacturer, nominal, notes)
+            if sid is None:
+                raise DuplicateSensorError(f"sensor {serial!r} is already registered in {self.url}; "
+                                           "use another serial or record calibrations for the existing one")
+            return self._sensor_row(conn, serial)
+
+    def _insert_sensor(self, conn, serial, kind, model, manufacturer, nominal, notes, created_at=None) -> int | None:
+        """Insert a sensor; None if the serial exists (safe against concurrent inserts)."""
+        if conn.execute(sa.select(sensors.c.id).where(sensors.c.serial == serial)).first() is not None:
+            return None
+        try:
+            with conn.begin_nested():
+                return conn.execute(sensors.insert().values(
+                    serial=serial, kind=kind, model=model, manufacturer=manufacturer,
+                    nominal=to_jsonable(dict(nominal or {})), notes=notes,
+                    created_at=created_at or db.now_utc())).inserted_primary_key[0]
+        except IntegrityError:
+            # Another process registered the same serial between our select and insert.
+            return None
+
+    def _sensor_row(self, conn, serial: str) -> Sensor:
+        row = conn.execute(sa.select(sensors).where(sensors.c.serial == serial)).mappings().first()
+        if row is None:
+            raise UnknownSensorError(self._unknown_sensor_message(conn, serial))
+        return _sensor_from(row)
+
+    def _unknown_sensor_message(self, conn, serial: str) -> str:
+        n = conn.execute(sa.select(sa.func.count()).select_from(sensors)).scalar_one()
+        return (f"unknown sensor serial {serial!r} in {self.url} ({n} sensors registered); "
+                "list them with 'senscal registry sensors' or add it with 'senscal registry add SERIAL --kind KIND'")
+
+    @_db_errors
+    def sensor(self, serial: str) -> Sensor:
+        """The sensor with this serial (UnknownSensorError if absent)."""
+        with db.read_connection(self.engine) as conn:
+            return self._sensor_row(conn, serial)
+
+    @_db_errors
+    def sensors(self) -> list[Sensor]:
+        """All sensors, sorted by serial."""
+        with db.read_connection(self.engine) as conn:
+            rows = conn.execute(sa.select(sensors).order_by(sensors.c.serial)).mappings().all()
+        return [_sensor_from(r) for r in rows]
+
+    @_db_errors
+    def counts(self) -> dict[str, int]:
+        """Number of calibration records per serial."""
+        with db.read_connection(self.engine) as conn:
+            rows = conn.execute(
+                sa.select(sensors.c.serial, sa.func.count(calibrations.c.id))
+                .select_from(sensors.outerjoin(calibrations, calibrations.c.sensor_id == sensors.c.id))
+                .group_by(sensors.c.serial)).all()
+        return {s: int(n) for s, n in rows}
+
+    # calibrations ----------------------------------------------------------
+
+    @_db_errors
+    def record(self, serial: str, quantities_: Sequence[Quantity], *, performed_at: str | datetime | None = None,
+               job: str = "manual", method: str | None = None, conditions: Mapping[str, Any] | None = None,
+               result: Mapping[str, Any] | None = None, certificate: str | Path | None = None,
+               input_files: Iterable[str | Path] = (), operator: str | None = None, note: str | None = None,
+               supersedes: str | None = None, create_kind: str | None = None) -> Calibration:
+        """Append one calibration record.
+
+        Parameters
+        ----------
+        serial : str
+            Sensor serial; must be registered unless ``create_kind`` is given.
+        quantities_ : sequence of Quantity
+            The quoted quantities (standard uncertainties, k=1, plus the coverage factor quoted).
+        performed_at : str or datetime, optional
+            When the calibration was done (ISO 8601; no offset means UTC); default now.
+        job, method : str
+            Which command/method produced it (``manual`` for an external certificate).
+        conditions : mapping, optional
+            Environmental/excitation conditions.
+        result : mapping, optional
+            The full JSON result of the calibration command.
+        certificate : str or Path, optional
+            Certificate file or reference.
+        input_files : iterable of path
+            Files the result was computed from; their SHA-256 is stored.
+        operator : str, optional
+            Who did it (default: the login name).
+        note : str, optional
+        supersedes : str, optional
+            uid (or unique prefix of at least 6 characters) of a record of the
+            same sensor that this one corrects.
+        create_kind : str, optional
+            Register the sensor with this kind if it is not registered yet.
+
+        Returns
+        -------
+        Calibration
+        """
+        serial = _clean(serial, "serial")
+        qs = tuple(quantities_)
+        if not qs:
+            raise InputError("a calibration record needs at least one quantity")
+        names = [q.name for q in qs]
+        if len(set(names)) != len(names):
+            raise InputError(f"quantity names in one calibration must be unique, got {names}")
+        when = parse_date(performed_at)
+        _check_free(job=job, method=method, note=note, operator=operator,
+                    certificate=str(certificate) if certificate is not None else None)
+        files = tuple({"path": str(Path(p).resolve()), "sha256": sha256_file(p)} for p in input_files)
+        if operator is None:
+            try:
+                operator = getpass.getuser()
+            except Exception:  # no login name (containers): leave it empty
+                operator = None
+        values = dict(
+            uid=str(uuid.uuid4()), performed_at=when, utc_offset_s=_offset_s(when), recorded_at=db.now_utc(),
+            job=job, method=method, conditions=to_jsonable(dict(conditions or {})),
+            result=to_jsonable(dict(result)) if result is not None else None,
+            certificate=str(certificate) if certificate is not None else None, input_files=list(files),
+            senscal_version=_senscal_version(), operator=operator, note=note)
+        with self.engine.begin() as conn:
+            if create_kind is not None:
+                self._insert_sensor(conn, serial, _clean(create_kind, "kind"), None, None, None, None)
+            sid = self._sensor_id(conn, serial)
+            values["supersedes"] = self._resolve_uid(conn, supersedes, sid, serial) if supersedes else None
+            self._insert_calibration(conn, sid, values, qs)
+        # Built from what was stored (no second round trip); microseconds as the database keeps them.
+        return Calibration(
+            uid=values["uid"], serial=serial, performed_at=when, recorded_at=values["recorded_at"], job=job,
+            method=method, quantities=tuple(Quantity(q.name, float(q.value), float(q.uncertainty), q.unit, float(q.k))
+                                            for q in qs),
+            conditions=values["conditions"], result=values["result"], certificate=values["certificate"],
+            input_files=files, senscal_version=values["senscal_version"], operator=operator, note=note,
+            supersedes=values["supersedes"])
+
+    def _insert_calibration(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity]) -> None:
+        # Parameters passed to execute (not .values()) so the compiled statement is reused from the cache.
+        cid = conn.execute(_INSERT_CALIBRATION, dict(values, sensor_id=sensor_id)).inserted_primary_key[0]
+        conn.execute(_INSERT_QUANTITY, [
+            dict(calibration_id=cid, name=q.name, value=float(q.value), uncertainty=float(q.uncertainty),
+                 unit=q.unit, k=float(q.k)) for q in qs])
+
+    def _sensor_id(self, conn, serial: str) -> int:
+        sid = conn.execute(sa.select(sensors.c.id).where(sensors.c.serial == serial)).scalar()
+        if sid is None:
+            raise UnknownSensorError(self._unknown_sensor_message(conn, serial)
+                                     + " (or pass --create-sensor KIND when saving)")
+        return sid
+
+    def _resolve_uid(self, conn, prefix: str, sensor_id: int, serial: str) -> str:
+        prefix = prefix.strip()
+        if len(prefix) < 6:
+            raise InputError(f"record id {prefix!r} is too short; give at least 6 characters of the id "
+                             "shown by 'senscal registry history'")
+        rows = conn.execute(sa.select(calibrations.c.uid, calibrations.c.sensor_id)
+                            .where(calibrations.c.uid.startswith(prefix, autoescape=True))).all()
+        if not rows:
+            raise InputError(f"no calibration record with id {prefix!r}; see 'senscal registry history {serial}'")
+        if len(rows) > 1:
+            raise InputError(f"record id {prefix!r} is ambiguous ({len(rows)} records); give more characters")
+        uid, owner = rows[0]
+        if owner != sensor_id:
+            raise InputError(f"record {prefix!r} belongs to another sensor, not {serial!r}; a correction must "
+                             "supersede a record of the same sensor")
+        return uid
+
+    @_db_errors
+    def calibration(self, uid: str) -> Calibration:
+        """One record by its full uid."""
+        with db.read_connection(self.engine) as conn:
+            recs = self._calibrations(conn, calibrations.c.uid == uid)
+        if not recs:
+            raise InputError(f"no calibration record with id {uid!r}")
+        return recs[0]
+
+    def _calibrations(self, conn, where) -> list[Calibration]:
+        c = calibrations.c
+        rows = conn.execute(
+            sa.select(calibrations, sensors.c.serial).join(sensors, sensors.c.id == c.sensor_id).where(where)
+            .order_by(c.performed_at, c.recorded_at, c.id)).mappings().all()
+        if not rows:
+            return []
+        ids = [r["id"] for r in rows]
+        qrows = conn.execute(sa.select(quantities).where(quantities.c.calibration_id.in_(ids))
+                             .order_by(quantities.c.id)).mappings().all()
+        by_cal: dict[int, list[Quantity]] = {}
+        for q in qrows:
+            by_cal.setdefault(q["calibration_id"], []).append(
+                Quantity(q["name"], q["value"], q["uncertainty"], q["unit"], q["k"]))
+        uids = [r["uid"] for r in rows]
+        later = dict(conn.execute(sa.select(c.supersedes, c.uid).where(c.supersedes.in_(uids))
+                                  .order_by(c.recorded_at, c.id)).all())
+        return [Calibration(
+            uid=r["uid"], serial=r["serial"], performed_at=_localise(r["performed_at"], r["utc_offset_s"]),
+            recorded_at=r["recorded_at"], job=r["job"], method=r["method"], quantities=tuple(by_cal.get(r["id"], ())),
+            conditions=r["conditions"] or {}, result=r["result"], certificate=r["certificate"],
+            input_files=tuple(r["input_files"] or ()), senscal_version=r["senscal_version"], operator=r["operator"],
+            note=r["note"], supersedes=r["supersedes"], superseded_by=later.get(r["uid"])) for r in rows]
+
+    @_db_errors
+    def calibrations(self, serial: str, *, include_superseded: bool = False) -> list[Calibration]:
+        """A sensor's records in date order (superseded ones only on request)."""
+        with db.read_connection(self.engine) as conn:
+            sid = self._sensor_id(conn, serial)
+            recs = self._calibrations(conn, calibrations.c.sensor_id == sid)
+        return recs if include_superseded else [r for r in recs if r.superseded_by is None]
+
+    @_db_errors
+    def history(self, serial: str, quantity: str | None = None, *,
+                include_superseded: bool = False) -> list[HistoryPoint]:
+        """The values of one (or every) quantity of a sensor over time.
+
+        Raises
+        ------
+        UnknownSensorError, UnknownQuantityError
+        """
+        c, q = calibrations.c, quantities.c
+        later = calibrations.alias("later")
+        with db.read_connection(self.engine) as conn:
+            sid = self._sensor_id(conn, serial)
+            # Only the columns a history shows: the full result JSON of each record is not read.
+            stmt = (sa.select(c.performed_at, c.utc_offset_s, c.uid, c.job, c.method, c.operator, c.note,
+                              c.certificate, c.supersedes, later.c.uid.label("superseded_by"),
+                              q.name, q.value, q.uncertainty, q.unit, q.k)
+                    .join(quantities, q.calibration_id == c.id)
+                    .outerjoin(later, later.c.supersedes == c.uid)
+                    .where(c.sensor_id == sid)
+                    .order_by(c.performed_at, c.recorded_at, c.id, q.id))
+            if quantity is not None:
+                stmt = stmt.where(q.name == quantity)
+            if not include_superseded:
+                stmt = stmt.where(later.c.uid.is_(None))
+            rows = conn.execute(stmt).all()
+            known = None
+            if quantity is not None and not rows:
+                known = sorted(conn.execute(sa.select(q.name).distinct().join(calibrations, q.calibration_id == c.id)
+                                            .where(c.sensor_id == sid)).scalars())
+        points = [HistoryPoint(date=_localise(r.performed_at, r.utc_offset_s).isoformat(), quantity=r.name,
+                               value=r.value, uncertainty=r.uncertainty, unit=r.unit, k=r.k,
+                               expanded_uncertainty=r.k * r.uncertainty, uid=r.uid, job=r.job, method=r.method,
+                               operator=r.operator, note=r.note, certificate=r.certificate, supersedes=r.supersedes,
+                               superseded_by=r.superseded_by) for r in rows]
+        if known is not None:
+            raise UnknownQuantityError(
+                f"sensor {serial!r} has no recorded quantity {quantity!r}; "
+                + (f"recorded quantities: {', '.join(known)}" if known else "it has no calibration records yet"))
+        return points
+
+    @_db_errors
+    def drift(self, serial: str, quantity: str, *, tolerance: float | None = None, relative: bool = True,
+              nominal: float | None = None, k: float = 2.0, alpha: float = 0.05) -> DriftReport:
+        """Drift rate of a quantity and the date the sensor is due.
+
+        Parameters
+        ----------
+        serial, quantity : str
+        tolerance : float, optional
+            Allowed deviation from the reference: a fraction of it when
+            ``relative`` (0.01 = 1 %), else absolute in the quantity's unit.
+            Without a tolerance no due date is computed.
+        nominal : float, optional
+            Reference value; default the first recorded value.
+        k : float
+            Coverage factor of the prediction uncertainty added to the deviation.
+        alpha : float
+            Significance level of the drift test.
+
+        Raises
+        ------
+        TooFewSamplesError
+            Fewer than two (non-superseded) records of the quantity.
+        """
+        pts = self.history(serial, quantity)
+        units = sorted({p.unit for p in pts})
+        if len(units) > 1:
+            raise DataError(f"records of {quantity!r} for {serial!r} use different units ({', '.join(units)}); "
+                            "a drift needs one unit: supersede the odd records with converted values")
+        if len(pts) < 2:
+            raise _too_few(serial, quantity, len(pts))
+        dates = [datetime.fromisoformat(p.date) for p in pts]
+        epoch = min(dates)
+        t = np.array([(d - epoch).total_seconds() / 86400.0 / DAYS_PER_YEAR for d in dates])
+        fit = fit_drift(t, [p.value for p in pts], [p.uncertainty for p in pts], alpha=alpha)
+        reference = float(nominal) if nominal is not None else pts[0].value
+        due = None
+        due_date = None
+        tol_abs = None
+        if tolerance is not None:
+            tol_abs = float(tolerance) * abs(reference) if relative else float(tolerance)
+            due = due_time(fit, t_last=float(t.max()), reference=reference, tolerance=tol_abs, k=k)
+            if due.t_due is not None:
+                due_date = (epoch + timedelta(days=due.t_due * DAYS_PER_YEAR)).replace(microsecond=0)
+        scale = abs(reference) if reference != 0 else math.nan
+        return DriftReport(
+            serial=serial, quantity=quantity, unit=units[0], epoch=epoch, first_date=min(dates), last_date=max(dates),
+            fit=fit, drift_per_year=fit.drift_per_year, u_drift_per_year=fit.u_drift_per_year,
+            relative_drift_per_year=fit.drift_per_year / scale, u_relative_drift_per_year=fit.u_drift_per_year / scale,
+            significant=fit.significant, reference=reference,
+            reference_source="nominal" if nominal is not None else "first record",
+            tolerance=tol_abs, due=due, due_date=due_date)
+
+    # export / import ---------------------------------------------------------
+
+    @_db_errors
+    def export(self) -> dict[str, Any]:
+        """Every sensor and record as one JSON-ready document (import() reads it back exactly)."""
+        out_sensors = []
+        for s in self.sensors():
+            d = s.to_dict()
+            d["calibrations"] = []
+            for r in self.calibrations(s.serial, include_superseded=True):
+                rd = r.to_dict()
+                rd.pop("serial")
+                rd.pop("superseded_by")
+                d["calibrations"].append(rd)
+            out_sensors.append(d)
+        return {"format": EXPORT_FORMAT, "version": EXPORT_VERSION, "schema": db.head_revision(),
+                "sensors": out_sensors}
+
+    @_db_errors
+    def import_(self, doc: Mapping[str, Any]) -> dict[str, int]:
+        """Add the sensors and records of an export document.
+
+        Records already present (same uid) are skipped, so importing twice
+        adds nothing. A sensor already registered with another kind is an error.
+
+        Returns
+        -------
+        dict
+            ``{"sensors": added, "calibrations": added, "skipped": already present}``.
+        """
+        if not isinstance(doc, Mapping) or doc.get("format") != EXPORT_FORMAT:
+            raise FileFormatError(f"not a senscal registry export (expected \"format\": \"{EXPORT_FORMAT}\")")
+        if int(doc.get("version", 0)) > EXPORT_VERSION:
+            raise FileFormatError(f"registry export version {doc.get('version')} is newer than this senscal "
+                                  f"understands ({EXPORT_VERSION}); upgrade senscal")
+        added = {"sensors": 0, "calibrations": 0, "skipped": 0}
+        try:
+            with self.engine.begin() as conn:
+                for s in doc.get("sensors", []):
+                    self._import_sensor(conn, s, added)
+        except (KeyError, TypeError, ValueError) as exc:
+            if isinstance(exc, InputError):
+                raise
+            raise FileFormatError(f"malformed registry export: {type(exc).__name__}: {exc}") from None
+        return added
+
+    def _import_sensor(self, conn, s: Mapping[str, Any], added: dict[str, int]) -> None:
+        serial = s["serial"]
+        sid = self._insert_sensor(conn, serial, s["kind"], s.get("model"), s.get("manufacturer"),
+                                  s.get("nominal"), s.get("notes"),
+                                  created_at=parse_date(s["created_at"]) if s.get("created_at") else None)
+        if sid is None:
+            existing = self._sensor_row(conn, serial)
+            if existing.kind != s["kind"]:
+                raise InputError(f"sensor {serial!r} is already registered as {existing.kind!r}, the import says "
+                                 f"{s['kind']!r}; resolve the conflict before importing")
+            sid = self._sensor_id(conn, serial)
+        else:
+            added["sensors"] += 1
+        pending = list(s.get("calibrations", []))
+        while pending:
+            # A correction must follow the record it supersedes (foreign key).
+            present = set(conn.execute(sa.select(calibrations.c.uid)
+                                       .where(calibrations.c.uid.in_([r["uid"] for r in pending]
+                                                                     + [r["supersedes"] for r in pending
+                                                                        if r.get("supersedes")]))).scalars())
+            ready = [r for r in pending if not r.get("supersedes") or r["supersedes"] in present]
+            if not ready:
+                raise FileFormatError(f"records of {serial!r} supersede records missing from the export")
+            for r in ready:
+                if r["uid"] in present:
+                    added["skipped"] += 1
+                    continue
+                when = parse_date(r["performed_at"])
+                qs = [Quantity(q["name"], q["value"], q["uncertainty"], q["unit"], q["k"]) for q in r["quantities"]]
+                self._insert_calibration(conn, sid, dict(
+                    uid=r["uid"], performed_at=when, utc_offset_s=_offset_s(when),
+                    recorded_at=parse_date(r["recorded_at"]), job=r["job"], method=r.get("method"),
+                    conditions=r.get("conditions") or {}, result=r.get("result"), certificate=r.get("certificate"),
+                    input_files=list(r.get("input_files") or ()), senscal_version=r.get("senscal_version"),
+                    operator=r.get("operator"), note=r.get("note"), supersedes=r.get("supersedes")), qs)
+                present.add(r["uid"])
+                added["calibrations"] += 1
+            pending = [r for r in pending if r not in ready]
+
+
+def _too_few(serial: str, quantity: str, n: int) -> TooFewSamplesError:
+    return TooFewSamplesError(f"sensor {serial!r} has {n} record{'s' if n != 1 else ''} of {quantity!r}; a drift "
+                              "and a due date need at least two calibrations at different dates")
+
+
+def _check_text(text: str, what: str, *, free: bool = False) -> None:
+    """Refuse text no database can store faithfully (control characters, lone surrogates).
+
+    ``free`` text (notes) may hold line breaks and tabs, but never NUL.
+    """
+    if any(ord(ch) < 32 and not (free and ch in "\n\r\t") for ch in text):
+        raise InputError(f"{what} must not contain control characters, got {text!r}")
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        raise InputError(f"{what} is not valid Unicode text (lone surrogate), got {text!r}") from None
+
+
+def _check_free(**fields: str | None) -> None:
+    for what, text in fields.items():
+        if text is not None:
+            _check_text(str(text), what, free=True)
+
+
+def _clean(text: str, what: str) -> str:
+    s = str(text).strip() if text is not None else ""
+    if not s:
+        raise InputError(f"sensor {what} must not be empty")
+    _check_text(s, f"sensor {what}")
+    return s
+
+
+def open_registry(url: str | Path | None = None) -> Registry:
+    """Open (creating or upgrading if needed) the registry at ``url``; see :class:`Registry`."""
+    return Registry(url)

@@ -1,0 +1,490 @@
+"""Calibrate a three-axis sensor: diagnostics, model choice, fit, checks.
+
+References
+----------
+.. [1] "三轴磁敏传感器转向误差建模与辨识" (Steering-error modelling and
+   identification of a three-axis magnetic sensor), seed 004, METHODS.md s. 5.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from senscal._result import ResultMixin
+from senscal.errors import DegenerateGeometryError, DiagnosticError, InputError, TooFewSamplesError
+from senscal.triaxial import diagnostics as dg
+from senscal.triaxial.estimators import (
+    PAIR_ANGLE, ModelFit, _design, _linear_problem, fit_algebraic, fit_linear, fit_lms, fit_ml, param_names,
+)
+from senscal.triaxial.models import MODELS, TriaxialCalibration
+
+__all__ = ["TriaxialResult", "calibrate", "METHODS", "nominal_raw"]
+
+METHODS = ("auto", "lms", "linear", "ellipsoid", "ml")
+ANGLES = ("alpha", "beta", "gamma")
+
+
+@dataclass(frozen=True)
+class TriaxialResult(ResultMixin):
+    """Everything a three-axis calibration found out.
+
+    Attributes
+    ----------
+    model, method : str
+        Model fitted and estimator used.
+    calibration : TriaxialCalibration
+        What to apply to new data.
+    parameters : dict
+        Name -> ``{"value", "u", "unit"}`` (k=1; angles in rad).  Parameters
+        the data cannot determine have value and u None (NaN).
+    unidentifiable : tuple of dict
+        ``{"parameters": [...], "reason": str}`` for the full model on these
+        data (and for the fitted model, if it was forced).
+    model_choice : tuple of str
+        Why richer models were rejected (empty when the first choice held).
+    field, field_estimated, scale_note :
+        Field magnitude used (field units); when estimated the overall scale
+        is arbitrary and ``scale_note`` says so.
+    coverage, planarity, conditioning : dict
+        Pre-fit diagnostics.
+    noise : float
+        Residual standard deviation per sample (sensor units).
+    norm_error_before, norm_error_after : dict
+        ``|H| - F`` statistics of the raw and corrected samples used.
+    outliers, saturated : tuple of int
+        Sample indices excluded (gross errors; clipped axes).
+    plausibility : tuple of str
+        Failed physical-range checks.
+    warnings : tuple of str
+    lms_vs_least_squares : dict or None
+        For ``method="lms"``: LMS minus least squares per weight, in units of
+        the least-squares standard uncertainty.
+    n_samples, n_used : int
+    """
+
+    model: str
+    method: str
+    calibration: TriaxialCalibration
+    parameters: dict[str, dict[str, Any]]
+    unidentifiable: tuple[dict[str, Any], ...]
+    model_choice: tuple[str, ...]
+    field: float
+    field_estimated: bool
+    scale_note: str | None
+    coverage: dict[str, Any]
+    planarity: dict[str, Any]
+    conditioning: dict[str, Any]
+    noise: float
+    norm_error_before: dict[str, float]
+    norm_error_after: dict[str, float]
+    outliers: tuple[int, ...]
+    saturated: tuple[int, ...]
+    plausibility: tuple[str, ...]
+    warnings: tuple[str, ...]
+    lms_vs_least_squares: dict[str, Any] | None
+    n_samples: int
+    n_used: int
+
+    def value(self, name: str) -> float:
+        """A parameter's value (NaN if unidentifiable)."""
+        v = self.parameters[name]["value"]
+        return math.nan if v is None else float(v)
+
+    def u(self, name: str) -> float:
+        """A parameter's standard uncertainty (NaN if none)."""
+        v = self.parameters[name]["u"]
+        return math.nan if v is None else float(v)
+
+
+def nominal_raw(h: np.ndarray, field: float) -> tuple[np.ndarray, str | None]:
+    """Raw readings for the 'before' figures.
+
+    Readings already in field units are returned as they are.  Readings in
+    other units (ADC counts: median magnitude more than 50 % off the field)
+    get the nominal conversion a user would apply without calibration: the
+    mid-range of each axis as zero and one common scale factor.
+
+    Returns
+    -------
+    h : ndarray, shape like ``h``
+    note : str or None
+        Says what was done, when anything was.
+    """
+    h = np.asarray(h, float)
+    med = float(np.median(np.linalg.norm(h, axis=0)))
+    if med > 0 and abs(med / field - 1.0) <= 0.5:
+        return h, None
+    zero = 0.5 * (h.max(axis=1) + h.min(axis=1))
+    c = h - zero[:, None]
+    k = field / float(np.median(np.linalg.norm(c, axis=0)))
+    return c * k, (f"raw readings are not in field units: 'before' uses the nominal conversion (mid-range of each "
+                   f"axis as zero, one common factor {k:.6g})")
+
+
+def _nominal_theta(model, k0, b0, f0, field, plane, r_plane):
+    if model == "full":
+        return np.array(([k0] * 3 if field else [1.0, 1.0]) + [0.0, 0.0, 0.0] + list(b0) + ([] if field else [f0]))
+    if model == "diagonal":
+        return np.array(([k0] * 3 if field else [1.0, 1.0]) + list(b0) + ([] if field else [f0]))
+    if model == "offsets":
+        return np.array(([k0] if field else []) + list(b0) + ([] if field else [f0]))
+    i, j = plane
+    return np.array([1.0, 0.0, b0[i], b0[j], r_plane])
+
+
+def _column_condition(d: np.ndarray) -> float:
+    """Condition number of a design matrix with its columns scaled to unit norm."""
+    nrm = np.linalg.norm(d, axis=0)
+    if np.any(nrm == 0):
+        return math.inf
+    sv = np.linalg.svd(np.linalg.qr(d / nrm, mode="r") if d.shape[0] > d.shape[1] else d / nrm, compute_uv=False)
+    return float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
+
+
+def _model_design(model: str, x: np.ndarray, names, plane) -> np.ndarray:
+    """Sensitivity of the squared magnitude to each parameter, on the measured centred data.
+
+    Using the measured components (as the seed does) keeps exact
+    collinearities exact: in one horizontal turn the measured Hz is constant,
+    so the alpha column (Hx*Hz) is a multiple of the Bx column (Hx) whatever
+    the gains are.
+    """
+    cols = {"Kx": x[0] ** 2, "Ky": x[1] ** 2, "Kz": x[2] ** 2, "K": np.sum(x * x, axis=0),
+            "alpha": x[0] * x[2], "beta": x[1] * x[2], "gamma": x[0] * x[1],
+            "Bx": x[0], "By": x[1], "Bz": x[2], "field": np.ones(x.shape[1]), "plane_field": np.ones(x.shape[1])}
+    if plane is not None:
+        i, j = plane
+        ax = "xyz"
+        cols = {f"K{ax[i]}": x[i] ** 2, PAIR_ANGLE[(i, j)]: x[i] * x[j], f"B{ax[i]}": x[i], f"B{ax[j]}": x[j],
+                "plane_field": np.ones(x.shape[1])}
+    return np.column_stack([cols[n] for n in names])
+
+
+def _noise_floor(h: np.ndarray, b0: np.ndarray, r0: float, plane: tuple[int, int] | None) -> float:
+    """Per-sample noise (sensor units) from a free quadric fit, or a free conic in the plane of planar data.
+
+    A free quadric through nearly planar points absorbs the out-of-plane
+    noise exactly, so planar data use the in-plane conic instead.
+    """
+    x = (h - b0[:, None]) / r0
+    if plane is not None:
+        a, b = x[list(plane)]
+        d = np.column_stack([a * a, b * b, a * b, a, b])
+        rho = float(np.median(np.hypot(a, b)))
+    else:
+        a, b, c = x
+        d = np.column_stack([a * a, b * b, c * c, a * b, a * c, b * c, a, b, c])
+        rho = 1.0
+    # x'Ax + b'x = 1 near a circle/sphere of radius rho: the algebraic residual
+    # is the gradient (2 / rho) times the radial error.
+    y = np.ones(x.shape[1])
+    w, _, rank, _ = np.linalg.lstsq(d, y, rcond=1e-9)
+    dof = y.size - rank
+    if dof < 1:
+        return 1e-9 * r0
+    res = y - d @ w
+    return max(0.5 * rho * float(np.sqrt(res @ res / dof)) * r0, 1e-9 * r0)
+
+
+def _param_units(names, unit: str, field_known: bool) -> dict[str, str]:
+    out = {}
+    for n in names:
+        if n in ANGLES:
+            out[n] = "rad"
+        elif n.startswith("dK") or (n.startswith("K") and not field_known):
+            out[n] = "1"
+        elif n.startswith("K"):
+            out[n] = f"{unit or 'sensor unit'} per field unit"
+        else:
+            out[n] = unit
+    return out
+
+
+def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto", model: str | None = None,
+              lr: float = 0.01, epochs: int = 50, strict: bool = False, outlier_sigma: float | None = 5.0,
+              min_coverage: float = 0.25, planar_thickness: float = 0.05, max_angle_deg: float = 5.0,
+              gain_ratio: tuple[float, float] = (0.8, 1.25), max_offset: float = 0.5, unit: str = "",
+              channels: Sequence[str] = ("x", "y", "z")) -> TriaxialResult:
+    """Calibrate a three-axis magnetometer or accelerometer without a reference.
+
+    Parameters
+    ----------
+    h : array_like, shape (3, N)
+        Readings in a constant field (magnetometer) or static poses in
+        gravity (accelerometer), sensor units, axes X, Y, Z.
+    field : float, optional
+        Field magnitude (e.g. 50,000 nT, local g in m/s^2).  None: estimated;
+        the overall scale is then arbitrary (gains relative to Z).
+    method : {"auto", "ml", "ellipsoid", "linear", "lms"}
+        ``ml``/``auto``: algebraic ellipsoid start, maximum likelihood on the
+        magnitude; ``ellipsoid``: algebraic only; ``linear``: the seed's
+        linearised model by least squares; ``lms``: the same by the seed's
+        LMS neuron (``lr``, ``epochs``).
+    model : {"full", "diagonal", "offsets", "planar"}, optional
+        Force a model.  None: the richest model the data support.
+    strict : bool
+        Raise :class:`DiagnosticError` (exit 3) on insufficient coverage or
+        implausible parameters instead of warning.
+    outlier_sigma : float or None
+        Samples whose corrected magnitude is more than this many robust
+        standard deviations off are excluded and the fit repeated once.
+    min_coverage : float
+        Fraction of equal-area sphere cells below which coverage is called
+        insufficient for the full model.
+    planar_thickness : float
+        Principal-axis spread ratio below which the data count as planar.
+    max_angle_deg, gain_ratio, max_offset :
+        Plausibility limits (see :func:`diagnostics.plausibility`).
+    unit : str
+        Sensor unit (for reports).
+    channels : sequence of str
+        Channel names (for the saved calibration).
+
+    Returns
+    -------
+    TriaxialResult
+
+    References
+    ----------
+    .. [1] seed 004, METHODS.md section 5.
+    """
+    h = np.asarray(h, float)
+    if h.ndim != 2 or h.shape[0] != 3:
+        raise InputError(f"readings must have shape (3, N) for axes X, Y, Z; got {h.shape}")
+    if not np.all(np.isfinite(h)):
+        raise InputError("readings contain NaN or inf; remove them before calibrating")
+    if method not in METHODS:
+        raise InputError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
+    if model is not None and model not in MODELS:
+        raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
+    if field is not None and not (math.isfinite(field) and field > 0):
+        raise InputError(f"field magnitude must be a positive number, got {field!r}")
+    n_total = h.shape[1]
+    if n_total < 5:
+        raise TooFewSamplesError(f"got {n_total} readings; even the simplest (offsets) model needs at least 5 "
+                                 "orientations")
+    linear_method = method in ("linear", "lms")
+    warnings: list[str] = []
+
+    sat_mask, sat_axes = dg.saturated_samples(h)
+    if sat_mask.any():
+        warnings.append(f"{int(sat_mask.sum())} samples with a saturated axis "
+                        f"({', '.join('XYZ'[int(k)] for k in sat_axes)}) were excluded")
+    idx = np.flatnonzero(~sat_mask)
+    hu = h[:, idx]
+    if hu.shape[1] < 5:
+        raise TooFewSamplesError(f"only {hu.shape[1]} readings left after removing saturated samples; "
+                                 "reduce the field range or use a sensor range that does not clip")
+
+    # -- before fitting: what can these data support? --------------------------
+    plan = dg.planarity(hu)
+    is_planar = plan["thickness"] < planar_thickness
+    plane = plan["plane_axes"]
+    b0 = dg.nominal_center(hu, is_planar, plane)
+    r0 = float(np.median(np.linalg.norm(hu - b0[:, None], axis=0)))
+    if not r0 > 0:
+        raise DegenerateGeometryError("all readings are identical; turn the sensor through many orientations")
+    k0, f0 = (r0 / field, field) if field is not None else (1.0, r0)
+    i, j = plane
+    r_plane = float(np.median(np.hypot(hu[i] - b0[i], hu[j] - b0[j])))
+    cov = dg.sphere_coverage(hu - b0[:, None])
+    sigma0 = _noise_floor(hu, b0, r0, plane if is_planar else None)
+    plan = {**plan, "planar": bool(is_planar), "threshold": planar_thickness}
+
+    xs = (hu - b0[:, None]) / r0
+
+    def analyse(mdl):
+        pl_ = plane if mdl == "planar" else None
+        names = param_names(mdl, field is not None, pl_)
+        d = _model_design(mdl, xs, names, pl_)
+        info = dg.identifiability(d, names, dg.physical_scales(names, 1.0), sigma0 / r0)
+        info["n_ok"] = hu.shape[1] > len(names)
+        return names, _nominal_theta(mdl, k0, b0, f0, field, plane, r_plane), info
+
+    analyses = {m: analyse(m) for m in MODELS}
+    conditioning = {m: {"condition": a[2]["condition"], "rank": a[2]["rank"], "n_params": a[2]["n_params"]}
+                    for m, a in analyses.items()}
+    conditioning["noise_floor"] = sigma0
+    # The estimators' own matrices: the seed's linearised design (LMS / linear)
+    # and the algebraic ellipsoid design, columns scaled to unit norm.
+    def linear_analysis(mdl):
+        xl, _, lnames, ls_scale = _linear_problem(hu, field, mdl)
+        return xl, lnames, dg.identifiability(xl, lnames, dg.physical_scales(lnames, 1.0), sigma0 / ls_scale)
+
+    xl, lnames, lin_info = linear_analysis("full")
+    conditioning["linear_design"] = {"condition": _column_condition(xl), "rank": lin_info["rank"],
+                                     "n_params": len(lnames), "groups": lin_info["groups"]}
+    conditioning["ellipsoid_design"] = {"condition": _column_condition(_design("full", xs)), "n_params": 9}
+    unidentifiable = list(analyses["full"][2]["groups"])
+
+    # -- which model? ----------------------------------------------------------
+    choice: list[str] = []
+    if model is not None:
+        chosen = model
+        if linear_method and chosen == "planar":
+            raise InputError("the linearised (lms/linear) methods have no planar form; use --method ml or "
+                             "ellipsoid with --model planar")
+        groups = analyses[chosen][2]["groups"]
+        if chosen != "full" and groups:
+            unidentifiable += [dict(g, model=chosen) for g in groups]
+        if not analyses[chosen][2]["n_ok"]:
+            raise TooFewSamplesError(f"the {chosen} model has {len(analyses[chosen][0])} parameters and needs "
+                                     f"more readings than that, got {hu.shape[1]}")
+    else:
+        order = ["full", "diagonal"] + (["planar", "offsets"] if is_planar else ["offsets", "planar"])
+        if linear_method:
+            order = [m for m in order if m != "planar"]
+        chosen = None
+        for m in order:
+            names, _, info = analyses[m]
+            if not info["n_ok"]:
+                choice.append(f"{m}: {len(names)} parameters need more than {hu.shape[1]} readings")
+                continue
+            if info["groups"]:
+                choice.append(f"{m}: " + "; ".join(g["reason"] for g in info["groups"]))
+                continue
+            if m == "planar" and plan["normal_alignment"] < 0.95:
+                choice.append("planar: the rotation plane is not close to a pair of sensor axes")
+                continue
+            chosen = m
+            break
+        if chosen is None:
+            raise DegenerateGeometryError("the orientations do not determine even the simplest model ("
+                                          + " | ".join(choice) + "); turn the sensor through more orientations")
+
+    # -- fit -------------------------------------------------------------------
+    pl = plane if chosen == "planar" else None
+
+    def run_fit(hh: np.ndarray) -> tuple[ModelFit, ModelFit | None]:
+        if method == "linear":
+            return fit_linear(hh, field=field, model=chosen, unit=unit, channels=channels), None
+        if method == "lms":
+            ls = fit_linear(hh, field=field, model=chosen, unit=unit, channels=channels)
+            return fit_lms(hh, field=field, model=chosen, lr=lr, epochs=epochs, unit=unit, channels=channels), ls
+        try:
+            alg = fit_algebraic(hh, chosen, field=field, plane=pl, unit=unit, channels=channels)
+            start = alg.values
+        except DegenerateGeometryError:
+            if method == "ellipsoid":
+                raise
+            alg, start = None, analyses[chosen][1]
+        if method == "ellipsoid":
+            return alg, None
+        prior = None
+        if weak:
+            # Forced model with directions the data cannot see: pin them weakly
+            # at the nominal point (a noise unit per plausible range) so the fit
+            # converges; they are reported as unknown below.
+            names_ = analyses[chosen][0]
+            sc = dg.physical_scales(names_, f0 if chosen != "planar" else r_plane, k0 if chosen != "planar" else 1.0)
+            wt = np.array([1.0 / s_ if n in weak else 0.0 for n, s_ in zip(names_, sc)])
+            prior = (analyses[chosen][1], wt)
+            start = analyses[chosen][1]
+        return fit_ml(hh, chosen, field=field, plane=pl, start=start, unit=unit, channels=channels,
+                      prior=prior), None
+
+    def norms(cal: TriaxialCalibration, hh: np.ndarray) -> np.ndarray:
+        c = cal.apply(hh)
+        return np.hypot(c[i], c[j]) if chosen == "planar" else np.linalg.norm(c, axis=0)
+
+    weak_groups = linear_analysis(chosen)[2]["groups"] if linear_method else analyses[chosen][2]["groups"]
+    weak = {p for g in weak_groups for p in g["parameters"]}
+    fit, ls = run_fit(hu)
+    outl = np.array([], int)
+    if outlier_sigma is not None:
+        outl = dg.robust_outliers(norms(fit.calibration, hu) - fit.field, outlier_sigma)
+        n_par = len(fit.names)
+        if outl.size and hu.shape[1] - outl.size > n_par:
+            keep = np.setdiff1d(np.arange(hu.shape[1]), outl)
+            warnings.append(f"{outl.size} outlier readings (more than {outlier_sigma:g} robust sigma off the "
+                            "field magnitude) were excluded and the fit repeated")
+            hu2 = hu[:, keep]
+            fit, ls = run_fit(hu2)
+        else:
+            hu2 = hu
+            outl = np.array([], int)
+    else:
+        hu2 = hu
+
+    # -- after fitting ---------------------------------------------------------
+    units = _param_units(fit.names, unit, field is not None and chosen != "planar")
+    u_all = fit.uncertainties
+    params = {}
+    for n, v, u in zip(fit.names, fit.values, u_all):
+        if n in weak:
+            params[n] = {"value": None, "u": None, "unit": units[n]}
+        else:
+            params[n] = {"value": float(v), "u": float(u) if np.isfinite(u) else None, "unit": units[n]}
+    if fit.field_estimated:
+        scale_note = ("field magnitude estimated from the data: the overall scale is arbitrary (gains are relative "
+                      "to the Z axis and the field is in Z-axis units)") if chosen != "planar" else (
+            "planar model: the in-plane field magnitude is estimated and the in-plane scale is arbitrary "
+            f"(K{'xyz'[j]} = 1); the {'XYZ'[plan['normal_axis']]} axis is left uncorrected, and the in-plane offsets "
+            "include the constant out-of-plane field leaking through the non-orthogonality (e.g. Bx + "
+            "Kx sin(alpha) cos(gamma) Hz)")
+    else:
+        scale_note = None
+    raw, raw_note = nominal_raw(hu2[[i, j]] if chosen == "planar" else hu2, fit.field)
+    before = dg.norm_error_stats(np.linalg.norm(raw, axis=0), fit.field)
+    if raw_note:
+        before["note"] = raw_note
+    after = dg.norm_error_stats(norms(fit.calibration, hu2), fit.field)
+    plaus_params = {n: (v["value"] if v["value"] is not None else math.nan) for n, v in params.items()}
+    if chosen == "planar":
+        plaus_params[f"K{'xyz'[j]}"] = 1.0
+        plaus_params.setdefault("Kz", 1.0)
+    # Raw counts carry the converter's zero in their offsets: only judge offsets
+    # of data already in field units.
+    plaus = dg.plausibility(plaus_params, fit.field, max_angle_deg=max_angle_deg, gain_ratio=gain_ratio,
+                            max_offset=max_offset if raw_note is None else None)
+    lms_cmp = None
+    if ls is not None:
+        d = {}
+        for n, v, lv, lu in zip(fit.names, fit.values, ls.values, ls.uncertainties):
+            d[n] = float((v - lv) / lu) if lu > 0 else None
+        worst = max((abs(x) for x in d.values() if x is not None), default=0.0)
+        lms_cmp = {"difference_in_u": d, "max_abs_difference_in_u": worst, "epochs": epochs, "lr": lr,
+                   "least_squares": {n: float(v) for n, v in zip(ls.names, ls.values)}}
+        if worst > 1:
+            warnings.append(f"LMS after {epochs} epochs is up to {worst:.3g} standard uncertainties from the "
+                            "least-squares solution: it has not converged; use --method linear or more --epochs")
+
+    us = f" {unit}" if unit else ""
+    if fit.noise > 1.5 * sigma0 and fit.n_used > 2 * len(fit.names):
+        warnings.append(f"the {chosen} model leaves a residual of {fit.noise:.4g}{us} per sample against a noise "
+                        f"floor of {sigma0:.4g}{us}: errors it does not model are not negligible, and its "
+                        "uncertainties understate the real error")
+    coverage_problem = None
+    if model in ("diagonal", "offsets", "planar"):
+        if analyses[model][2]["groups"]:
+            coverage_problem = f"the orientations cannot determine the forced {model} model"
+    else:
+        if unidentifiable:
+            coverage_problem = "the orientations cannot determine the full model (" + "; ".join(
+                g["reason"] for g in unidentifiable) + ")"
+        elif cov["fraction"] < min_coverage:
+            coverage_problem = (f"the directions hit {cov['fraction']:.0%} of the sphere cells, below "
+                                f"{min_coverage:.0%}")
+    if coverage_problem:
+        warnings.append(f"insufficient coverage: {coverage_problem}")
+    if plaus:
+        warnings.append("implausible parameters: " + "; ".join(plaus))
+    if strict and (coverage_problem or plaus):
+        what = "; ".join(([f"insufficient coverage: {coverage_problem}"] if coverage_problem else [])
+                         + ([f"implausible parameters: {'; '.join(plaus)}"] if plaus else []))
+        raise DiagnosticError(f"--strict: {what}; record more orientations or drop --strict to accept the "
+                              f"{chosen} model")
+    kept = np.setdiff1d(np.arange(hu.shape[1]), outl)
+    return TriaxialResult(
+        model=chosen, method=fit.method, calibration=fit.calibration, parameters=params,
+        unidentifiable=tuple(unidentifiable), model_choice=tuple(choice), field=float(fit.field),
+        field_estimated=bool(fit.field_estimated), scale_note=scale_note, coverage=cov, planarity=plan,
+        conditioning=conditioning, noise=float(fit.noise), norm_error_before=before, norm_error_after=after,
+        outliers=tuple(int(idx[k]) for k in outl), saturated=tuple(int(k) for k in np.flatnonzero(sat_mask)),
+        plausibility=tuple(plaus), warnings=tuple(warnings), lms_vs_least_squares=lms_cmp,
+        n_samples=int(n_total), n_used=int(kept.size),
+    )

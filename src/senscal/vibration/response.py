@@ -1,0 +1,425 @@
+"""Accelerometer frequency response: known input (double centrifuge) or
+back-to-back comparison with a reference accelerometer.
+
+References
+----------
+.. [1] Qin Chaojun, "Three-parameter cosine fit in double-centrifuge dynamic
+   calibration of linear accelerometers" (seed 003; ``shared/METHODS.md``
+   section 4).
+.. [2] ISO 16063-21:2003, Vibration calibration by comparison to a reference
+   transducer (back-to-back: ``S_dut = S_ref * A_dut / A_ref``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from senscal._result import ResultMixin
+from senscal.errors import FileFormatError, InputError
+from senscal.sinefit import fit_sine, wrap_phase
+from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget
+from senscal.vibration.fits import AngleSync, cut_whole_revolutions, fit_against_angle, fit_pair
+
+__all__ = ["ResponsePoint", "FrequencyResponse", "RepeatedPoint", "response_point", "frequency_response",
+           "combine_repeats", "save_response", "load_response"]
+
+FORMAT = "senscal.vibration.FrequencyResponse"
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class ResponsePoint(ResultMixin):
+    """Accelerometer sensitivity and phase at one frequency point.
+
+    Attributes
+    ----------
+    source : str
+        Label (file name).
+    method : str
+        ``"known input"``, ``"known input, angle-synchronised"`` or ``"back-to-back"``.
+    frequency, u_frequency : float
+        Excitation frequency and standard uncertainty, Hz.
+    input_amplitude : float
+        Peak input acceleration in m/s^2 (given, or ``A_ref / S_ref``).
+    output_amplitude, u_output_amplitude : float
+        Peak output of the accelerometer (its unit) from the fit.
+    sensitivity, u_sensitivity : float
+        ``S_i`` in output unit per m/s^2 with combined standard uncertainty.
+    normalized_sensitivity, u_normalized_sensitivity : float or None
+        ``S_i / S_0`` (None without a static sensitivity).
+    phase, u_phase : float
+        Output phase in rad: at t = 0 (time fits) or at turntable angle 0
+        (angle-synchronised), sine convention.
+    phase_delay, u_phase_delay : float or None
+        Output phase minus input phase in rad (negative for a lagging
+        sensor); None when the input phase is unknown.
+    sensitivity_budget, normalized_budget, phase_delay_budget : UncertaintyBudget or None
+        GUM budgets (k=1 components, expanded with k=2).
+    sync : AngleSync or None
+        Where an angle-synchronised record was cut.
+    n_samples : int
+        Samples used in the fit.
+    snr_db, thd : float
+        Output fit signal-to-noise ratio and total harmonic distortion of the
+        output (ratio, from a second fit with 3 harmonics; nan when not computed).
+    """
+
+    source: str
+    method: str
+    frequency: float
+    u_frequency: float
+    input_amplitude: float
+    output_amplitude: float
+    u_output_amplitude: float
+    sensitivity: float
+    u_sensitivity: float
+    normalized_sensitivity: float | None
+    u_normalized_sensitivity: float | None
+    phase: float
+    u_phase: float
+    phase_delay: float | None
+    u_phase_delay: float | None
+    sensitivity_budget: UncertaintyBudget
+    normalized_budget: UncertaintyBudget | None
+    phase_delay_budget: UncertaintyBudget | None
+    sync: AngleSync | None
+    n_samples: int
+    snr_db: float
+
+
+def _check_rel(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise InputError(f"{name} must be a non-negative relative standard uncertainty, got {value!r}")
+    return value
+
+
+def response_point(output, t, *, input_amplitude: float | None = None, reference=None,
+                   reference_sensitivity: float | None = None, angle_deg=None, freq: float | None = None,
+                   static_sensitivity: float | None = None, initial_phase: float | None = None,
+                   u_input: float = 0.0, u_reference_sensitivity: float = 0.0,
+                   u_static_sensitivity: float = 0.0, u_input_phase: float = 0.0, drift: bool = False,
+                   harmonics: int = 1, source: str = "", unit: str = "V/(m/s^2)") -> ResponsePoint:
+    """Sensitivity, normalised sensitivity, phase and phase delay at one frequency.
+
+    Three ways to know the input:
+
+    * ``input_amplitude`` with ``angle_deg`` (double centrifuge): the record
+      is cut to whole turntable revolutions starting at a 360 deg crossing and
+      the output is fitted against the angle; the sensitive axis sees
+      ``a0 cos(angle)``, so the input phase is pi/2 in the sine convention and
+      the phase delay needs no start-up test.
+    * ``input_amplitude`` alone: the output is fitted against time; the
+      phase delay is ``phase - initial_phase`` when ``initial_phase`` is given.
+    * ``reference`` with ``reference_sensitivity`` (back-to-back, ISO
+      16063-21): both fitted at one frequency, ``S = S_ref A_out / A_ref``,
+      phase delay ``phase_out - phase_ref``.
+
+    Parameters
+    ----------
+    output : array_like, shape (N,)
+        Accelerometer output (its unit, e.g. V).
+    t : array_like, shape (N,)
+        Time stamps in s.
+    input_amplitude : float, optional
+        Peak input acceleration in m/s^2.
+    reference : array_like, shape (N,), optional
+        Reference accelerometer output.
+    reference_sensitivity : float, optional
+        Reference sensitivity, reference unit per m/s^2.
+    angle_deg : array_like, shape (N,), optional
+        Secondary turntable angle in degrees.
+    freq : float, optional
+        Known frequency in Hz (ignored with ``angle_deg``: the angle gives it).
+    static_sensitivity : float, optional
+        ``S_0`` (output unit per m/s^2) for the normalised sensitivity.
+    initial_phase : float, optional
+        Input phase in rad at t = 0 (sine convention) from a start-up test.
+    u_input, u_reference_sensitivity, u_static_sensitivity : float
+        Type B relative standard uncertainties (fractions) of the input
+        amplitude, the reference sensitivity and ``S_0``.
+    u_input_phase : float
+        Type B standard uncertainty of the input phase in rad.
+    drift : bool
+        Also fit a linear offset drift.
+    harmonics : int
+        Harmonics fitted with the fundamental (1 = fundamental only).  A nonlinear sensor puts harmonics in its output;
+        fitting them keeps them out of the residual, so the fundamental's
+        uncertainty stays the noise's (the fundamental itself is orthogonal to
+        them over whole revolutions).
+    source : str
+        Label stored with the result.
+    unit : str
+        Sensitivity unit.
+
+    Returns
+    -------
+    ResponsePoint
+
+    References
+    ----------
+    .. [1] Qin Chaojun (seed 003), METHODS.md section 4.
+    .. [2] ISO 16063-21:2003.
+    """
+    u_input = _check_rel("u_input", u_input)
+    u_reference_sensitivity = _check_rel("u_reference_sensitivity", u_reference_sensitivity)
+    u_static_sensitivity = _check_rel("u_static_sensitivity", u_static_sensitivity)
+    u_input_phase = _check_rel("u_input_phase", u_input_phase)
+    y = np.asarray(output, dtype=float)
+    t = np.asarray(t, dtype=float)
+    sync = None
+    if reference is not None:
+        if input_amplitude is not None or angle_deg is not None:
+            raise InputError("give either a reference channel (back-to-back) or a known input amplitude, not both")
+        if reference_sensitivity is None or not reference_sensitivity > 0:
+            raise InputError("back-to-back comparison needs the reference sensitivity (> 0, reference unit per m/s^2)")
+        pf = fit_pair(reference, y, t, freq=freq, drift=drift, harmonics=harmonics)
+        a_ref, a_out = pf.reference_amplitude, pf.output_amplitude
+        if a_ref <= 0:
+            raise InputError("the reference channel carries no sinusoid; check --reference")
+        a_in = a_ref / reference_sensitivity
+        s = reference_sensitivity * a_out / a_ref
+        jac = np.array([-s / a_ref, reference_sensitivity / a_ref, 0.0, 0.0])
+        u_fit = math.sqrt(max(float(jac @ pf.covariance @ jac), 0.0))
+        comps_b = [("reference sensitivity", "B", u_reference_sensitivity * s)]
+        f, u_f = pf.frequency, pf.u_frequency
+        u_amp = math.sqrt(pf.covariance[1, 1])
+        phase, u_phase = float(pf.output.phase), pf.u_output_phase
+        delay, u_delay_fit = pf.phase_difference, math.sqrt(pf.covariance[2, 2])
+        method, n, snr = "back-to-back", pf.output.n_samples, float(pf.output.snr_db)
+    else:
+        if input_amplitude is None or not input_amplitude > 0:
+            raise InputError("give the known peak input acceleration (> 0, m/s^2) or a reference channel")
+        a_in = float(input_amplitude)
+        if angle_deg is not None:
+            sync = cut_whole_revolutions(angle_deg, t)
+            sl = slice(sync.start, sync.stop)
+            fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics, drift=drift)
+            f, u_f = sync.frequency, sync.u_frequency
+            # The axis sees a0 cos(angle) = a0 sin(angle + pi/2).
+            delay = float(wrap_phase(fit.phase - 0.5 * math.pi))
+            u_delay_fit = float(fit.u_phase)
+            method = "known input, angle-synchronised"
+        else:
+            fit = fit_sine(y, t, freq=freq, drift=drift, harmonics=harmonics)
+            f, u_f = float(fit.frequency), float(fit.u_frequency)
+            delay = None if initial_phase is None else float(wrap_phase(fit.phase - initial_phase))
+            u_delay_fit = float(fit.u_phase)
+            method = "known input"
+        a_out, u_amp = float(fit.amplitude), float(fit.u_amplitude)
+        s = a_out / a_in
+        u_fit = u_amp / a_in
+        comps_b = [("input amplitude", "B", u_input * s)]
+        phase, u_phase = float(fit.phase), float(fit.u_phase)
+        n, snr = fit.n_samples, float(fit.snr_db)
+    s_budget = make_budget("sensitivity", s, unit, [("output fit (type A)", "A", u_fit)] + comps_b)
+    n_budget = None
+    if static_sensitivity is not None:
+        if not static_sensitivity > 0:
+            raise InputError(f"static sensitivity S0 must be > 0, got {static_sensitivity!r}")
+        r = s / static_sensitivity
+        n_budget = make_budget("normalized sensitivity", r, "1",
+                               [(c.source, c.kind, c.standard_uncertainty / static_sensitivity)
+                                for c in s_budget.components] + [("static sensitivity S0", "B", u_static_sensitivity * r)])
+    d_budget = None
+    if delay is not None:
+        d_budget = make_budget("phase delay", delay, "rad", [("phase fits (type A)", "A", u_delay_fit),
+                                                             ("input phase", "B", u_input_phase)])
+    return ResponsePoint(
+        source=source, method=method, frequency=float(f), u_frequency=float(u_f), input_amplitude=a_in,
+        output_amplitude=a_out, u_output_amplitude=u_amp, sensitivity=s, u_sensitivity=s_budget.combined,
+        normalized_sensitivity=None if n_budget is None else n_budget.value,
+        u_normalized_sensitivity=None if n_budget is None else n_budget.combined,
+        phase=phase, u_phase=u_phase,
+        phase_delay=delay, u_phase_delay=None if d_budget is None else d_budget.combined,
+        sensitivity_budget=s_budget, normalized_budget=n_budget, phase_delay_budget=d_budget,
+        sync=sync, n_samples=int(n), snr_db=snr,
+    )
+
+
+@dataclass(frozen=True)
+class FrequencyResponse(ResultMixin):
+    """An accelerometer's frequency response: points sorted by frequency.
+
+    Attributes
+    ----------
+    points : tuple of ResponsePoint
+    unit : str
+        Sensitivity unit.
+    static_sensitivity : float or None
+        ``S_0`` used for the normalisation.
+    """
+
+    points: tuple[ResponsePoint, ...]
+    unit: str
+    static_sensitivity: float | None
+
+    @property
+    def frequency(self) -> np.ndarray:
+        """Frequencies in Hz."""
+        return np.array([p.frequency for p in self.points])
+
+    @property
+    def sensitivity(self) -> np.ndarray:
+        return np.array([p.sensitivity for p in self.points])
+
+    @property
+    def u_sensitivity(self) -> np.ndarray:
+        return np.array([p.u_sensitivity for p in self.points])
+
+
+def frequency_response(points: Sequence[ResponsePoint], *, unit: str = "V/(m/s^2)",
+                       static_sensitivity: float | None = None) -> FrequencyResponse:
+    """Collect response points into a :class:`FrequencyResponse` (sorted by frequency)."""
+    if not points:
+        raise InputError("give at least one frequency point")
+    pts = tuple(sorted(points, key=lambda p: p.frequency))
+    return FrequencyResponse(pts, unit, static_sensitivity)
+
+
+@dataclass(frozen=True)
+class RepeatedPoint(ResultMixin):
+    """Repeated records at one frequency combined (GUM type A from their spread).
+
+    Attributes
+    ----------
+    frequency : float
+        Mean frequency of the repeats, Hz.
+    n_repeats : int
+    sources : tuple of str
+    sensitivity, u_sensitivity, sensitivity_std : float
+        Mean, combined standard uncertainty of the mean, experimental standard
+        deviation of the repeats.
+    normalized_sensitivity, u_normalized_sensitivity : float or None
+    phase_delay, u_phase_delay : float or None
+        rad.
+    sensitivity_budget, normalized_budget, phase_delay_budget : UncertaintyBudget or None
+    """
+
+    frequency: float
+    n_repeats: int
+    sources: tuple[str, ...]
+    sensitivity: float
+    u_sensitivity: float
+    sensitivity_std: float
+    normalized_sensitivity: float | None
+    u_normalized_sensitivity: float | None
+    phase_delay: float | None
+    u_phase_delay: float | None
+    sensitivity_budget: UncertaintyBudget
+    normalized_budget: UncertaintyBudget | None
+    phase_delay_budget: UncertaintyBudget | None
+
+
+def _mean_of(budgets: Sequence[UncertaintyBudget], quantity: str, relative: bool):
+    """Combine per-repeat budgets: type A from the spread, type B carried over."""
+    first = budgets[0]
+    a_src = [c for c in first.components if c.kind == "A"][0].source
+    u_fit = [b.component(a_src).standard_uncertainty for b in budgets]
+    vals = [b.value for b in budgets]
+    bs = [(c.source, c.standard_uncertainty / abs(first.value) if relative else c.standard_uncertainty)
+          for c in first.components if c.kind == "B"]
+    _, std, bud = mean_with_budget(vals, u_fit, bs if relative else [], quantity, first.unit,
+                                   absolute_b=[] if relative else bs)
+    return bud, std
+
+
+def combine_repeats(points: Sequence[ResponsePoint], *, rel_tol: float = 1e-3) -> tuple[RepeatedPoint, ...]:
+    """Group records at the same frequency and combine them (mean, spread, budget).
+
+    Parameters
+    ----------
+    points : sequence of ResponsePoint
+    rel_tol : float
+        Frequencies within this relative tolerance are repeats of one point.
+
+    Returns
+    -------
+    tuple of RepeatedPoint
+        One per distinct frequency, sorted by frequency.  Type A of each mean
+        is the larger of ``s / sqrt(n)`` over the repeats and the fits' own
+        uncertainty of the mean (see :func:`~senscal.vibration.budget.mean_with_budget`).
+
+    References
+    ----------
+    .. [1] JCGM 100:2008 (GUM) 4.2 (type A evaluation from repeated observations).
+    """
+    groups: list[list[ResponsePoint]] = []
+    for p in sorted(points, key=lambda q: q.frequency):
+        if groups and abs(p.frequency - groups[-1][0].frequency) <= rel_tol * groups[-1][0].frequency:
+            groups[-1].append(p)
+        else:
+            groups.append([p])
+    out = []
+    for g in groups:
+        sb, s_std = _mean_of([p.sensitivity_budget for p in g], "sensitivity", True)
+        nb = None
+        if all(p.normalized_budget is not None for p in g):
+            nb, _ = _mean_of([p.normalized_budget for p in g], "normalized sensitivity", True)
+        db = None
+        if all(p.phase_delay_budget is not None for p in g):
+            # average phases around the first one so a +/-pi wrap cannot split the mean
+            ref = g[0].phase_delay
+            wrapped = [make_budget("phase delay", ref + float(wrap_phase(p.phase_delay - ref)), "rad",
+                                   [(c.source, c.kind, c.standard_uncertainty) for c in p.phase_delay_budget.components])
+                       for p in g]
+            db, _ = _mean_of(wrapped, "phase delay", False)
+        out.append(RepeatedPoint(
+            frequency=float(np.mean([p.frequency for p in g])), n_repeats=len(g), sources=tuple(p.source for p in g),
+            sensitivity=sb.value, u_sensitivity=sb.combined, sensitivity_std=s_std,
+            normalized_sensitivity=None if nb is None else nb.value,
+            u_normalized_sensitivity=None if nb is None else nb.combined,
+            phase_delay=None if db is None else db.value, u_phase_delay=None if db is None else db.combined,
+            sensitivity_budget=sb, normalized_budget=nb, phase_delay_budget=db))
+    return tuple(out)
+
+
+def save_response(resp: FrequencyResponse, path) -> "Path":
+    """Save a frequency response as JSON that carries its type and format version."""
+    import json
+    from pathlib import Path
+
+    from senscal._result import to_jsonable
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    doc = {"type": FORMAT, "format_version": FORMAT_VERSION, **to_jsonable(resp)}
+    path.write_text(json.dumps(doc, indent=1) + "\n")
+    return path
+
+
+def _budget_from(d):
+    if d is None:
+        return None
+    comps = tuple(BudgetComponent(**c) for c in d["components"])
+    return UncertaintyBudget(d["quantity"], d["value"], d["unit"], comps, d["combined"], d["coverage_factor"],
+                             d["expanded"])
+
+
+def load_response(path) -> FrequencyResponse:
+    """Load a response written by :func:`save_response` (type and version checked)."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError) as exc:
+        raise FileFormatError(f"cannot read a frequency response from {path}: {exc}") from None
+    if not isinstance(doc, dict) or doc.get("type") != FORMAT:
+        raise FileFormatError(f"{path} is not a senscal frequency response (type {doc.get('type') if isinstance(doc, dict) else None!r})")
+    if doc.get("format_version", 0) > FORMAT_VERSION:
+        raise FileFormatError(f"{path} has format version {doc['format_version']}; this senscal reads up to "
+                              f"{FORMAT_VERSION}: upgrade senscal")
+    pts = []
+    for d in doc["points"]:
+        kw = dict(d)
+        for k in ("sensitivity_budget", "normalized_budget", "phase_delay_budget"):
+            kw[k] = _budget_from(d[k])
+        kw["sync"] = None if d["sync"] is None else AngleSync(**d["sync"])
+        pts.append(ResponsePoint(**kw))
+    return FrequencyResponse(tuple(pts), doc["unit"], doc["static_sensitivity"])

@@ -1,0 +1,185 @@
+"""Velocity-sensor sensitivity against a position reference (hydraulic rig).
+
+References
+----------
+.. [1] Yang et al., "Sinusoidal excitation calibration with a least-squares
+   sine fit with offset", Transducer and Microsystem Technologies, 2014
+   (seed 000, experiment 1; ``shared/METHODS.md`` section 1b).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from senscal._result import ResultMixin
+from senscal.errors import InputError
+from senscal.sinefit import wrap_phase
+from senscal.vibration.budget import UncertaintyBudget, make_budget, mean_with_budget
+from senscal.vibration.fits import fit_pair
+
+__all__ = ["VelocityPoint", "VelocityCalibration", "velocity_point", "velocity_calibration"]
+
+TWO_PI = 2.0 * math.pi
+
+
+@dataclass(frozen=True)
+class VelocityPoint(ResultMixin):
+    """Sensitivity of a velocity sensor at one excitation frequency.
+
+    Attributes
+    ----------
+    source : str
+        Where the record came from (file name), may be empty.
+    frequency, u_frequency : float
+        Excitation frequency and its standard uncertainty, Hz.
+    position_amplitude, u_position_amplitude : float
+        Peak displacement ``A_p`` in m.
+    output_amplitude, u_output_amplitude : float
+        Peak sensor output ``A_s`` in the output unit (V).
+    sensitivity, u_sensitivity : float
+        ``S = A_s / (w A_p)`` in output unit per m/s, standard uncertainty
+        (type A from the fits, covariances and the shared frequency included,
+        combined with the type B position-reference component).
+    phase, u_phase : float
+        Phase of the sensor output relative to the true velocity in rad
+        (0 for an ideal sensor, negative = lag).
+    budget : UncertaintyBudget
+        The sensitivity's budget.
+    snr_db : float
+        Signal-to-noise ratio of the sensor channel fit.
+    """
+
+    source: str
+    frequency: float
+    u_frequency: float
+    position_amplitude: float
+    u_position_amplitude: float
+    output_amplitude: float
+    u_output_amplitude: float
+    sensitivity: float
+    u_sensitivity: float
+    phase: float
+    u_phase: float
+    budget: UncertaintyBudget
+    snr_db: float
+
+
+def velocity_point(position, output, t, *, freq: float | None = None, drift: bool = True, harmonics: int = 1,
+                   u_position: float = 0.0, source: str = "", unit: str = "V/(m/s)") -> VelocityPoint:
+    """Sensitivity and phase of a velocity sensor from one sinusoidal record.
+
+    Both channels are fitted at one frequency (given, or estimated from the
+    position channel); ``S = A_s / (2 pi f A_p)``.  The true velocity is the
+    derivative of the position, ``w A_p cos(w t + phi_p)``, so the phase
+    relative to it is ``phi_s - phi_p - pi/2``.
+
+    Parameters
+    ----------
+    position : array_like, shape (N,)
+        Position reference in m.
+    output : array_like, shape (N,)
+        Velocity-sensor output (V).
+    t : array_like, shape (N,)
+        Time stamps in s.
+    freq : float, optional
+        Known excitation frequency in Hz.
+    drift : bool
+        Fit a linear offset drift in both channels (default True: real
+        sensors drift, and an unmodelled ramp leaks into the amplitude of a
+        record of non-whole periods).
+    harmonics : int
+        Harmonics of the motion fitted with the fundamental (a servo
+        cylinder's motion is not a pure sine; 1 = fundamental only).
+    u_position : float
+        Type B relative standard uncertainty of the position reference's
+        scale (e.g. 0.001 for 0.1 %).
+    source : str
+        Label (file name) stored with the result.
+    unit : str
+        Unit of the sensitivity (for the budget).
+
+    Returns
+    -------
+    VelocityPoint
+
+    References
+    ----------
+    .. [1] Yang et al. 2014 (seed 000), experiment 1.
+    """
+    if u_position < 0:
+        raise InputError(f"u_position must be a non-negative relative uncertainty, got {u_position!r}")
+    pf = fit_pair(position, output, t, freq=freq, drift=drift, harmonics=harmonics)
+    f, a_p, a_s = pf.frequency, pf.reference_amplitude, pf.output_amplitude
+    if a_p <= 0:
+        raise InputError("the position channel has no sinusoidal motion; check --position")
+    s = a_s / (TWO_PI * f * a_p)
+    jac = np.array([-s / a_p, s / a_s if a_s > 0 else 1.0 / (TWO_PI * f * a_p), 0.0, -s / f])
+    u_fit = math.sqrt(max(float(jac @ pf.covariance @ jac), 0.0))
+    budget = make_budget("sensitivity", s, unit, [("sine fits", "A", u_fit),
+                                                  ("position reference", "B", u_position * s)])
+    return VelocityPoint(
+        source=source, frequency=f, u_frequency=pf.u_frequency,
+        position_amplitude=a_p, u_position_amplitude=math.sqrt(pf.covariance[0, 0]),
+        output_amplitude=a_s, u_output_amplitude=math.sqrt(pf.covariance[1, 1]),
+        sensitivity=s, u_sensitivity=budget.combined,
+        phase=float(wrap_phase(pf.phase_difference - 0.5 * math.pi)), u_phase=math.sqrt(pf.covariance[2, 2]),
+        budget=budget, snr_db=float(pf.output.snr_db),
+    )
+
+
+@dataclass(frozen=True)
+class VelocityCalibration(ResultMixin):
+    """Velocity-sensor calibration over several frequency points.
+
+    Attributes
+    ----------
+    points : tuple of VelocityPoint
+    sensitivity : float
+        Mean sensitivity over the points, output unit per m/s.
+    sensitivity_std : float
+        Experimental standard deviation of the point sensitivities.
+    u_sensitivity : float
+        Combined standard uncertainty of the mean (see ``budget``).
+    budget : UncertaintyBudget
+        Type A: the larger of the spread over points (``s / sqrt(n)``) and the
+        fits' own uncertainty of the mean (they measure the same noise, so
+        they are not added); type B: position reference.
+    unit : str
+    """
+
+    points: tuple[VelocityPoint, ...]
+    sensitivity: float
+    sensitivity_std: float
+    u_sensitivity: float
+    budget: UncertaintyBudget
+    unit: str
+
+
+def velocity_calibration(points: Sequence[VelocityPoint], *, u_position: float = 0.0,
+                         unit: str = "V/(m/s)") -> VelocityCalibration:
+    """Mean sensitivity, spread and combined uncertainty over frequency points.
+
+    Parameters
+    ----------
+    points : sequence of VelocityPoint
+        One per record (frequency).
+    u_position : float
+        Type B relative standard uncertainty of the position reference.
+    unit : str
+        Sensitivity unit.
+
+    References
+    ----------
+    .. [1] Yang et al. 2014 (seed 000): mean and standard deviation over the
+       ten frequency points of experiment 1.
+    """
+    if not points:
+        raise InputError("give at least one velocity calibration point")
+    u_a = [p.budget.component("sine fits").standard_uncertainty for p in points]
+    mean, std, budget = mean_with_budget([p.sensitivity for p in points], u_a, [("position reference", u_position)],
+                                         "mean sensitivity", unit)
+    return VelocityCalibration(tuple(points), mean, std, budget.combined, budget, unit)

@@ -1,0 +1,163 @@
+"""``senscal registry ...`` and ``senscal fit --save`` from the command line."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+
+def _ok(r):
+    assert r.code == 0, r.err
+    return r
+
+
+def _one_line_error(r, *fragments):
+    assert r.code == 2, (r.out, r.err)
+    lines = r.err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("senscal: error:"), r.err
+    assert "Traceback" not in r.err
+    for f in fragments:
+        assert f in lines[0], lines[0]
+    return lines[0]
+
+
+def _history_cli(cli, db, serial="A1", values=(0.01000, 0.01004, 0.01008, 0.01012), u2=2e-6):
+    _ok(cli("registry", "add", serial, "--kind", "accelerometer", "--model", "4371",
+            "--nominal", "sensitivity=0.01 V/(m/s^2)", "--db", db))
+    for year, v in zip(range(2020, 2020 + len(values)), values):
+        _ok(cli("registry", "record", serial, "--quantity", "sensitivity", "--value", v, "--uncertainty", u2,
+                "--k", "2", "--unit", "V/(m/s^2)", "--date", f"{year}-03-01", "--note", f"cert {year}", "--db", db))
+
+
+def test_record_history_due_json(cli, db_url, tmp_path):
+    _history_cli(cli, db_url)
+    sens = json.loads(_ok(cli("registry", "sensors", "--db", db_url, "--json")).out)
+    assert [(s["serial"], s["n_calibrations"]) for s in sens["sensors"]] == [("A1", 4)]
+    hist = json.loads(_ok(cli("registry", "history", "A1", "--quantity", "sensitivity", "--json", "--db", db_url)).out)
+    recs = hist["records"]
+    assert [r["value"] for r in recs] == [0.01000, 0.01004, 0.01008, 0.01012]
+    # --uncertainty is quoted with --k 2: the registry keeps the standard uncertainty.
+    assert all(r["uncertainty"] == pytest.approx(1e-6) and r["k"] == 2 for r in recs)
+    assert {"date", "quantity", "value", "uncertainty", "unit"} <= set(recs[0])
+    png = tmp_path / "hist.png"
+    _ok(cli("registry", "history", "A1", "--quantity", "sensitivity", "--plot", png, "--db", db_url))
+    assert png.stat().st_size > 5000
+    due = json.loads(_ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "2%",
+                             "--json", "--db", db_url)).out)
+    # Exactly +4e-5 per year (records one year apart, differences in leap days aside).
+    assert due["drift_per_year"] == pytest.approx(4e-5, rel=2e-3)
+    assert due["significant"] is True
+    assert due["u_drift_per_year"] == pytest.approx(1e-6 / np.sqrt(5.0), rel=2e-3)  # 1/sqrt(sum (t - tbar)^2)
+    # The noiseless line leaves 2 % of 0.0100 five years after the first record (2025-03-01); adding the
+    # k=2 uncertainty of the extrapolated line makes it earlier, but after the last record.
+    assert "2023-03-01" < due["due_date"] < "2025-03-01" and due["overdue"] is False
+    assert abs(due["deviation_at_due"]) + 2 * due["u_deviation_at_due"] == pytest.approx(2e-4, rel=1e-5)
+    late = json.loads(_ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "1%",
+                              "--json", "--db", db_url)).out)
+    assert late["overdue"] is True and late["due_date"].startswith("2023-03-01")
+    nominal = json.loads(_ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "0.02",
+                                 "--nominal", "0.0099", "--json", "--db", db_url)).out)
+    assert nominal["reference"] == 0.0099 and nominal["tolerance"] == pytest.approx(0.02 * 0.0099)
+    table = _ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "1%", "--db", db_url)).out
+    assert "drift per year" in table and "due date" in table
+
+
+def test_user_errors_are_one_line(cli, db_url, tmp_path):
+    _history_cli(cli, db_url, values=(0.01,))
+    _one_line_error(cli("registry", "add", "A1", "--kind", "accelerometer", "--db", db_url), "already registered")
+    _one_line_error(cli("registry", "history", "B2", "--db", db_url), "unknown sensor serial 'B2'")
+    _one_line_error(cli("registry", "record", "B2", "--quantity", "s", "--value", "1", "--uncertainty", "0.1",
+                        "--unit", "V", "--date", "2024-01-01", "--db", db_url), "unknown sensor serial")
+    _one_line_error(cli("registry", "due", "A1", "--quantity", "phase", "--tolerance", "1%", "--db", db_url),
+                    "no recorded quantity 'phase'")
+    _one_line_error(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "1%", "--db", db_url),
+                    "1 record", "at least two")
+    _one_line_error(cli("registry", "record", "A1", "--quantity", "s", "--value", "1", "--uncertainty", "0.1",
+                        "--unit", "V", "--date", "first of May", "--db", db_url), "ISO 8601")
+    _one_line_error(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "lots", "--db", db_url),
+                    "--tolerance")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    _one_line_error(cli("registry", "import", bad, "--db", db_url), "not valid JSON")
+    bad.write_text('{"format": "something else"}')
+    _one_line_error(cli("registry", "import", bad, "--db", db_url), "not a senscal registry export")
+
+
+def test_malformed_and_unreachable_urls_mask_password(cli):
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    line = _one_line_error(cli("registry", "sensors", "--db", f"postgresql://lab:TopSecret1@127.0.0.1:{port}/r"),
+                           "cannot reach", "lab:***@")
+    assert "TopSecret1" not in line
+    line = _one_line_error(cli("registry", "sensors", "--db", "postgresql://lab:TopSecret1@h:port:x/r"),
+                           "malformed database URL")
+    assert "TopSecret1" not in line
+
+
+def test_export_import_cli_round_trip(cli, db_url, tmp_path):
+    _history_cli(cli, db_url)
+    out1, out2 = tmp_path / "a.json", tmp_path / "b.json"
+    _ok(cli("registry", "export", out1, "--db", db_url))
+    empty = f"sqlite:///{tmp_path / 'empty.sqlite'}"
+    added = json.loads(_ok(cli("registry", "import", out1, "--db", empty, "--json")).out)
+    assert added == {"sensors": 1, "calibrations": 4, "skipped": 0}
+    _ok(cli("registry", "export", out2, "--db", empty))
+    assert out1.read_text() == out2.read_text()
+
+
+def test_fit_save_records_the_result(cli, tmp_path):
+    from senscal.io import write_recording
+    from senscal.simulate.sine import simulate_sine
+
+    rec, truth = simulate_sine(n_channels=2, fs=1000.0, duration=1.0, frequency=12.5, noise=0.05, seed=4)
+    path = tmp_path / "sine.csv"
+    write_recording(rec, path)
+    before = path.read_bytes()
+    db = f"sqlite:///{tmp_path / 'reg.sqlite'}"
+    r = _one_line_error(cli("fit", path, "--save", "--sensor", "V7", "--db", db), "unknown sensor serial 'V7'",
+                        "--create-sensor")
+    _one_line_error(cli("fit", path, "--sensor", "V7"), "add --save")
+    _one_line_error(cli("fit", path, "--save"), "--save needs --sensor")
+    r = _ok(cli("fit", path, "--json", "--save", "--sensor", "V7", "--create-sensor", "velocity sensor", "--db", db,
+                "--date", "2024-05-01T10:00+02:00"))
+    doc = json.loads(r.out)  # stdout stays pure JSON; the confirmation is on stderr
+    assert "saved calibration" in r.err and "V7" in r.err
+    hist = json.loads(_ok(cli("registry", "history", "V7", "--quantity", "ch1.amplitude", "--db", db, "--json")).out)
+    (point,) = hist["records"]
+    assert point["value"] == doc["channels"]["ch1"]["amplitude"]
+    assert point["uncertainty"] == doc["channels"]["ch1"]["u_amplitude"]
+    assert point["date"] == "2024-05-01T10:00:00+02:00" and point["job"] == "fit"
+    from senscal.registry import open_registry, sha256_file
+
+    with open_registry(db) as reg:
+        (cal,) = reg.calibrations("V7")
+    assert cal.result == doc and cal.input_files[0]["sha256"] == sha256_file(path)
+    assert {q.name for q in cal.quantities} >= {"ch1.phase", "ch2.frequency", "ch2.offset"}
+    assert path.read_bytes() == before  # input never modified
+
+
+def test_quoted_reports_missing_quantity():
+    from senscal.cli.registry_opts import quoted
+    from senscal.registry import UnknownQuantityError
+
+    doc = {"channels": {"ch1": {"amplitude": 1.0, "u_amplitude": 0.1}}}
+    assert quoted(doc, "a", "channels.ch1.amplitude", "channels.ch1.u_amplitude", "V").value == 1.0
+    with pytest.raises(UnknownQuantityError, match="no quantity 'channels.ch2.amplitude'.*has: ch1"):
+        quoted(doc, "a", "channels.ch2.amplitude", "channels.ch2.u_amplitude")
+
+
+def test_simulated_history_import_due_plot(cli, tmp_path):
+    _ok(cli("simulate", "registry", "--out", tmp_path, "--seed", "5", "--drift", "0.002"))
+    truth = json.loads((tmp_path / "history_truth.json").read_text())
+    db = f"sqlite:///{tmp_path / 'sim.sqlite'}"
+    _ok(cli("registry", "import", tmp_path / "history.json", "--db", db))
+    png = tmp_path / "due.png"
+    due = json.loads(_ok(cli("registry", "due", "SIM-001", "--quantity", "sensitivity", "--tolerance", "1%",
+                             "--plot", png, "--json", "--db", db)).out)
+    assert abs(due["drift_per_year"] - truth["drift_per_year"]) < 4 * due["u_drift_per_year"]
+    assert due["significant"] and png.stat().st_size > 10_000
