@@ -38,6 +38,65 @@ def _sym(P):
             P[j, i] = a
 
 
+@nb.njit(cache=True, inline="always")
+def _mm(A, B, out):
+    """out = A @ B for small square matrices (no allocation)."""
+    n = out.shape[0]
+    k = A.shape[1]
+    p = out.shape[1]
+    for i in range(n):
+        for j in range(p):
+            acc = 0.0
+            for l in range(k):
+                acc += A[i, l] * B[l, j]
+            out[i, j] = acc
+
+
+@nb.njit(cache=True, inline="always")
+def _abt_sym(A, B, k, out, accumulate):
+    """out = [out +] A[:, :k] B[:, :k]^T from its lower triangle, mirrored (exactly symmetric)."""
+    n = out.shape[0]
+    for i in range(n):
+        for j in range(i + 1):
+            acc = out[i, j] if accumulate else 0.0
+            for l in range(k):
+                acc += A[i, l] * B[j, l]
+            out[i, j] = acc
+            out[j, i] = acc
+
+
+@nb.njit(cache=True, inline="always")
+def _chol(A, idx, k, L):
+    """Cholesky factor of A[idx[:k]][:, idx[:k]] into L[:k, :k]; False if not PD."""
+    for a in range(k):
+        for b in range(a + 1):
+            acc = A[idx[a], idx[b]]
+            for c in range(b):
+                acc -= L[a, c] * L[b, c]
+            if a == b:
+                if not acc > 0.0:
+                    return False
+                L[a, a] = math.sqrt(acc)
+            else:
+                L[a, b] = acc / L[b, b]
+    return True
+
+
+@nb.njit(cache=True, inline="always")
+def _chol_solve(L, k, rhs, out):
+    """Solve L L^T out = rhs (vectors of length k) by two substitutions."""
+    for a in range(k):
+        acc = rhs[a]
+        for b in range(a):
+            acc -= L[a, b] * out[b]
+        out[a] = acc / L[a, a]
+    for a in range(k - 1, -1, -1):
+        acc = out[a]
+        for b in range(a + 1, k):
+            acc -= L[b, a] * out[b]
+        out[a] = acc / L[a, a]
+
+
 @nb.njit(cache=True)
 def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                   xf, Pf, xp_out, Pp_out, v_out, S_out, e_out, rej):
@@ -75,6 +134,7 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
     v = np.empty(m)
     es = np.empty(m)
     obs = np.empty(m, dtype=np.int64)
+    rhs = np.empty(m)
     loglik = 0.0
     hold = 0
     for t in range(T):
@@ -93,21 +153,9 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                 for j in range(k):
                     acc += Bt[i, j] * u[t - 1, j]
                 xp[i] = acc
-            for i in range(n):
-                for j in range(n):
-                    acc = 0.0
-                    for l in range(n):
-                        acc += Ft[i, l] * P[l, j]
-                    tmp[i, j] = acc
-            for i in range(n):
-                for j in range(i + 1):
-                    acc = Qt[i, j]
-                    for l in range(n):
-                        acc += tmp[i, l] * Ft[j, l]
-                    Pp[i, j] = acc
-            for i in range(n):
-                for j in range(i + 1, n):
-                    Pp[i, j] = Pp[j, i]
+            _mm(Ft, P, tmp)
+            Pp[:, :] = Qt
+            _abt_sym(tmp, Ft, n, Pp, True)
         # ---- innovation
         Ht = _at(H, t)
         Rt = _at(R, t)
@@ -148,17 +196,8 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                 Pf[t] = P
             continue
         # ---- Cholesky of the observed block, whitened innovation
-        for a in range(mo):
-            for b in range(a + 1):
-                acc = S[obs[a], obs[b]]
-                for c in range(b):
-                    acc -= L[a, c] * L[b, c]
-                if a == b:
-                    if not acc > 0.0:
-                        return np.nan, -2
-                    L[a, a] = math.sqrt(acc)
-                else:
-                    L[a, b] = acc / L[b, b]
+        if not _chol(S, obs, mo, L):
+            return np.nan, -2
         nis = 0.0
         logdet = 0.0
         for a in range(mo):
@@ -182,15 +221,8 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
         # ---- gain K = Pp Hs^T Ss^-1, row by row through the Cholesky factor
         for i in range(n):
             for a in range(mo):
-                acc = PHt[i, obs[a]]
-                for b in range(a):
-                    acc -= L[a, b] * Kg[i, b]
-                Kg[i, a] = acc / L[a, a]
-            for a in range(mo - 1, -1, -1):
-                acc = Kg[i, a]
-                for b in range(a + 1, mo):
-                    acc -= L[b, a] * Kg[i, b]
-                Kg[i, a] = acc / L[a, a]
+                rhs[a] = PHt[i, obs[a]]
+            _chol_solve(L, mo, rhs, Kg[i])
         for i in range(n):
             acc = xp[i]
             for a in range(mo):
@@ -208,21 +240,9 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                 for b in range(mo):
                     acc += Kg[i, b] * Rt[obs[b], obs[a]]
                 KR[i, a] = acc
-        for i in range(n):
-            for j in range(n):
-                acc = 0.0
-                for l in range(n):
-                    acc += IKH[i, l] * Pp[l, j]
-                tmp[i, j] = acc
-        for i in range(n):
-            for j in range(i + 1):
-                acc = 0.0
-                for l in range(n):
-                    acc += tmp[i, l] * IKH[j, l]
-                for a in range(mo):
-                    acc += KR[i, a] * Kg[j, a]
-                P[i, j] = acc
-                P[j, i] = acc
+        _mm(IKH, Pp, tmp)
+        _abt_sym(tmp, IKH, n, P, False)
+        _abt_sym(KR, Kg, mo, P, True)
         if store:
             xf[t] = x
             Pf[t] = P
@@ -301,27 +321,67 @@ def _steady(F, B, H, K, L, P, x, y, u, t0, store, xf, Pf, xp_out, Pp_out, v_out,
 
 @nb.njit(cache=True)
 def smoother_gains(F, Pf, Pp):
-    """RTS gains C_t = P_t F_{t+1}^T Pp_{t+1}^{-1}, t = 0..T-2 (time-major)."""
+    """RTS gains C_t = P_t F_{t+1}^T Pp_{t+1}^{-1}, t = 0..T-2 (time-major).
+
+    Pp is symmetric positive definite: C^T = Pp^{-1} (F P) by a Cholesky
+    solve on preallocated buffers (LU fallback if rounding broke definiteness).
+    """
     T, n, _ = Pf.shape
     C = np.zeros((T, n, n))
+    L = np.zeros((n, n))
+    FP = np.empty((n, n))
+    idx = np.arange(n)
+    rhs = np.empty(n)
+    col = np.empty(n)
     for t in range(T - 1):
         Ft1 = _at(F, t + 1)
-        # Pp symmetric: C^T = Pp^{-1} F P.
-        C[t] = np.linalg.solve(Pp[t + 1], Ft1 @ Pf[t]).T
+        A = Pp[t + 1]
+        Pt = Pf[t]
+        _mm(Ft1, Pt, FP)
+        if not _chol(A, idx, n, L):
+            C[t] = np.linalg.solve(A, FP).T
+            continue
+        for c in range(n):
+            for i in range(n):
+                rhs[i] = FP[i, c]
+            _chol_solve(L, n, rhs, col)
+            for i in range(n):
+                C[t, c, i] = col[i]
     return C
+
+
+@nb.njit(cache=True)
+def _rts_step(Ct, xf_t, Pf_t, xp_n, Pp_n, x, P, D, CD):
+    """One backward step in place: x <- xf + C (x - xp), P <- Pf + C (P - Pp) C^T."""
+    n = x.shape[0]
+    for i in range(n):
+        D[i, 0] = x[i] - xp_n[i]
+    for i in range(n):
+        acc = xf_t[i]
+        for j in range(n):
+            acc += Ct[i, j] * D[j, 0]
+        x[i] = acc
+    for i in range(n):
+        for j in range(n):
+            D[i, j] = P[i, j] - Pp_n[i, j]
+    _mm(Ct, D, CD)
+    P[:, :] = Pf_t
+    _abt_sym(CD, Ct, n, P, True)
 
 
 @nb.njit(cache=True)
 def rts_series(C, xf, Pf, xp, Pp, xs, Ps):
     """Rauch-Tung-Striebel backward pass (time-major, in place)."""
-    T = xf.shape[0]
-    xs[T - 1] = xf[T - 1]
-    Ps[T - 1] = Pf[T - 1]
+    T, n = xf.shape
+    x = xf[T - 1].copy()
+    P = Pf[T - 1].copy()
+    D = np.empty((n, n))
+    CD = np.empty((n, n))
+    xs[T - 1] = x
+    Ps[T - 1] = P
     for t in range(T - 2, -1, -1):
-        Ct = C[t]
-        xs[t] = xf[t] + Ct @ (xs[t + 1] - xp[t + 1])
-        P = Pf[t] + Ct @ (Ps[t + 1] - Pp[t + 1]) @ Ct.T
-        _sym(P)
+        _rts_step(C[t], xf[t], Pf[t], xp[t + 1], Pp[t + 1], x, P, D, CD)
+        xs[t] = x
         Ps[t] = P
 
 
@@ -333,14 +393,15 @@ def fixed_lag_series(C, xf, Pf, xp, Pp, lag, xs, Ps):
     not depend on the end point, so each window reuses them.
     """
     T, n = xf.shape
+    x = np.empty(n)
+    P = np.empty((n, n))
+    D = np.empty((n, n))
+    CD = np.empty((n, n))
     for t in range(T):
         end = min(t + lag, T - 1)
-        x = xf[end].copy()
-        P = Pf[end].copy()
+        x[:] = xf[end]
+        P[:, :] = Pf[end]
         for s in range(end - 1, t - 1, -1):
-            Cs = C[s]
-            x = xf[s] + Cs @ (x - xp[s + 1])
-            P = Pf[s] + Cs @ (P - Pp[s + 1]) @ Cs.T
-        _sym(P)
+            _rts_step(C[s], xf[s], Pf[s], xp[s + 1], Pp[s + 1], x, P, D, CD)
         xs[t] = x
         Ps[t] = P

@@ -1,0 +1,396 @@
+"""Slow-drift bias correction with the augmented Kalman filter (patent steps a-c)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from senscal._result import ResultMixin
+from senscal.drift.detect import cusum, cusum_threshold
+from senscal.drift.estimate import NoiseParameter, estimate_levels
+from senscal.drift.model import DriftSetup, augmented_model, check_observable
+from senscal.errors import DataError, InputError, TooFewSamplesError
+from senscal.kalman import fixed_lag_smoother, kalman_filter, rts_smoother
+
+__all__ = ["DriftResult", "correct_drift", "DEFAULT_FALSE_ALARM_RATE"]
+
+#: Default false-alarm rate of the drift-onset detector [alarms per hour per channel].
+DEFAULT_FALSE_ALARM_RATE = 1e-4
+
+
+@dataclass(frozen=True)
+class DriftResult(ResultMixin):
+    """Bias estimates, corrected measurements and drift onsets.
+
+    Arrays have time on the last axis; rows follow ``channels`` (the
+    channels with a bias, i.e. the corrected ones) or ``state_names``.
+
+    Attributes
+    ----------
+    t : ndarray, (T,)
+        Time [s].
+    channels : tuple of str
+        Corrected channels.
+    corrected : ndarray, (mc, T)
+        ``y - b_hat`` [unit] (NaN where the measurement was missing).
+    bias : ndarray, (mc, T)
+        Total estimated bias of each channel ``b_hat_t`` [unit].
+    bias_std : ndarray, (mc, T)
+        Its standard deviation (k=1) [unit].
+    state_names : tuple of str
+        ``signal``, ``B_bias``, ``C_temperature_coefficient`` ...
+    state, state_std : ndarray, (n, T)
+        Estimated augmented state and its standard deviation.
+    onset_t, alarm_t : dict of str to float or None
+        Per corrected channel: estimated drift start and alarm time [s] of
+        the CUSUM detector, None when no drift was detected.
+    noise : tuple of NoiseParameter
+        Noise levels used (given or estimated, with uncertainties).
+    loglik : float
+        Log-likelihood of the data under the final model [nats].
+    method : str
+        ``filter``, ``window`` (fixed-lag, ``window`` samples) or ``smoother``.
+    window : int or None
+        Window (lag) length in samples.
+    false_alarm_rate : float
+        Detector false-alarm rate [1/h per channel].
+    cusum_threshold : float
+        Detector threshold h [standard deviations].
+    """
+
+    t: np.ndarray
+    channels: tuple[str, ...]
+    corrected: np.ndarray
+    bias: np.ndarray
+    bias_std: np.ndarray
+    state_names: tuple[str, ...]
+    state: np.ndarray
+    state_std: np.ndarray
+    onset_t: dict
+    alarm_t: dict
+    noise: tuple[NoiseParameter, ...]
+    loglik: float
+    method: str
+    window: int | None
+    false_alarm_rate: float
+    cusum_threshold: float
+
+    def final(self, name: str) -> tuple[float, float]:
+        """Last estimate of a state and its standard deviation."""
+        i = self.state_names.index(name)
+        return float(self.state[i, -1]), float(self.state_std[i, -1])
+
+    def summary(self) -> dict[str, Any]:
+        """The JSON document of ``senscal drift`` (CLI contract).
+
+        ``channels``: per corrected channel the final ``bias`` and
+        ``bias_std``, ``onset_t`` / ``alarm_t`` (or null), and each bias
+        term's final ``value`` / ``std``; ``noise``: every noise level with
+        ``value``, ``std`` (null when given or at a bound), ``estimated``.
+        """
+        chans = {}
+        for i, c in enumerate(self.channels):
+            terms = {s: {"value": float(self.state[j, -1]), "std": float(self.state_std[j, -1])}
+                     for j, s in enumerate(self.state_names) if s.startswith(c + "_")}
+            chans[c] = {"bias": float(self.bias[i, -1]), "bias_std": float(self.bias_std[i, -1]),
+                        "onset_t": self.onset_t.get(c), "alarm_t": self.alarm_t.get(c), "terms": terms}
+        return {
+            "method": self.method, "window": self.window, "n_samples": int(self.t.size),
+            "channels": chans,
+            "noise": {p.name: {"value": p.value, "std": p.std, "estimated": p.estimated, "at_bound": p.at_bound}
+                      for p in self.noise},
+            "loglik": self.loglik,
+            "detector": {"false_alarm_rate_per_hour": self.false_alarm_rate, "cusum_threshold": self.cusum_threshold},
+        }
+
+
+def _robust_std(x: np.ndarray) -> float:
+    x = x[np.isfinite(x)]
+    if x.size < 2:
+        return 0.0
+    return float(1.4826 * np.median(np.abs(x - np.median(x))))
+
+
+def _starting_levels(setup: DriftSetup, y: np.ndarray, dt: float, duration: float,
+                     cov: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """Data-driven starting values of every level (robust first differences)."""
+    scale = max(float(np.nanstd(y)), 1e-300)
+    start: dict[str, float] = {}
+    for i, c in enumerate(setup.channels):
+        # White noise doubles in variance under differencing.
+        s = _robust_std(np.diff(y[i])) / np.sqrt(2.0)
+        start[f"{c}_noise_std"] = s if s > 0 else 1e-3 * scale
+    noise = min(start.values())
+    if setup.signal.level_name == "signal_rate_std":
+        mean_y = np.nanmean(y, axis=0)
+        s = _robust_std(np.diff(mean_y))
+        start["signal_rate_std"] = max(s, 0.1 * noise) / np.sqrt(dt)
+    elif setup.signal.level_name == "signal_std":
+        start["signal_std"] = scale
+    for b in setup.biases:
+        unit = 1.0
+        if b.covariate is not None:
+            unit = 1.0 / max(float(np.std(cov[b.covariate])), 1e-300)
+        if b.dynamics == "random_walk":
+            start[b.level_name] = 0.1 * noise * unit / np.sqrt(duration)
+        else:
+            start[b.level_name] = noise * unit
+    return start
+
+
+def channel_residuals(innovation: np.ndarray, innovation_cov: np.ndarray, H_signal: np.ndarray) -> np.ndarray:
+    """Standardised innovations with the common (signal) part removed.
+
+    With redundant sensors, a misfit of the signal model (a smooth trend
+    that a random walk follows with a lag) shifts every channel's innovation
+    alike; a channel's own drift does not.  Removing the generalised
+    least-squares fit of the signal directions ``H_s`` leaves the parity
+    residual ``r = v - H_s (H_s' S^-1 H_s)^-1 H_s' S^-1 v`` with covariance
+    ``S - H_s (H_s' S^-1 H_s)^-1 H_s'``; each component is divided by its
+    standard deviation.  Without redundancy (as many channels as signal
+    states) the plain standardised innovation is returned.
+
+    Parameters
+    ----------
+    innovation : ndarray, (m, T)
+    innovation_cov : ndarray, (m, m, T)
+    H_signal : ndarray, (m, ns)
+
+    Returns
+    -------
+    ndarray, (m, T)
+        N(0, 1) per component under the model; NaN where a measurement is
+        missing or the component carries no channel-specific information.
+
+    References
+    ----------
+    J. E. Potter, M. C. Suman, "Thresholdless redundancy management with
+    arrays of skewed instruments", AGARDograph 224 (1977) (parity space).
+    """
+    v = np.moveaxis(innovation, -1, 0)
+    S = np.moveaxis(innovation_cov, -1, 0)
+    m, ns = H_signal.shape
+    sd = np.sqrt(np.diagonal(S, axis1=1, axis2=2))
+    if np.linalg.matrix_rank(H_signal) >= m:
+        return (v / sd).T
+    ok = ~np.isnan(v).any(axis=1)
+    z = np.full(v.shape, np.nan)
+    Si = np.linalg.inv(S[ok])
+    A = np.einsum("ia,tij,jb->tab", H_signal, Si, H_signal)
+    G = np.einsum("ia,tab,jb->tij", H_signal, np.linalg.inv(A), H_signal)
+    r = v[ok] - np.einsum("tij,tjk,tk->ti", G, Si, v[ok])
+    var = np.diagonal(S[ok] - G, axis1=1, axis2=2)
+    scale = np.diagonal(S[ok], axis1=1, axis2=2)
+    good = var > 1e-9 * scale
+    zz = np.where(good, r / np.sqrt(np.where(good, var, 1.0)), np.nan)
+    z[ok] = zz
+    return z.T
+
+
+def _detect(build, setup: DriftSetup, levels: Mapping[str, float], yy: np.ndarray, rows: list[int], dt: float,
+            false_alarm_rate: float, detect_shift: float):
+    """CUSUM drift onsets on the no-drift model's channel residuals.
+
+    Under the no-drift hypothesis every bias is constant (zero process
+    noise).  The residuals are the standardised innovations with the common
+    signal part removed (:func:`channel_residuals`).  A drifting channel
+    still leaks into the others' residuals; once a channel alarms, its
+    biases are freed (their estimated levels) and the remaining channels are
+    tested again, until no new channel alarms (isolation of the faulty
+    sensor).
+    """
+    arl0 = 3600.0 / (false_alarm_rate * dt)
+    chans = [setup.channels[r] for r in rows]
+    onset = {c: -1 for c in chans}
+    alarm = {c: -1 for c in chans}
+    free: set[str] = set()
+    ns = setup.signal.n_states
+    det = None
+    for _ in range(len(rows)):
+        lv = dict(levels)
+        lv.update({b.level_name: 0.0 for b in setup.biases if b.channel not in free})
+        model = build(lv)
+        nres = kalman_filter(model, yy)
+        Hs = (model.H if model.H.ndim == 2 else model.H[0])[:, :ns]
+        z = channel_residuals(nres.innovation, nres.innovation_cov, Hs)
+        test = [i for i, c in enumerate(chans) if c not in free]
+        det = cusum(z[[rows[i] for i in test]], arl0, k=0.5 * detect_shift)
+        hit = [(det.alarm[j], test[j], det.onset[j]) for j in range(len(test)) if det.alarm[j] >= 0]
+        if not hit:
+            break
+        a, i, o = min(hit)
+        alarm[chans[i]] = int(a)
+        onset[chans[i]] = int(o)
+        free.add(chans[i])
+    return det, onset, alarm
+
+
+def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, Any] | None = None, *,
+                  window: int | None = None, smooth: bool = False,
+                  false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, detect_shift: float = 1.0,
+                  estimate: bool = True, progress: Callable[[], None] | None = None) -> DriftResult:
+    """Estimate and remove slowly drifting biases.
+
+    The augmented state ``[signal; biases]`` (patent step a) is filtered
+    (step c), optionally with a fixed-lag window of ``window`` samples
+    (step b) or the full RTS smoother; the corrected measurement is
+    ``y - b_hat``.  Noise levels not fixed in ``setup`` are estimated by
+    maximum likelihood first.  Drift onsets are detected by a CUSUM on the
+    standardised innovations of the no-drift model (biases held constant).
+
+    Parameters
+    ----------
+    setup : DriftSetup
+        What drifts (see :func:`redundant_setup`, :func:`covariate_setup`,
+        :func:`load_model_yaml`).
+    y : array_like, (m, T)
+        Measurements of ``setup.channels`` [unit]; NaN = missing.
+    t : array_like, (T,)
+        Time [s], strictly increasing.
+    covariates : mapping of str to array_like (T,), optional
+        Covariate channels named by the set-up's biases [covariate unit].
+    window : int, optional
+        Fixed-lag window in samples (latency traded for accuracy).
+    smooth : bool
+        Offline: use all data (RTS smoother).  Excludes ``window``.
+    false_alarm_rate : float
+        Drift detector false alarms per hour per channel.
+    detect_shift : float
+        Mean shift of the standardised innovations the detector is tuned to
+        (CUSUM reference ``k = detect_shift / 2``) [standard deviations].
+    estimate : bool
+        Estimate the noise levels not given; if False they must all be given.
+    progress : callable, optional
+        Called once per likelihood evaluation (progress display).
+
+    Returns
+    -------
+    DriftResult
+
+    Raises
+    ------
+    UnobservableError
+        When the biases cannot be told from the signal.
+    InputError, DataError
+        Bad shapes, missing covariates, too few samples.
+
+    References
+    ----------
+    Patent CN102564486A, Shanghai Dianji University (2012): correction of
+    slow-drift faults by an augmented Kalman filter (steps a-c, claim 4).
+    """
+    yy = np.array(y, dtype=float)
+    if yy.ndim == 1:
+        yy = yy[None]
+    m = len(setup.channels)
+    if yy.ndim != 2 or yy.shape[0] != m:
+        raise InputError(f"y must have shape ({m}, T) for channels {', '.join(setup.channels)}, got {np.shape(y)}")
+    tt = np.asarray(t, dtype=float).reshape(-1)
+    T = yy.shape[1]
+    if tt.size != T:
+        raise InputError(f"t has {tt.size} samples but y has {T}")
+    if T < 10:
+        raise TooFewSamplesError(f"drift correction needs at least 10 samples, got {T}")
+    if not np.all(np.isfinite(tt)) or np.any(np.diff(tt) <= 0):
+        raise DataError("time stamps must be finite and strictly increasing")
+    if np.any(np.isinf(yy)):
+        raise DataError("measurements contain inf; use NaN for a missing sample")
+    for i, c in enumerate(setup.channels):
+        if np.isnan(yy[i]).all():
+            raise DataError(f"channel {c} has no valid sample")
+    if window is not None and smooth:
+        raise InputError("choose either a window (fixed-lag smoother) or the full smoother, not both")
+    if window is not None and (int(window) != window or window < 1):
+        raise InputError(f"the window must be a whole number of samples >= 1, got {window}")
+    if not false_alarm_rate > 0:
+        raise InputError(f"the false-alarm rate must be > 0 per hour, got {false_alarm_rate}")
+    cov: dict[str, np.ndarray] = {}
+    covariates = covariates or {}
+    for name in setup.covariates:
+        if name not in covariates:
+            raise InputError(f"covariate {name} is needed by the set-up but was not given")
+        c = np.asarray(covariates[name], dtype=float).reshape(-1)
+        if c.size != T or not np.all(np.isfinite(c)):
+            raise DataError(f"covariate {name} must have {T} finite samples (interpolate gaps first)")
+        refs = {b.reference for b in setup.biases if b.covariate == name}
+        ref = next(iter(refs)) if len(refs) == 1 and None not in refs else float(np.mean(c))
+        cov[name] = c - ref
+    dt = np.empty(T)
+    dt[1:] = np.diff(tt)
+    dt[0] = dt[1]
+    if setup.signal.kind == "gauss_markov":
+        # Known mean: the filter works on the deviation.
+        yy = yy - setup.signal.mean
+
+    check_observable(setup, dt, cov)
+
+    n = len(setup.state_names)
+    ns = setup.signal.n_states
+    # Prior: the quantity near the first samples, biases near zero, both
+    # ten times wider than the data's spread so the data dominate, yet not
+    # so vague that the first updates lose precision to cancellation.
+    spread = max(float(np.nanstd(yy)), float(np.nanmax(np.abs(yy))) * 1e-6, 1e-300)
+    x0 = np.zeros(n)
+    p0 = np.full(n, (10.0 * spread) ** 2)
+    if setup.signal.kind != "matrix":
+        first = yy[:, : min(T, 10)]
+        x0[0] = float(np.nanmedian(first)) if np.isfinite(first).any() else 0.0
+    else:
+        p0[:ns] = (1e3 * max(spread, float(np.nanmax(np.abs(yy))))) ** 2
+    for j, b in enumerate(setup.biases):
+        if b.covariate is not None:
+            p0[ns + j] = (10.0 * spread / max(float(np.std(cov[b.covariate])), 1e-300)) ** 2
+    P0 = np.diag(p0)
+
+    def build(levels: Mapping[str, float]):
+        return augmented_model(setup, dt, levels, cov, x0=x0, P0=P0)
+
+    given = setup.given_levels()
+    missing = [k for k in setup.level_names() if k not in given]
+    if missing and not estimate:
+        raise InputError(f"noise levels {', '.join(missing)} are not given; give them or allow estimation")
+    start = _starting_levels(setup, yy, float(np.median(dt)), float(tt[-1] - tt[0]), cov)
+    noise, loglik = estimate_levels(build, yy, {k: start[k] for k in missing}, given, progress=progress)
+    levels = {p.name: p.value for p in noise}
+    model = build(levels)
+    res = kalman_filter(model, yy)
+    if smooth:
+        est = rts_smoother(model, res)
+        method = "smoother"
+    elif window is not None:
+        est = fixed_lag_smoother(model, res, int(window))
+        method = "window"
+    else:
+        est = res
+        method = "filter"
+    x, P = est.x, est.P
+    state_std = est.std
+
+    # Total bias of a channel: E_t x_t with E_t the bias columns of H_t.
+    Hb = np.broadcast_to(model.H, (T,) + model.H.shape[-2:]) if model.H.ndim == 2 else model.H
+    chans = setup.biased_channels
+    rows = [setup.channels.index(c) for c in chans]
+    E = np.array(Hb[:, rows, :], copy=True)
+    E[:, :, :ns] = 0.0
+    bias = np.einsum("tcn,nt->ct", E, x)
+    bias_var = np.einsum("tcn,nkt,tck->ct", E, P, E)
+    y_c = yy[rows] + (setup.signal.mean if setup.signal.kind == "gauss_markov" else 0.0)
+    corrected = y_c - bias
+
+    det, onset, alarm = _detect(build, setup, levels, yy, rows, float(np.median(dt)), false_alarm_rate,
+                                detect_shift)
+    onset_t = {c: (float(tt[onset[c]]) if onset[c] >= 0 else None) for c in chans}
+    alarm_t = {c: (float(tt[alarm[c]]) if alarm[c] >= 0 else None) for c in chans}
+    if setup.signal.kind == "gauss_markov":
+        x = x.copy()
+        x[0] += setup.signal.mean
+    return DriftResult(t=tt, channels=tuple(chans), corrected=corrected, bias=bias,
+                       bias_std=np.sqrt(np.maximum(bias_var, 0.0)), state_names=tuple(setup.state_names),
+                       state=np.asarray(x), state_std=np.asarray(state_std), onset_t=onset_t, alarm_t=alarm_t,
+                       noise=tuple(noise), loglik=float(res.loglik), method=method,
+                       window=int(window) if window is not None else None,
+                       false_alarm_rate=float(false_alarm_rate),
+                       cusum_threshold=cusum_threshold(3600.0 / (false_alarm_rate * float(np.median(dt))),
+                                                       0.5 * detect_shift))

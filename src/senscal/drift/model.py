@@ -1,0 +1,533 @@
+"""Drift set-ups: the signal model, the biases, and the augmented state-space model.
+
+A :class:`DriftSetup` says *what* drifts (which channels, additive or
+covariate-linked, with which dynamics) in the field's words; the presets
+build one so that a user need not write matrices.  :func:`augmented_model`
+turns a set-up plus noise levels into the engine's
+:class:`~senscal.kalman.StateSpaceModel` (patent step a), and
+:func:`check_observable` refuses set-ups whose biases the data cannot
+determine.
+
+Units: every noise level is a standard deviation.  Random-walk levels are
+rates, ``[unit / sqrt(s)]`` (a random walk of rate ``r`` wanders by
+``r * sqrt(d)`` in ``d`` seconds); Gauss-Markov levels are stationary
+standard deviations ``[unit]`` with a time constant ``tau`` [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from senscal._result import ResultMixin
+from senscal.errors import FileFormatError, InputError, UnobservableError
+from senscal.kalman import StateSpaceModel
+
+__all__ = ["Bias", "SignalModel", "DriftSetup", "redundant_setup", "covariate_setup", "load_model_yaml",
+           "augmented_model", "check_observable", "DYNAMICS"]
+
+DYNAMICS = ("random_walk", "gauss_markov")
+
+
+@dataclass(frozen=True)
+class Bias(ResultMixin):
+    """One slowly varying error term of a channel.
+
+    Parameters
+    ----------
+    channel : str
+        The measured channel it corrupts.
+    covariate : str, optional
+        Covariate channel: the bias is ``alpha_t * (c_t - reference)`` and
+        the state is the coefficient ``alpha`` [unit / covariate unit]
+        (patent claim 4); None for an additive bias ``b_t`` [unit].
+    reference : float, optional
+        Covariate value at which a covariate-linked bias is zero; None: the
+        covariate's mean over the record.
+    dynamics : {"random_walk", "gauss_markov"}
+        Bias model: random walk, or first-order Gauss-Markov with ``tau``.
+    level : float, optional
+        Random walk: rate [unit/sqrt(s)]; Gauss-Markov: stationary standard
+        deviation [unit].  None: estimated by maximum likelihood.
+    tau : float, optional
+        Gauss-Markov time constant [s].
+    """
+
+    channel: str
+    covariate: str | None = None
+    reference: float | None = None
+    dynamics: str = "random_walk"
+    level: float | None = None
+    tau: float | None = None
+
+    def __post_init__(self) -> None:
+        if self.dynamics not in DYNAMICS:
+            raise InputError(f"bias dynamics must be one of {', '.join(DYNAMICS)}, got {self.dynamics!r}")
+        if self.dynamics == "gauss_markov" and not (self.tau is not None and self.tau > 0):
+            raise InputError(f"the Gauss-Markov bias of {self.channel} needs a time constant tau > 0 in seconds")
+        if self.level is not None and not self.level >= 0:
+            raise InputError(f"the noise level of the bias of {self.channel} must be >= 0, got {self.level}")
+
+    @property
+    def name(self) -> str:
+        """State name: ``B_bias`` or ``B_temperature_coefficient``."""
+        return f"{self.channel}_bias" if self.covariate is None else f"{self.channel}_{self.covariate}_coefficient"
+
+    @property
+    def level_name(self) -> str:
+        """Name of its noise parameter."""
+        return self.name + ("_rate_std" if self.dynamics == "random_walk" else "_std")
+
+
+@dataclass(frozen=True)
+class SignalModel(ResultMixin):
+    """Model of the measured quantity (the non-bias states).
+
+    Parameters
+    ----------
+    kind : {"random_walk", "gauss_markov", "matrix"}
+        ``random_walk``: one state, rate ``level`` [unit/sqrt(s)];
+        ``gauss_markov``: one state, ``mean + z`` with ``z`` first-order of
+        time constant ``tau`` [s] and stationary std ``level`` [unit] (a
+        model of the signal: its mean is known); ``matrix``: F, Q, H per
+        sample as given.
+    level, tau, mean : float, optional
+        See ``kind``; ``level`` None means estimated.
+    F, Q : ndarray, optional
+        (ns, ns) per-sample transition and process noise (``matrix`` only).
+    H : ndarray, optional
+        (m, ns) gain of each channel to the states; default all ones
+        (every channel measures the one quantity).
+    """
+
+    kind: str = "random_walk"
+    level: float | None = None
+    tau: float | None = None
+    mean: float = 0.0
+    F: Any = None
+    Q: Any = None
+    H: Any = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in DYNAMICS + ("matrix",):
+            raise InputError(f"signal model must be random_walk, gauss_markov or matrix, got {self.kind!r}")
+        if self.kind == "gauss_markov" and not (self.tau is not None and self.tau > 0):
+            raise InputError("a Gauss-Markov signal needs a time constant tau > 0 in seconds")
+        if self.kind == "matrix" and (self.F is None or self.Q is None or self.H is None):
+            raise InputError("a matrix signal model needs F, Q and H")
+
+    @property
+    def n_states(self) -> int:
+        return np.atleast_2d(np.asarray(self.F, dtype=float)).shape[0] if self.kind == "matrix" else 1
+
+    @property
+    def level_name(self) -> str | None:
+        if self.kind == "matrix":
+            return None
+        return "signal_rate_std" if self.kind == "random_walk" else "signal_std"
+
+
+@dataclass(frozen=True)
+class DriftSetup(ResultMixin):
+    """What is measured, what may drift, and the known noise levels.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Measured channels, in the order of the measurement vector.
+    signal : SignalModel
+    biases : sequence of Bias
+    noise_std : mapping of str to float, optional
+        Measurement noise standard deviation of channels [unit]; channels
+        left out are estimated.
+    trusted : sequence of str
+        Channels declared free of bias (documentation of the set-up).
+    """
+
+    channels: tuple[str, ...]
+    signal: SignalModel = field(default_factory=SignalModel)
+    biases: tuple[Bias, ...] = ()
+    noise_std: Mapping[str, float] = field(default_factory=dict)
+    trusted: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "channels", tuple(self.channels))
+        object.__setattr__(self, "biases", tuple(self.biases))
+        object.__setattr__(self, "trusted", tuple(self.trusted))
+        object.__setattr__(self, "noise_std", dict(self.noise_std))
+        if not self.channels:
+            raise InputError("a drift set-up needs at least one measured channel")
+        if len(set(self.channels)) != len(self.channels):
+            raise InputError(f"channels are repeated in {list(self.channels)}")
+        for b in self.biases:
+            if b.channel not in self.channels:
+                raise InputError(f"the bias of {b.channel} is on a channel that is not measured ({', '.join(self.channels)})")
+            if b.covariate is not None and b.covariate in self.channels:
+                raise InputError(f"covariate {b.covariate} is also a measured channel; a covariate must be a separate input")
+        names = [b.name for b in self.biases]
+        if len(set(names)) != len(names):
+            raise InputError(f"the same bias is given twice among {names}")
+        for c, s in self.noise_std.items():
+            if c not in self.channels:
+                raise InputError(f"noise level given for {c}, which is not a measured channel")
+            if not s > 0:
+                raise InputError(f"the noise standard deviation of {c} must be > 0, got {s}")
+        if self.signal.kind == "matrix":
+            H = np.atleast_2d(np.asarray(self.signal.H, dtype=float))
+            if H.shape != (len(self.channels), self.signal.n_states):
+                raise InputError(f"signal H must have shape ({len(self.channels)}, {self.signal.n_states}) "
+                                 f"(channels x signal states), got {H.shape}")
+
+    @property
+    def covariates(self) -> list[str]:
+        """Covariate channels the set-up reads, in first-use order."""
+        out: list[str] = []
+        for b in self.biases:
+            if b.covariate is not None and b.covariate not in out:
+                out.append(b.covariate)
+        return out
+
+    @property
+    def biased_channels(self) -> list[str]:
+        """Channels with at least one bias term (those that get corrected)."""
+        return [c for c in self.channels if any(b.channel == c for b in self.biases)]
+
+    @property
+    def state_names(self) -> list[str]:
+        ns = self.signal.n_states
+        sig = ["signal"] if ns == 1 else [f"signal_{i}" for i in range(ns)]
+        return sig + [b.name for b in self.biases]
+
+    def level_names(self) -> list[str]:
+        """Every noise parameter of the set-up (given or to estimate)."""
+        out = [f"{c}_noise_std" for c in self.channels]
+        if self.signal.level_name:
+            out.append(self.signal.level_name)
+        return out + [b.level_name for b in self.biases]
+
+    def given_levels(self) -> dict[str, float]:
+        """The noise parameters the user fixed."""
+        out = {f"{c}_noise_std": float(s) for c, s in self.noise_std.items()}
+        if self.signal.level_name and self.signal.level is not None:
+            out[self.signal.level_name] = float(self.signal.level)
+        for b in self.biases:
+            if b.level is not None:
+                out[b.level_name] = float(b.level)
+        return out
+
+
+def redundant_setup(channels: Sequence[str], trusted: Sequence[str] = (), *, covariate: str | None = None,
+                    signal: str = "random_walk", signal_tau: float | None = None, signal_mean: float = 0.0,
+                    bias_dynamics: str = "random_walk", bias_tau: float | None = None,
+                    covariate_reference: float | None = None) -> DriftSetup:
+    """Preset ``redundant``: several sensors measure one quantity.
+
+    Channels named in ``trusted`` have no bias; every other channel gets an
+    additive bias, and a covariate-linked one too when ``covariate`` is
+    given.  The quantity follows a random walk, or a Gauss-Markov process
+    with known mean (``signal="gauss_markov"``).
+
+    Parameters
+    ----------
+    channels : sequence of str
+        The redundant sensors [same unit].
+    trusted : sequence of str
+        Reference sensors known not to drift.
+    covariate : str, optional
+        Covariate channel (e.g. temperature) for covariate-linked biases.
+    signal, signal_tau, signal_mean :
+        Model of the quantity (see :class:`SignalModel`); tau in s.
+    bias_dynamics, bias_tau :
+        Dynamics of the additive biases; tau in s.
+    covariate_reference : float, optional
+        Covariate value of zero covariate-linked bias (default: its mean).
+
+    Returns
+    -------
+    DriftSetup
+    """
+    channels = list(channels)
+    if len(channels) < 1:
+        raise InputError("the redundant preset needs at least one channel")
+    for c in trusted:
+        if c not in channels:
+            raise InputError(f"trusted channel {c} is not among the channels {', '.join(channels)}")
+    biases: list[Bias] = []
+    for c in channels:
+        if c in trusted:
+            continue
+        biases.append(Bias(c, dynamics=bias_dynamics, tau=bias_tau))
+        if covariate is not None:
+            biases.append(Bias(c, covariate=covariate, reference=covariate_reference))
+    return DriftSetup(channels=tuple(channels), signal=SignalModel(kind=signal, tau=signal_tau, mean=signal_mean),
+                      biases=tuple(biases), trusted=tuple(trusted))
+
+
+def covariate_setup(channel: str, covariate: str, *, signal: str = "random_walk", signal_tau: float | None = None,
+                    signal_mean: float = 0.0, covariate_reference: float | None = None) -> DriftSetup:
+    """Preset ``covariate``: one sensor whose bias is linear in a covariate.
+
+    ``y_t = s_t + alpha_t (c_t - c_ref) + v_t`` with ``alpha`` a slow random
+    walk (patent claim 4).  A constant offset is not separable from the
+    quantity with one sensor, so the bias is defined as zero at ``c_ref``.
+
+    Parameters
+    ----------
+    channel : str
+        The sensor.
+    covariate : str
+        The covariate channel (e.g. temperature in degC).
+    signal, signal_tau, signal_mean :
+        Model of the quantity (see :class:`SignalModel`).
+    covariate_reference : float, optional
+        Covariate value of zero bias (default: its mean over the record).
+
+    Returns
+    -------
+    DriftSetup
+    """
+    return DriftSetup(channels=(channel,), signal=SignalModel(kind=signal, tau=signal_tau, mean=signal_mean),
+                      biases=(Bias(channel, covariate=covariate, reference=covariate_reference),))
+
+
+def load_model_yaml(path: str | Path) -> DriftSetup:
+    """Read preset ``model``: a YAML file describing the set-up.
+
+    Layout (noise levels left out are estimated)::
+
+        channels: [A, B, C]
+        trusted: [A]                  # optional, documentation
+        signal:                       # or {kind: random_walk, level: 0.01}
+          kind: matrix
+          F: [[1.0]]                  # per sample
+          Q: [[1.0e-6]]               # per sample, unit^2
+          H: [[1], [1], [1]]          # channels x signal states
+        noise_std: {A: 0.01, B: 0.02}  # unit
+        biases:
+          - {channel: B, dynamics: random_walk, level: 1.0e-5}      # unit/sqrt(s)
+          - {channel: C, covariate: temperature, reference: 20.0}
+          - {channel: C, dynamics: gauss_markov, tau: 86400, level: 0.05}
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    DriftSetup
+    """
+    import yaml
+
+    path = Path(path)
+    try:
+        doc = yaml.safe_load(path.read_text())
+    except FileNotFoundError:
+        raise FileFormatError(f"model file {path} does not exist") from None
+    except yaml.YAMLError as exc:
+        raise FileFormatError(f"model file {path} is not valid YAML ({str(exc).splitlines()[0]})") from None
+    if not isinstance(doc, dict) or "channels" not in doc:
+        raise FileFormatError(f"model file {path} must be a mapping with at least 'channels' (see docs/drift.md)")
+    unknown = set(doc) - {"channels", "trusted", "signal", "noise_std", "biases"}
+    if unknown:
+        raise FileFormatError(f"model file {path} has unknown keys {sorted(unknown)}; allowed: channels, trusted, "
+                              "signal, noise_std, biases")
+    try:
+        sig = doc.get("signal") or {}
+        if not isinstance(sig, dict):
+            raise TypeError("signal must be a mapping")
+        signal = SignalModel(**sig)
+        biases = []
+        for b in doc.get("biases") or []:
+            if not isinstance(b, dict):
+                raise TypeError("each bias must be a mapping")
+            biases.append(Bias(**b))
+        return DriftSetup(channels=tuple(doc["channels"]), signal=signal, biases=tuple(biases),
+                          noise_std=doc.get("noise_std") or {}, trusted=tuple(doc.get("trusted") or ()))
+    except TypeError as exc:
+        raise FileFormatError(f"model file {path}: {exc}") from None
+
+
+def _signal_blocks(sig: SignalModel, dt: np.ndarray, level: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """Per-step (T, ns, ns) F and Q of the signal states."""
+    T = dt.size
+    if sig.kind == "matrix":
+        F = np.atleast_2d(np.asarray(sig.F, dtype=float))
+        Q = np.atleast_2d(np.asarray(sig.Q, dtype=float))
+        return np.broadcast_to(F, (T,) + F.shape), np.broadcast_to(Q, (T,) + Q.shape)
+    return _scalar_dynamics(sig.kind, dt, level, sig.tau)
+
+
+def _scalar_dynamics(kind: str, dt: np.ndarray, level: float | None, tau: float | None):
+    """Exact discretisation of a scalar random walk / Gauss-Markov state."""
+    lev = 0.0 if level is None else float(level)
+    if kind == "random_walk":
+        F = np.ones_like(dt)
+        Q = lev**2 * dt
+    else:
+        F = np.exp(-dt / tau)
+        Q = lev**2 * -np.expm1(-2.0 * dt / tau)
+    return F[:, None, None], Q[:, None, None]
+
+
+def augmented_model(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, float],
+                    covariates: Mapping[str, np.ndarray] | None = None, *, x0: np.ndarray | None = None,
+                    P0: np.ndarray | None = None) -> StateSpaceModel:
+    """The augmented state-space model ``z = [x; b]`` (patent step a).
+
+    ``F* = blockdiag(F, A)``, ``H*_t = [H, E_t]`` where column ``j`` of
+    ``E_t`` is the unit vector of the bias's channel (additive) or that
+    vector times ``c_t - c_ref`` (covariate-linked), ``Q* = blockdiag(Q, G)``,
+    ``R = diag(noise_std^2)``.
+
+    Parameters
+    ----------
+    setup : DriftSetup
+    dt : ndarray, (T,)
+        Step into each sample [s] (``dt[0]`` unused).
+    levels : mapping
+        Every noise parameter of ``setup.level_names()``.
+    covariates : mapping of str to ndarray (T,), optional
+        Covariate channels, already referenced (``c_t - c_ref``).
+    x0, P0 : ndarray, optional
+        Prior of the augmented state (default zeros, vague).
+
+    Returns
+    -------
+    StateSpaceModel
+        Per-step matrices when the sampling is non-uniform or a covariate is
+        used, constant otherwise.
+
+    References
+    ----------
+    Patent CN102564486A (Shanghai Dianji University, 2012), step a and
+    claim 4.
+    """
+    dt = np.array(dt, dtype=float)
+    T = dt.size
+    if T > 1:
+        dt[0] = dt[1]  # never used by the recursion; keeps the discretisation finite
+    uniform = T < 3 or np.ptp(dt) <= 1e-9 * np.abs(dt).max()
+    if uniform:
+        dt = dt[:1]
+    m = len(setup.channels)
+    ns = setup.signal.n_states
+    nb = len(setup.biases)
+    n = ns + nb
+    Fs, Qs = _signal_blocks(setup.signal, dt, levels.get(setup.signal.level_name) if setup.signal.level_name else None)
+    F = np.zeros((dt.size, n, n))
+    Q = np.zeros((dt.size, n, n))
+    F[:, :ns, :ns] = Fs
+    Q[:, :ns, :ns] = Qs
+    Hs = np.ones((m, 1)) if setup.signal.kind != "matrix" else np.atleast_2d(np.asarray(setup.signal.H, dtype=float))
+    H = np.zeros((T, m, n))
+    H[:, :, :ns] = Hs
+    for j, b in enumerate(setup.biases):
+        Fb, Qb = _scalar_dynamics(b.dynamics, dt, levels[b.level_name], b.tau)
+        F[:, ns + j, ns + j] = Fb[:, 0, 0]
+        Q[:, ns + j, ns + j] = Qb[:, 0, 0]
+        row = setup.channels.index(b.channel)
+        if b.covariate is None:
+            H[:, row, ns + j] = 1.0
+        else:
+            if covariates is None or b.covariate not in covariates:
+                raise InputError(f"covariate channel {b.covariate} is needed by the bias of {b.channel} but was not given")
+            H[:, row, ns + j] = covariates[b.covariate]
+    R = np.diag([levels[f"{c}_noise_std"] ** 2 for c in setup.channels])
+    # Constant matrices where possible: cheaper validation, and a
+    # time-invariant model lets the engine take its steady-state path.
+    if uniform:
+        F, Q = F[0], Q[0]
+    if not setup.covariates:
+        H = H[0]
+    return StateSpaceModel(F=F, H=H, Q=Q, R=R, x0=x0, P0=P0)
+
+
+def check_observable(setup: DriftSetup, dt: np.ndarray, covariates: Mapping[str, np.ndarray] | None = None,
+                     *, rtol: float = 1e-9) -> None:
+    """Refuse a set-up whose biases cannot be told from the signal.
+
+    Deterministic observability of the augmented pair ``(F*, H*_t)`` over
+    the record: the information matrix ``W = sum_t Phi_t^T H_t^T H_t Phi_t``
+    (``Phi_t`` the transition from the first sample), on up to 4000 samples
+    spread over the record so that a slowly varying covariate counts, made
+    scale-free by its diagonal.  An eigenvalue below ``rtol`` marks an
+    unobservable direction; the states it involves are named.
+
+    Parameters
+    ----------
+    setup : DriftSetup
+    dt : ndarray, (T,)
+        Steps [s].
+    covariates : mapping, optional
+        Referenced covariate channels (T,).
+    rtol : float
+        Relative eigenvalue threshold.
+
+    Raises
+    ------
+    UnobservableError
+        Naming the unobservable biases and what would make them observable.
+
+    References
+    ----------
+    R. E. Kalman, "On the general theory of control systems" (1960);
+    patent CN102564486A (the caution it skips: ``(F*, Phi*)`` must be
+    observable).
+    """
+    dt = np.asarray(dt, dtype=float)
+    T = dt.size
+    # Unit noise levels: observability is structural.
+    levels = {k: 1.0 for k in setup.level_names()}
+    model = augmented_model(setup, dt, levels, covariates)
+    n = model.n_states
+    pick = np.unique(np.linspace(0, T - 1, min(T, 4000)).round().astype(int))
+    W = np.zeros((n, n))
+    Phi = np.eye(n)
+    Ft = model._F
+    Ht = model._H
+    prev = 0
+    for t in pick:
+        if Ft.shape[0] == 1:
+            # Time-invariant transition: jump between the picked samples.
+            Phi = np.linalg.matrix_power(Ft[0], int(t - prev)) @ Phi
+        else:
+            for s in range(prev + 1, t + 1):
+                Phi = Ft[s] @ Phi
+        prev = t
+        nrm = np.abs(Phi).max()
+        if not np.isfinite(nrm) or nrm > 1e150:
+            break
+        Hp = (Ht[0] if Ht.shape[0] == 1 else Ht[t]) @ Phi
+        W += Hp.T @ Hp
+    d = np.sqrt(np.diag(W))
+    names = setup.state_names
+    dead = [names[i] for i in range(n) if d[i] == 0]
+    if not dead:
+        Wn = W / np.outer(d, d)
+        w, V = np.linalg.eigh(Wn)
+        bad = w < rtol * w.max()
+        if bad.any():
+            Vb = V[:, bad]
+            weight = np.sqrt((Vb**2).sum(axis=1))
+            dead = [names[i] for i in range(n) if weight[i] > 1e-3]
+    if not dead:
+        return
+    biases = [s for s in dead if s != "signal" and not s.startswith("signal_")]
+    what = ", ".join(biases) if biases else ", ".join(dead)
+    hints = []
+    if not setup.trusted:
+        hints.append("a trusted sensor that does not drift (--trusted)")
+    if setup.signal.kind == "random_walk":
+        hints.append("a model of the signal (e.g. a Gauss-Markov quantity with known mean, or a model YAML)")
+    cov_dead = [b for b in setup.biases if b.covariate is not None and b.name in dead]
+    if cov_dead:
+        hints.append(f"a covariate that varies over the record ({', '.join(sorted({b.covariate for b in cov_dead}))} is constant or too smooth)")
+    elif not setup.covariates:
+        hints.append("a covariate the bias follows (--covariate)")
+    raise UnobservableError(
+        f"unobservable: {what} cannot be told apart from the measured quantity with this set-up "
+        f"(every one of them could shift together with the signal); to make them observable give "
+        + "; or ".join(hints))
