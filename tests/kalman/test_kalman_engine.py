@@ -288,3 +288,22 @@ def test_log_likelihood_only_pass_equals_filter():
     assert log_likelihood(model, y) == pytest.approx(kalman_filter(model, y).loglik, rel=1e-13)
     y[1, 5] = np.nan
     assert log_likelihood(model, y) == pytest.approx(kalman_filter(model, y).loglik, rel=1e-13)
+
+
+@settings(max_examples=20, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.floats(1e-3, 1e3))
+def test_unit_change_scales_estimates(seed, s):
+    """Measuring in other units (y -> s y) scales states by s, covariances by s^2."""
+    rng = np.random.default_rng(seed)
+    model = cv_model()
+    y = simulate(model, 150, rng)
+    y[0, rng.random(150) < 0.1] = np.nan
+    scaled = model.replace(Q=s**2 * model.Q, R=s**2 * model.R, x0=s * model.x0, P0=s**2 * model.P0)
+    a = kalman_filter(model, y)
+    b = kalman_filter(scaled, s * y)
+    assert close(b.x, s * a.x, 1e-9) and close(b.P, s**2 * a.P, 1e-9)
+    assert np.allclose(b.normalized_innovation, a.normalized_innovation, rtol=1e-7, atol=1e-9, equal_nan=True)
+    n_obs = np.isfinite(y).sum()
+    assert b.loglik == pytest.approx(a.loglik - n_obs * np.log(s), rel=1e-9, abs=1e-7)
+    sa, sb = rts_smoother(model, a), rts_smoother(scaled, b)
+    assert close(sb.x, s * sa.x, 1e-9)

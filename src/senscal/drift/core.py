@@ -41,6 +41,8 @@ class DriftResult(ResultMixin):
         Its standard deviation (k=1) [unit].
     state_names : tuple of str
         ``signal``, ``B_bias``, ``C_temperature_coefficient`` ...
+    state_channels : tuple of str or None
+        The channel each state biases (None for signal states).
     state, state_std : ndarray, (n, T)
         Estimated augmented state and its standard deviation.
     onset_t, alarm_t : dict of str to float or None
@@ -66,6 +68,7 @@ class DriftResult(ResultMixin):
     bias: np.ndarray
     bias_std: np.ndarray
     state_names: tuple[str, ...]
+    state_channels: tuple
     state: np.ndarray
     state_std: np.ndarray
     onset_t: dict
@@ -93,7 +96,7 @@ class DriftResult(ResultMixin):
         chans = {}
         for i, c in enumerate(self.channels):
             terms = {s: {"value": float(self.state[j, -1]), "std": float(self.state_std[j, -1])}
-                     for j, s in enumerate(self.state_names) if s.startswith(c + "_")}
+                     for j, s in enumerate(self.state_names) if self.state_channels[j] == c}
             chans[c] = {"bias": float(self.bias[i, -1]), "bias_std": float(self.bias_std[i, -1]),
                         "onset_t": self.onset_t.get(c), "alarm_t": self.alarm_t.get(c), "terms": terms}
         return {
@@ -314,8 +317,10 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
         c = np.asarray(covariates[name], dtype=float).reshape(-1)
         if c.size != T or not np.all(np.isfinite(c)):
             raise DataError(f"covariate {name} must have {T} finite samples (interpolate gaps first)")
-        refs = {b.reference for b in setup.biases if b.covariate == name}
-        ref = next(iter(refs)) if len(refs) == 1 and None not in refs else float(np.mean(c))
+        refs = {b.reference for b in setup.biases if b.covariate == name} - {None}
+        if len(refs) > 1:
+            raise InputError(f"covariate {name} is given different reference values {sorted(refs)}; use one")
+        ref = refs.pop() if refs else float(np.mean(c))
         cov[name] = c - ref
     dt = np.empty(T)
     dt[1:] = np.diff(tt)
@@ -388,6 +393,7 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
         x[0] += setup.signal.mean
     return DriftResult(t=tt, channels=tuple(chans), corrected=corrected, bias=bias,
                        bias_std=np.sqrt(np.maximum(bias_var, 0.0)), state_names=tuple(setup.state_names),
+                       state_channels=(None,) * ns + tuple(b.channel for b in setup.biases),
                        state=np.asarray(x), state_std=np.asarray(state_std), onset_t=onset_t, alarm_t=alarm_t,
                        noise=tuple(noise), loglik=float(res.loglik), method=method,
                        window=int(window) if window is not None else None,

@@ -23,7 +23,7 @@ _SS_TOL = 1e-14
 _SS_HOLD = 3
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _at(A, t):
     return A[0] if A.shape[0] == 1 else A[t]
 
@@ -38,7 +38,7 @@ def _sym(P):
             P[j, i] = a
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _mm(A, B, out):
     """out = A @ B for small square matrices (no allocation)."""
     n = out.shape[0]
@@ -52,7 +52,7 @@ def _mm(A, B, out):
             out[i, j] = acc
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _abt_sym(A, B, k, out, accumulate):
     """out = [out +] A[:, :k] B[:, :k]^T from its lower triangle, mirrored (exactly symmetric)."""
     n = out.shape[0]
@@ -65,7 +65,7 @@ def _abt_sym(A, B, k, out, accumulate):
             out[j, i] = acc
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _chol(A, idx, k, L):
     """Cholesky factor of A[idx[:k]][:, idx[:k]] into L[:k, :k]; False if not PD."""
     for a in range(k):
@@ -82,7 +82,7 @@ def _chol(A, idx, k, L):
     return True
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _chol_solve(L, k, rhs, out):
     """Solve L L^T out = rhs (vectors of length k) by two substitutions."""
     for a in range(k):
