@@ -12,6 +12,7 @@ drift use a stored basis from a re-anchored rotation recurrence.
 from __future__ import annotations
 
 import math
+import types
 
 import numba as nb
 import numpy as np
@@ -186,12 +187,28 @@ def gram_rotated(n: int, w_dt: float, tau0_w: float):
 
 # Threads pay only on large arrays; on small ones (and on a busy machine)
 # the serial build is much faster than waking the thread pool.
-project_rotated = nb.njit(cache=True, parallel=True)(_project_rotated)
-project_rotated_serial = nb.njit(cache=True)(_project_rotated)
-project_parallel = nb.njit(cache=True, parallel=True)(_project)
-project_serial = nb.njit(cache=True)(_project)
-harmonic_basis_parallel = nb.njit(cache=True, parallel=True)(_harmonic_basis)
-harmonic_basis_serial = nb.njit(cache=True)(_harmonic_basis)
+def _build(fn, parallel: bool):
+    """Compile ``fn`` serial or parallel under its own name.
+
+    Numba's on-disk cache is keyed by the function's qualified name and line:
+    two builds of one Python function would share (and overwrite) one cache
+    entry, and a process could load the threaded build where it asked for the
+    serial one, oversubscribing the cores of every Dask worker.
+    """
+    suffix = "_parallel" if parallel else "_serial"
+    copy = types.FunctionType(fn.__code__, fn.__globals__, fn.__name__ + suffix, fn.__defaults__, fn.__closure__)
+    copy.__qualname__ = fn.__qualname__ + suffix
+    copy.__doc__ = fn.__doc__
+    copy.__module__ = fn.__module__
+    return nb.njit(cache=True, parallel=parallel)(copy)
+
+
+project_rotated = _build(_project_rotated, True)
+project_rotated_serial = _build(_project_rotated, False)
+project_parallel = _build(_project, True)
+project_serial = _build(_project, False)
+harmonic_basis_parallel = _build(_harmonic_basis, True)
+harmonic_basis_serial = _build(_harmonic_basis, False)
 
 
 def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
