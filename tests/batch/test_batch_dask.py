@@ -77,7 +77,7 @@ def test_cli_batch_exit_codes_and_table(cli, recordings, tmp_path):
     assert doc["n_ok"] == 5
     df = pd.read_parquet(out)
     assert len(df) == 5 and "channels.x.amplitude" in df.columns
-    r = cli("batch", "fit", str(d / "r*.csv"), "--freq", "10", "--workers", "1")
+    r = cli("batch", "fit", str(d / "r*.csv"), "--freq", "10", "--workers", "1", "--files-per-task", "4")
     assert r.code == 4
     assert "1 of 6 recordings failed" in r.err
 

@@ -149,3 +149,15 @@ def test_high_snr_large_offset_residual_is_exact():
     y = 1e3 + np.sin(2 * math.pi * 9.0 * t) + rng.normal(0, 1e-9, n)
     fit = fit_sine(y, fs=fs, freq=9.0)
     assert fit.residual_rms == pytest.approx(1e-9, rel=0.05)
+
+
+def test_serial_and_parallel_kernels_have_distinct_cache_keys():
+    # Numba caches by qualified name: a shared key let processes load the
+    # threaded build where the serial one was asked for.
+    from senscal.sinefit import _kernels as k
+
+    pairs = [(k.project_rotated, k.project_rotated_serial), (k.project_parallel, k.project_serial),
+             (k.harmonic_basis_parallel, k.harmonic_basis_serial)]
+    for par, ser in pairs:
+        assert par.py_func.__qualname__ != ser.py_func.__qualname__
+        assert par.targetoptions.get("parallel") and not ser.targetoptions.get("parallel")
