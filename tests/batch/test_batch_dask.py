@@ -121,3 +121,26 @@ def test_cli_fit_array(cli, tmp_path):
     assert len(pd.read_csv(tmp_path / "o.csv")) == 20
     r = cli("fit-array", path, "--dataset", "d", "--out", tmp_path / "o.csv")
     assert r.code == 2 and "sample rate" in r.err
+
+
+def test_zarr_store_equals_hdf5(tmp_path):
+    import zarr
+
+    from senscal.batch.arrays import fit_stored_array
+
+    rng = np.random.default_rng(3)
+    fs, n, c = 500.0, 1500, 40
+    y = np.sin(2 * math.pi * 11 * np.arange(n) / fs) * rng.uniform(0.5, 2, c)[:, None] + rng.normal(0, 0.02, (c, n))
+    store = tmp_path / "big.zarr"
+    grp = zarr.open_group(str(store), mode="w")
+    arr = grp.create_array("data", shape=y.shape, chunks=(8, n), dtype="f8")
+    arr[:] = y
+    arr.attrs["fs"] = fs
+    h5 = tmp_path / "big.h5"
+    with h5py.File(h5, "w") as fh:
+        fh.create_dataset("data", data=y).attrs["fs"] = fs
+    a = fit_stored_array(store, "data", freq=11.0, chunk_channels=16)
+    b = fit_stored_array(h5, "data", freq=11.0, chunk_channels=16)
+    np.testing.assert_array_equal(a.amplitude, b.amplitude)
+    with pytest.raises(InputError, match="no dataset 'x'"):
+        fit_stored_array(store, "x", freq=11.0)

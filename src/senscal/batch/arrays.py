@@ -1,4 +1,4 @@
-"""Sine fits of arrays too large for memory, chunk by chunk on Dask.
+"""Sine fits of arrays too large for memory (HDF5 or Zarr), chunk by chunk on Dask.
 
 The time axis of every chunk is whole (a fit needs the full record); the
 channel axis is split, so 10,000 channels stream through the workers a chunk
@@ -16,7 +16,7 @@ import numpy as np
 from senscal._result import ResultMixin
 from senscal.errors import FileFormatError, InputError
 
-__all__ = ["ArrayFit", "SUMMARY_FIELDS", "fit_sine_dask", "fit_hdf5_dataset"]
+__all__ = ["ArrayFit", "SUMMARY_FIELDS", "fit_sine_dask", "fit_stored_array", "fit_hdf5_dataset"]
 
 SUMMARY_FIELDS = ("frequency", "amplitude", "phase", "offset", "u_frequency", "u_amplitude", "u_phase",
                   "u_offset", "residual_rms", "snr_db")
@@ -94,46 +94,97 @@ def fit_sine_dask(y, t=None, *, fs: float | None = None, freq: float | None = No
     return _to_result(out.compute(), int(y.shape[1]))
 
 
-def _fit_hdf5_rows(path: str, dataset: str, c0: int, c1: int, t, fs, freq, harmonics) -> np.ndarray:
+def _is_zarr(path: str) -> bool:
+    p = Path(path)
+    return p.suffix.lower() == ".zarr" or (p.is_dir() and any((p / m).exists() for m in ("zarr.json", ".zgroup", ".zarray")))
+
+
+def _read_rows(path: str, dataset: str, c0: int, c1: int) -> np.ndarray:
+    if _is_zarr(path):
+        import zarr
+
+        return np.asarray(zarr.open_group(path, mode="r")[dataset][c0:c1])
     import h5py
 
     with h5py.File(path, "r") as fh:
-        block = fh[dataset][c0:c1]
-    return _summaries(block, t, fs, freq, harmonics)
+        return fh[dataset][c0:c1]
 
 
-def fit_hdf5_dataset(path: str | Path, dataset: str, *, fs: float | None = None, time_dataset: str | None = None,
-                     freq: float | None = None, harmonics: int = 1, chunk_channels: int = 256,
-                     progress: Any = None) -> ArrayFit:
-    """Fit every row of a 2-D HDF5 dataset (channels x samples) without loading it whole.
+def _fit_rows(path: str, dataset: str, c0: int, c1: int, t, fs, freq, harmonics) -> np.ndarray:
+    return _summaries(_read_rows(path, dataset, c0, c1), t, fs, freq, harmonics)
 
-    Each task opens the file itself and reads only its rows, so this runs on a
-    ``distributed`` cluster as well as on threads.  ``progress`` is called
-    with the number of channels done as chunks complete.
-    """
-    import dask
+
+def _store_info(path: str, dataset: str, time_dataset: str | None):
+    """(shape, fs attribute or None, time stamps or None) of a 2-D dataset in HDF5 or Zarr."""
+    if _is_zarr(path):
+        import zarr
+
+        try:
+            grp = zarr.open_group(path, mode="r")
+        except Exception as exc:  # zarr raises several types for a non-store
+            raise FileFormatError(f"{path} is not a readable Zarr store: {str(exc).splitlines()[0]}") from None
+        names = [k for k, _ in grp.arrays()]
+        if dataset not in names:
+            raise InputError(f"no dataset '{dataset}' in {path}; datasets: {', '.join(names) or 'none'}")
+        arr = grp[dataset]
+        fs_attr = arr.attrs.get("fs", grp.attrs.get("fs"))
+        t = np.asarray(grp[time_dataset][:]) if time_dataset else None
+        return arr.shape, fs_attr, t
     import h5py
 
-    path = str(path)
-    if not Path(path).exists():
-        raise FileFormatError(f"file not found: {path}")
     try:
         with h5py.File(path, "r") as fh:
             if dataset not in fh:
                 names = [k for k in fh if isinstance(fh[k], h5py.Dataset)]
                 raise InputError(f"no dataset '{dataset}' in {path}; datasets: {', '.join(names) or 'none'}")
-            shape = fh[dataset].shape
+            fs_attr = fh[dataset].attrs.get("fs", fh.attrs.get("fs"))
             t = fh[time_dataset][()] if time_dataset else None
-            if fs is None and t is None:
-                fs_attr = fh[dataset].attrs.get("fs", fh.attrs.get("fs"))
-                fs = float(fs_attr) if fs_attr is not None else None
+            return fh[dataset].shape, fs_attr, t
     except OSError as exc:
         raise FileFormatError(f"{path} is not a readable HDF5 file: {exc}") from None
+
+
+def fit_stored_array(path: str | Path, dataset: str, *, fs: float | None = None, time_dataset: str | None = None,
+                     freq: float | None = None, harmonics: int = 1, chunk_channels: int = 256,
+                     progress: Any = None) -> ArrayFit:
+    """Fit every row of a 2-D HDF5 or Zarr dataset (channels x samples) without loading it whole.
+
+    Parameters
+    ----------
+    path : str or Path
+        HDF5 file, or Zarr store (a ``.zarr`` folder).
+    dataset : str
+        Name of the 2-D array (channels x samples).
+    fs : float, optional
+        Sample rate in Hz (default: the dataset's or file's ``fs`` attribute).
+    time_dataset : str, optional
+        1-D array of time stamps in s instead of a sample rate.
+    freq, harmonics
+        As for :func:`senscal.fit_sine`.
+    chunk_channels : int
+        Channels per task.
+    progress : callable, optional
+        Called with the number of channels done as chunks complete.
+
+    Notes
+    -----
+    Each task opens the store itself and reads only its rows, so this runs on
+    a ``distributed`` cluster (the active client, if any) as well as on
+    threads.
+    """
+    import dask
+
+    path = str(path)
+    if not Path(path).exists():
+        raise FileFormatError(f"file not found: {path}")
+    shape, fs_attr, t = _store_info(path, dataset, time_dataset)
+    if fs is None and t is None and fs_attr is not None:
+        fs = float(fs_attr)
     if len(shape) != 2:
         raise InputError(f"dataset '{dataset}' has shape {shape}; expected (n_channels, n_samples)")
     if fs is None and t is None:
         raise InputError(f"no sample rate for '{dataset}': give --fs or a time dataset")
-    tasks = [dask.delayed(_fit_hdf5_rows)(path, dataset, c0, min(c0 + chunk_channels, shape[0]), t, fs, freq, harmonics)
+    tasks = [dask.delayed(_fit_rows)(path, dataset, c0, min(c0 + chunk_channels, shape[0]), t, fs, freq, harmonics)
              for c0 in range(0, shape[0], chunk_channels)]
     try:
         from dask.distributed import as_completed, get_client
@@ -154,3 +205,7 @@ def fit_hdf5_dataset(path: str | Path, dataset: str, *, fs: float | None = None,
         if progress:
             progress(shape[0])
     return _to_result(np.concatenate(parts, axis=0), int(shape[1]))
+
+
+# The HDF5-only name of the first release.
+fit_hdf5_dataset = fit_stored_array

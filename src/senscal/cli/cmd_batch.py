@@ -67,7 +67,7 @@ def batch_cmd(
 
 @app.command("fit-array")
 def fit_array_cmd(
-    file: Annotated[Path, typer.Argument(help="HDF5 file holding a 2-D dataset (channels x samples).")],
+    file: Annotated[Path, typer.Argument(help="HDF5 file or Zarr store holding a 2-D dataset (channels x samples).")],
     dataset: Annotated[str, typer.Option("--dataset", help="Name of the 2-D dataset.")],
     out: Annotated[Path, typer.Option("--out", help="Per-channel results: .parquet or .csv.")],
     fs: Annotated[Optional[float], typer.Option("--fs", help="Sample rate in Hz (default: the dataset's 'fs' attribute).")] = None,
@@ -79,13 +79,13 @@ def fit_array_cmd(
     scheduler: Annotated[Optional[str], typer.Option("--scheduler", help="Address of an existing Dask scheduler.")] = None,
     json_out: Annotated[bool, typer.Option("--json", help="Print a JSON summary.")] = False,
 ) -> None:
-    """Sine fit of every channel of an array larger than memory, chunk by chunk on Dask."""
+    """Sine fit of every channel of an HDF5/Zarr array larger than memory, chunk by chunk on Dask."""
     import contextlib
 
     import numpy as np
     import pandas as pd
 
-    from senscal.batch.arrays import SUMMARY_FIELDS, fit_hdf5_dataset
+    from senscal.batch.arrays import SUMMARY_FIELDS, _store_info, fit_stored_array
     from senscal.errors import InputError
 
     if chunk < 1:
@@ -103,12 +103,9 @@ def fit_array_cmd(
                 cluster = stack.enter_context(LocalCluster(n_workers=workers, threads_per_worker=1,
                                                            dashboard_address=None, silence_logs=50))
                 stack.enter_context(Client(cluster))
-        import h5py
-
-        with h5py.File(file, "r") if file.exists() else contextlib.nullcontext() as fh:
-            total = fh[dataset].shape[0] if fh is not None and dataset in fh else None
+        total = _store_info(str(file), dataset, None)[0][0] if file.exists() else None
         with progress_bar(f"fitting {dataset}", total) as advance:
-            res = fit_hdf5_dataset(file, dataset, fs=fs, time_dataset=time_dataset, freq=freq,
+            res = fit_stored_array(file, dataset, fs=fs, time_dataset=time_dataset, freq=freq,
                                    harmonics=harmonics, chunk_channels=chunk, progress=advance)
     df = pd.DataFrame({"channel": np.arange(res.n_channels),
                        **{f: getattr(res, f) for f in SUMMARY_FIELDS}})
