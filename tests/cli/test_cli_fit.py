@@ -116,3 +116,8 @@ def test_usage_errors_exit_2_without_traceback(cli, args):
     r = cli(*args)
     assert r.code == 2
     assert "Traceback" not in r.err
+
+
+def test_demo_unknown_job(cli, tmp_path):
+    r = cli("demo", "--out", tmp_path, "--only", "nope")
+    assert r.code == 2 and "no demo job 'nope'" in r.err and "sinefit" in r.err

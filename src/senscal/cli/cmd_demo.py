@@ -9,26 +9,32 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app
-from senscal.cli.common import console, err_console, fmt, table
+from senscal.cli.common import console, progress_bar, table
 
 
 @app.command("demo")
 def demo_cmd(
     out: Annotated[Path, typer.Option("--out", help="Folder for the outputs and index.html.")] = Path("senscal-demo"),
     seed: Annotated[int, typer.Option("--seed", help="Random seed of the simulations.")] = 1,
-    only: Annotated[Optional[List[str]], typer.Option("--only", help="Run only this job (repeatable).")] = None,
+    only: Annotated[Optional[List[str]], typer.Option("--only", help="Run only this job (repeatable), e.g. sinefit.")] = None,
 ) -> None:
-    """Run every job on simulated data with known truth and write a report."""
-    from senscal.demo import run_demo
+    """Run every job on simulated data with known truth and write a report (index.html)."""
+    from senscal.demo import discover, run_demo
+    from senscal.errors import InputError
 
-    def start(mod):
-        err_console.print(f"[bold]running[/bold] {getattr(mod, 'TITLE', mod.__name__)} ...")
+    keys = [m.__name__.rsplit(".", 1)[1][len("job_"):] for m in discover()]
+    unknown = [k for k in (only or []) if k not in keys]
+    if unknown:
+        raise InputError(f"no demo job '{unknown[0]}'; jobs are: {', '.join(keys)}")
+    total = len(only) if only else len(keys)
 
     def done(sec):
+        advance()
         console.rule(sec.title)
         console.print(sec.summary)
         if sec.rows:
-            console.print(table("truth vs estimate (u: standard, k=1)", ["quantity", "truth", "estimate", "u", "unit"],
+            console.print(table("truth vs estimate (u: standard uncertainty, k=1)",
+                                ["quantity", "truth", "estimate", "u", "unit"],
                                 [[r["quantity"], r.get("truth"), r.get("estimate"), r.get("uncertainty"), r.get("unit", "")]
                                  for r in sec.rows]))
         for t in sec.tables:
@@ -36,6 +42,6 @@ def demo_cmd(
         for f in sec.files:
             console.print(f"  wrote {out / f}")
 
-    _, index = run_demo(out, seed=seed, only=only, on_start=start, on_done=done)
+    with progress_bar("demo jobs", total) as advance:
+        _, index = run_demo(out, seed=seed, only=only, on_done=done)
     console.print(f"\n[bold]Report:[/bold] {index.resolve()}  (open it in a browser)")
-    _ = fmt
