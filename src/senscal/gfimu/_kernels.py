@@ -156,3 +156,138 @@ def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate):
         x[:, k] = xk
         P[:, :, k] = Pk
     return x, P, nis, rejected
+
+
+@nb.njit(cache=True)
+def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate):
+    """EKF on the quadratic terms with the array's constant errors as states.
+
+    State (12): ``w`` (3), the constant error of the angular acceleration
+    ``c_a`` (3) and the constant errors of the six quadratic terms ``c_W``
+    (6).  Process ``w_k = w_{k-1} + u_{k-1} - dt_k c_a + noise(Q)`` (the
+    trapezoid increment of a constant error is exactly ``dt c_a``), the
+    offsets constant; measurement ``W_meas = h(w) + c_W + noise(R)``.  The
+    measurement Jacobian is ``[H_w, 0, I]``, which the update exploits.
+    Returns the filtered state (12, T), the covariance of ``w`` (3, 3, T),
+    the final full covariance (12, 12), the NIS (T,) and the gate flags.
+    """
+    n = wq.shape[1]
+    x = np.empty((12, n))
+    Pw = np.empty((3, 3, n))
+    nis = np.empty(n)
+    rejected = np.zeros(n, dtype=np.bool_)
+    xk = x0.copy()
+    Pk = P0.copy()
+    Hw = np.zeros((6, 3))
+    nu = np.empty(6)
+    PHt = np.empty((12, 6))
+    S = np.empty((6, 6))
+    L = np.zeros((6, 6))
+    Si = np.empty((6, 6))
+    K = np.empty((12, 6))
+    for k in range(n):
+        if k > 0:
+            h = dt[k]
+            for i in range(3):
+                xk[i] += u[i, k - 1] - h * xk[i + 3]
+            # P <- F P F' with F = I except F[0:3, 3:6] = -h I.
+            for i in range(3):
+                for j in range(12):
+                    Pk[i, j] -= h * Pk[i + 3, j]
+            for i in range(12):
+                for j in range(3):
+                    Pk[i, j] -= h * Pk[i, j + 3]
+            for i in range(3):
+                for j in range(3):
+                    Pk[i, j] += Q[i, j]
+        a, b, c = xk[0], xk[1], xk[2]
+        nu[0] = wq[0, k] + (b * b + c * c) - xk[6]
+        nu[1] = wq[1, k] + (a * a + c * c) - xk[7]
+        nu[2] = wq[2, k] + (a * a + b * b) - xk[8]
+        nu[3] = wq[3, k] - a * b - xk[9]
+        nu[4] = wq[4, k] - a * c - xk[10]
+        nu[5] = wq[5, k] - b * c - xk[11]
+        Hw[0, 1] = -2 * b
+        Hw[0, 2] = -2 * c
+        Hw[1, 0] = -2 * a
+        Hw[1, 2] = -2 * c
+        Hw[2, 0] = -2 * a
+        Hw[2, 1] = -2 * b
+        Hw[3, 0] = b
+        Hw[3, 1] = a
+        Hw[4, 0] = c
+        Hw[4, 2] = a
+        Hw[5, 1] = c
+        Hw[5, 2] = b
+        # P H' = P[:, 0:3] Hw' + P[:, 6:12]
+        for i in range(12):
+            for r in range(6):
+                s = Pk[i, 6 + r]
+                for j in range(3):
+                    s += Pk[i, j] * Hw[r, j]
+                PHt[i, r] = s
+        # S = H P H' + R = Hw PHt[0:3] + PHt[6:12] + R
+        for r in range(6):
+            for m in range(r, 6):
+                s = PHt[6 + r, m] + R[r, m]
+                for j in range(3):
+                    s += Hw[r, j] * PHt[j, m]
+                S[r, m] = s
+                S[m, r] = s
+        # S^-1 by Cholesky (S is SPD: R is).
+        for r in range(6):
+            for m in range(r + 1):
+                s = S[r, m]
+                for j in range(m):
+                    s -= L[r, j] * L[m, j]
+                if r == m:
+                    L[r, r] = np.sqrt(s)
+                else:
+                    L[r, m] = s / L[m, m]
+        for col in range(6):
+            # Solve L L' y = e_col.
+            for r in range(6):
+                s = 1.0 if r == col else 0.0
+                for j in range(r):
+                    s -= L[r, j] * Si[j, col]
+                Si[r, col] = s / L[r, r]
+            for r in range(5, -1, -1):
+                s = Si[r, col]
+                for j in range(r + 1, 6):
+                    s -= L[j, r] * Si[j, col]
+                Si[r, col] = s / L[r, r]
+        d2 = 0.0
+        for r in range(6):
+            s = 0.0
+            for m in range(6):
+                s += Si[r, m] * nu[m]
+            d2 += nu[r] * s
+        nis[k] = d2
+        if gate > 0 and d2 > gate:
+            rejected[k] = True
+        else:
+            for i in range(12):
+                for r in range(6):
+                    s = 0.0
+                    for m in range(6):
+                        s += PHt[i, m] * Si[m, r]
+                    K[i, r] = s
+            for i in range(12):
+                s = 0.0
+                for r in range(6):
+                    s += K[i, r] * nu[r]
+                xk[i] += s
+            # P - K S K' = P - K (P H')'
+            for i in range(12):
+                for j in range(i, 12):
+                    s = 0.0
+                    for r in range(6):
+                        s += K[i, r] * PHt[j, r]
+                    v = 0.5 * ((Pk[i, j] - s) + (Pk[j, i] - s))
+                    Pk[i, j] = v
+                    Pk[j, i] = v
+        x[:, k] = xk
+        for i in range(3):
+            for j in range(3):
+                Pw[i, j, k] = Pk[i, j]
+    return x, Pw, Pk, nis, rejected

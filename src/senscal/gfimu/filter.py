@@ -22,7 +22,7 @@ References
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy.stats import chi2
@@ -30,7 +30,7 @@ from scipy.stats import chi2
 from senscal._result import ResultMixin
 from senscal.errors import InputError
 from senscal.kalman import StateSpaceModel, kalman_filter
-from senscal.gfimu._kernels import quadratic_ekf
+from senscal.gfimu._kernels import quadratic_ekf, quadratic_ekf_offsets
 from senscal.gfimu.layout import KinematicSolution, square_map
 from senscal.gfimu.methods import differential_rate, integration_rate, rate_increments, sqrt_rate
 
@@ -62,6 +62,13 @@ class RateFilterResult(ResultMixin):
     passes : int
         Filter passes run (the square-root observation takes its sign from
         the previous pass).
+    offsets : ndarray, shape (9,) or None
+        With ``bias_std``: the estimated constant errors of the angular
+        acceleration (rad/s^2) and of the six quadratic terms ((rad/s)^2),
+        in :data:`~senscal.gfimu.layout.UNKNOWNS` order (``alpha_x`` ...
+        ``W_yz``), at the end of the record.
+    u_offsets : ndarray, shape (9,) or None
+        Their standard uncertainties.
     """
 
     omega: np.ndarray = field(repr=False)
@@ -71,6 +78,8 @@ class RateFilterResult(ResultMixin):
     n_dropped: int
     n_gated: int
     passes: int
+    offsets: np.ndarray | None = None
+    u_offsets: np.ndarray | None = None
 
 
 def sqrt_observation(squares: np.ndarray, cov_squares: np.ndarray, sign_reference: np.ndarray,
@@ -139,7 +148,7 @@ def channel_covariance(kin: KinematicSolution, noise_std) -> np.ndarray:
 
 def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation: str = "quadratic",
                 initial=None, initial_std: float = 1e-3, lag: int = 1, gate_probability: float = 1e-4,
-                passes: int = 3) -> RateFilterResult:
+                passes: int = 3, bias_std=None) -> RateFilterResult:
     """Independent Kalman filter: integration as process, the array's quadratic terms as observation.
 
     Parameters
@@ -177,6 +186,14 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         sign from the integration method as the paper does, later passes
         from the previous pass's filtered estimate (stops when no sign
         changes).
+    bias_std : float or ndarray, shape (M,), optional
+        Standard uncertainty of each channel's constant error (bias), m/s^2.
+        With it the quadratic filter also estimates the constant errors
+        these biases put into the angular acceleration and the six
+        quadratic terms (nine random-constant states whose prior covariance
+        is the biases' image through the solve), so that they neither drift
+        the integration nor floor the estimate, and ``u_omega`` includes
+        their remaining uncertainty.  Quadratic observation only.
 
     Returns
     -------
@@ -207,6 +224,10 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         P0 = np.eye(3) * initial_std ** 2
     m = 6 if observation == "quadratic" else 3
     gate = float(chi2.isf(gate_probability, m)) if gate_probability > 0 else 0.0
+    if bias_std is not None:
+        if observation != "quadratic":
+            raise InputError("bias_std (constant-error states) needs the quadratic observation")
+        return _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std)
     if observation == "quadratic":
         x, P, _, rej = quadratic_ekf(np.ascontiguousarray(kin.W), u, Q, np.linalg.inv(C[6:12, 6:12]), x0, P0, gate)
         return _result(x, P, rej, np.ones((6, x.shape[1]), bool), observation, 1)
@@ -234,6 +255,26 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         if same:
             break
     return _result(x, P, rej, np.isfinite(z), observation, n_pass)
+
+
+def _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std) -> RateFilterResult:
+    """The quadratic EKF with the nine constant errors of ``alpha`` and ``W`` as states."""
+    b = np.broadcast_to(np.asarray(bias_std, float), (kin.sensitivity.shape[1],))
+    if not np.all(np.isfinite(b)) or np.any(b < 0):
+        raise InputError("bias_std must be non-negative numbers (m/s^2)")
+    # The offsets are a linear image of the channel biases: their prior is that image's covariance.
+    Pb = channel_covariance(kin, np.maximum(b, 1e-12))[3:12, 3:12]
+    P12 = np.zeros((12, 12))
+    P12[:3, :3] = P0
+    P12[3:, 3:] = Pb
+    x12 = np.zeros(12)
+    x12[:3] = x0
+    dt = np.zeros(t.size)
+    dt[1:] = np.diff(t)
+    x, Pw, Pend, _, rej = quadratic_ekf_offsets(np.ascontiguousarray(kin.W), u, dt, Q, C[6:12, 6:12], x12, P12,
+                                                gate)
+    res = _result(x[:3], Pw, rej, np.ones((6, x.shape[1]), bool), "quadratic", 1)
+    return replace(res, offsets=x[3:, -1].copy(), u_offsets=np.sqrt(np.maximum(np.diag(Pend)[3:], 0.0)))
 
 
 def _result(x, P, rej, ok, observation, passes) -> RateFilterResult:
