@@ -89,6 +89,8 @@ def test_gfimu_custom_layout_equals_default(cli, sim):
     (["--lag", "0"], "lag"),
     (["--layout", "COPLANAR"], "coplanar"),
     (["--truth", "MISSING.csv"], "not found"),
+    (["--bias-std", "-1e-3"], "--bias-std"),
+    (["--bias-std", "1e-3", "--observation", "sqrt"], "quadratic"),
 ])
 def test_gfimu_user_errors_are_one_line(cli, sim, tmp_path, args, msg):
     cop = tmp_path / "cop.csv"
@@ -107,3 +109,26 @@ def test_gfimu_missing_channel(cli, tmp_path):
     p.write_text("t,a1x\n0,1\n0.1,2\n")
     r = cli("gfimu", p)
     assert r.code == 2 and "a1y" in r.err
+
+
+def test_gfimu_bias_std_reports_offsets(cli, sim):
+    from senscal.gfimu import UNKNOWNS, paper_layout, solve_kinematics
+    from senscal.io import read_recording
+
+    r = cli("gfimu", sim / "gfimu.csv", "--bias-std", "9.80665e-4", "--json")
+    assert r.code == 0, r.err
+    f = json.loads(r.out)["filter"]
+    assert f["bias_std_m_s2"] == pytest.approx(9.80665e-4)
+    assert list(f["offsets"]) == list(UNKNOWNS[3:])
+    assert all(o["u"] > 0 for o in f["offsets"].values())
+    # The offsets are the biases' image through the solve: compare with the simulator's biases.
+    from senscal.simulate.gfimu import simulate_gfimu
+
+    _, _, inf = simulate_gfimu(fs=500, duration=2, seed=3)
+    kin = solve_kinematics(read_recording(sim / "gfimu.csv").data(list(paper_layout().names)), paper_layout())
+    b = np.array([inf["bias_m_s2"][n] for n in paper_layout().names])
+    true = (kin.sensitivity @ b)[3:12]
+    for name, tv in zip(UNKNOWNS[3:], true):
+        assert abs(f["offsets"][name]["value"] - tv) < 4 * f["offsets"][name]["u"]
+    human = cli("gfimu", sim / "gfimu.csv", "--bias-std", "9.80665e-4")
+    assert human.code == 0 and "Constant errors" in human.out

@@ -13,7 +13,7 @@ from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, parse_floats,
                                 print_json, table)
 from senscal.errors import InputError
-from senscal.gfimu import (METHODS, OBSERVATIONS, angular_velocity, attitude_error, error_statistics,
+from senscal.gfimu import (METHODS, OBSERVATIONS, UNKNOWNS, angular_velocity, attitude_error, error_statistics,
                            integrate_attitude, paper_layout, read_layout)
 from senscal.io import Recording, write_recording
 
@@ -40,7 +40,7 @@ def _truth_on(rec_t: np.ndarray, path: Path, need_q: bool) -> tuple[np.ndarray, 
 
 def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, method: str, observation: str,
               initial_omega: str | None, truth: Path | None, attitude: bool, lag: int, noise_std: float | None,
-              time_column: str, fs: float | None, names: str | None):
+              time_column: str, fs: float | None, names: str | None, bias_std: float | None = None):
     """Run the job; returns (document, recording time, estimate, truth w, quaternion)."""
     if layout_file is not None and distance is not None:
         raise InputError("give either --layout or --distance, not both")
@@ -58,7 +58,7 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
     rec = load(file, time_column=time_column, fs=fs, names=names)
     y = rec.data(list(layout.names))
     est = angular_velocity(y, rec.time, layout, methods=methods, observation=observation, initial=w0,
-                           noise_std=noise_std, lag=lag)
+                           noise_std=noise_std, lag=lag, bias_std=bias_std)
     doc: dict = {
         "file": str(file), "n_samples": int(rec.n_samples), "sample_rate_hz": rec.sample_rate,
         "layout": {"channels": list(layout.names), "condition_number": est.condition_number,
@@ -73,6 +73,10 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
         doc["filter"] = {"observation": f.observation, "n_observed": f.n_observed, "n_dropped": f.n_dropped,
                          "n_gated": f.n_gated, "passes": f.passes,
                          "median_u_omega": dict(zip(_AXES, np.median(f.u_omega, axis=1).tolist()))}
+        if f.offsets is not None:
+            doc["filter"]["bias_std_m_s2"] = bias_std
+            doc["filter"]["offsets"] = {n: {"value": float(v), "u": float(u)}
+                                        for n, v, u in zip(UNKNOWNS[3:], f.offsets, f.u_offsets)}
     w_true = q_true = None
     if truth is not None:
         w_true, q_true = _truth_on(rec.time, truth, attitude)
@@ -122,6 +126,7 @@ def gfimu_cmd(
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Plot the rates (and errors with --truth) to a PNG.")] = None,
     lag: Annotated[int, typer.Option("--lag", help="Span of the differential method in samples (1 = the paper's).")] = 1,
     noise_std: Annotated[Optional[float], typer.Option("--noise-std", help="Channel white-noise std in m/s^2 (default: estimated).")] = None,
+    bias_std: Annotated[Optional[float], typer.Option("--bias-std", help="Standard uncertainty of each channel's constant error (bias) in m/s^2: the quadratic filter then also estimates the constant errors of alpha and W.")] = None,
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
@@ -132,10 +137,14 @@ def gfimu_cmd(
         raise InputError(f"--lag must be at least 1 sample, got {lag}")
     if noise_std is not None and not noise_std > 0:
         raise InputError("--noise-std must be a positive number in m/s^2")
+    if bias_std is not None and not bias_std > 0:
+        raise InputError("--bias-std must be a positive number in m/s^2 (the channels' constant-error uncertainty)")
+    if bias_std is not None and observation != "quadratic":
+        raise InputError("--bias-std needs --observation quadratic (the constant errors are states of that filter)")
     doc, rec, est, w_true, q = run_gfimu(file, layout_file=layout_file, distance=distance, method=method,
                                          observation=observation, initial_omega=initial_omega, truth=truth,
                                          attitude=attitude, lag=lag, noise_std=noise_std,
-                                         time_column=time_column, fs=fs, names=names)
+                                         time_column=time_column, fs=fs, names=names, bias_std=bias_std)
     if out is not None:
         doc["out"] = str(_write_out(out, rec, est, q))
     if plot is not None:
@@ -154,6 +163,10 @@ def gfimu_cmd(
         console.print(f"Kalman filter ({f['observation']} observation): {f['n_gated']} samples gated, "
                       f"{f['n_dropped']} observation components dropped; median u(w) = "
                       + ", ".join(f"{ax} {u[ax]:.3g} (U {2 * u[ax]:.3g}, k=2)" for ax in _AXES) + " rad/s")
+        if "offsets" in f:
+            rows = [[n, f"{o['value']:.4g}", f"{o['u']:.3g}", f"{2 * o['u']:.3g}"] for n, o in f["offsets"].items()]
+            console.print(table("Constant errors estimated by the filter (alpha rad/s^2, W (rad/s)^2)",
+                                ["term", "value", "u (k=1)", "U (k=2)"], rows))
     if "errors" in doc:
         rows = [[m] + [f"{e[ax][k]:.3g}" for ax in _AXES for k in ("max_abs_error", "std_error")]
                 for m, e in doc["errors"].items()]

@@ -14,7 +14,7 @@ References
 from senscal.gfimu.attitude import AttitudeError, attitude_error, integrate_attitude
 from senscal.gfimu.core import METHODS, ErrorStatistics, RateEstimate, angular_velocity, error_statistics
 from senscal.gfimu.filter import OBSERVATIONS, RateFilterResult, kalman_rate
-from senscal.gfimu.layout import (KinematicSolution, Layout, paper_layout, read_layout, solve_kinematics,
+from senscal.gfimu.layout import (UNKNOWNS, KinematicSolution, Layout, paper_layout, read_layout, solve_kinematics,
                                   write_layout)
 from senscal.gfimu.methods import differential_rate, estimate_noise_std, integration_rate, sqrt_rate
 
@@ -22,6 +22,6 @@ __all__ = [
     "AttitudeError", "attitude_error", "integrate_attitude",
     "METHODS", "ErrorStatistics", "RateEstimate", "angular_velocity", "error_statistics",
     "OBSERVATIONS", "RateFilterResult", "kalman_rate",
-    "KinematicSolution", "Layout", "paper_layout", "read_layout", "solve_kinematics", "write_layout",
+    "UNKNOWNS", "KinematicSolution", "Layout", "paper_layout", "read_layout", "solve_kinematics", "write_layout",
     "differential_rate", "estimate_noise_std", "integration_rate", "sqrt_rate",
 ]
