@@ -115,3 +115,25 @@ def test_offsets_bad_arguments():
         angular_velocity(rec.data(), rec.time, paper_layout(), observation="sqrt", bias_std=BIAS)
     with pytest.raises(InputError, match="bias_std"):
         angular_velocity(rec.data(), rec.time, paper_layout(), bias_std=-1.0)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_paper_claim_over_seeds_with_offsets(seed):
+    # The paper's set-up at 10 kHz, 3 s. The honest claim: >= 10x better than sqrt and differential on
+    # every seed; >= 10x better than integration where the constant errors reach alpha_z. There the
+    # drift is at least (b / L) T = 0.074 rad/s (error std >= drift / sqrt(12) = 0.021) against the
+    # filter's white-noise floor ~1e-3 rad/s (std), a margin of ~2. Where they cancel, integration is
+    # only a random walk and no causal filter gains 10x over it in 3 s (docs/gfimu.md); there the
+    # filter must still sit at its stated uncertainty.
+    rec, tr, info = simulate_gfimu(paper=True, duration=3, seed=seed)
+    b = info["bias_m_s2"]
+    reaches = abs(b["a2y"] - b["a1y"] - b["a3x"] + b["a1x"]) > 1e-12
+    w = tr.data(["wx", "wy", "wz"])
+    est = angular_velocity(rec.data(), rec.time, paper_layout(), methods=METHODS, bias_std=BIAS)
+    st = error_statistics(est.omega, w)
+    k = st["kalman"]
+    for m in ("sqrt", "differential") + (("integration",) if reaches else ()):
+        assert k.max_abs_error[2] < st[m].max_abs_error[2] / 10, m
+        assert k.std_error[2] < st[m].std_error[2] / 10, m
+    z = (est.omega["kalman"][2] - w[2]) / est.u_omega[2]
+    assert 0.55 < z.std() < 1.45 and abs(z.mean()) < 0.6
