@@ -59,6 +59,30 @@ def _inv3(A, out):
     out[2, 2] = (a * e - b * d) / det
 
 
+@nb.njit(cache=True, inline="always")
+def _quadratic_innovation(wq, k, xk, nu, H):
+    """Innovation of the six quadratic terms at sample k and its Jacobian in ``w`` (H: 6x3, zeros kept)."""
+    a, b, c = xk[0], xk[1], xk[2]
+    nu[0] = wq[0, k] + (b * b + c * c)
+    nu[1] = wq[1, k] + (a * a + c * c)
+    nu[2] = wq[2, k] + (a * a + b * b)
+    nu[3] = wq[3, k] - a * b
+    nu[4] = wq[4, k] - a * c
+    nu[5] = wq[5, k] - b * c
+    H[0, 1] = -2 * b
+    H[0, 2] = -2 * c
+    H[1, 0] = -2 * a
+    H[1, 2] = -2 * c
+    H[2, 0] = -2 * a
+    H[2, 1] = -2 * b
+    H[3, 0] = b
+    H[3, 1] = a
+    H[4, 0] = c
+    H[4, 2] = a
+    H[5, 1] = c
+    H[5, 2] = b
+
+
 @nb.njit(cache=True)
 def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate):
     """Extended Kalman filter on the six quadratic terms of the array.
@@ -92,25 +116,7 @@ def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate):
                 xk[i] += u[i, k - 1]
                 for j in range(3):
                     Pk[i, j] += Q[i, j]
-        a, b, c = xk[0], xk[1], xk[2]
-        nu[0] = wq[0, k] + (b * b + c * c)
-        nu[1] = wq[1, k] + (a * a + c * c)
-        nu[2] = wq[2, k] + (a * a + b * b)
-        nu[3] = wq[3, k] - a * b
-        nu[4] = wq[4, k] - a * c
-        nu[5] = wq[5, k] - b * c
-        H[0, 1] = -2 * b
-        H[0, 2] = -2 * c
-        H[1, 0] = -2 * a
-        H[1, 2] = -2 * c
-        H[2, 0] = -2 * a
-        H[2, 1] = -2 * b
-        H[3, 0] = b
-        H[3, 1] = a
-        H[4, 0] = c
-        H[4, 2] = a
-        H[5, 1] = c
-        H[5, 2] = b
+        _quadratic_innovation(wq, k, xk, nu, H)
         # R^-1 H, g = H' R^-1 nu, M = H' R^-1 H, q = nu' R^-1 nu
         q = 0.0
         for r in range(6):
@@ -200,25 +206,9 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate):
             for i in range(3):
                 for j in range(3):
                     Pk[i, j] += Q[i, j]
-        a, b, c = xk[0], xk[1], xk[2]
-        nu[0] = wq[0, k] + (b * b + c * c) - xk[6]
-        nu[1] = wq[1, k] + (a * a + c * c) - xk[7]
-        nu[2] = wq[2, k] + (a * a + b * b) - xk[8]
-        nu[3] = wq[3, k] - a * b - xk[9]
-        nu[4] = wq[4, k] - a * c - xk[10]
-        nu[5] = wq[5, k] - b * c - xk[11]
-        Hw[0, 1] = -2 * b
-        Hw[0, 2] = -2 * c
-        Hw[1, 0] = -2 * a
-        Hw[1, 2] = -2 * c
-        Hw[2, 0] = -2 * a
-        Hw[2, 1] = -2 * b
-        Hw[3, 0] = b
-        Hw[3, 1] = a
-        Hw[4, 0] = c
-        Hw[4, 2] = a
-        Hw[5, 1] = c
-        Hw[5, 2] = b
+        _quadratic_innovation(wq, k, xk, nu, Hw)
+        for r in range(6):
+            nu[r] -= xk[6 + r]
         # P H' = P[:, 0:3] Hw' + P[:, 6:12]
         for i in range(12):
             for r in range(6):
