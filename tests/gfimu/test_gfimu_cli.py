@@ -132,3 +132,15 @@ def test_gfimu_bias_std_reports_offsets(cli, sim):
         assert abs(f["offsets"][name]["value"] - tv) < 4 * f["offsets"][name]["u"]
     human = cli("gfimu", sim / "gfimu.csv", "--bias-std", "9.80665e-4")
     assert human.code == 0 and "Constant errors" in human.out
+
+
+def test_gfimu_smooth_option(cli, sim):
+    args = ("gfimu", sim / "gfimu.csv", "--truth", sim / "gfimu_truth.csv", "--json")
+    f = json.loads(cli(*args).out)
+    s = json.loads(cli(*args, "--smooth").out)
+    assert f["filter"]["smoothed"] is False and s["filter"]["smoothed"] is True
+    # Every sample then uses the whole record: the stated uncertainty can only shrink.
+    for ax in ("wx", "wy", "wz"):
+        assert s["filter"]["median_u_omega"][ax] <= f["filter"]["median_u_omega"][ax]
+    human = cli("gfimu", sim / "gfimu.csv", "--smooth")
+    assert human.code == 0 and "smoother" in human.out

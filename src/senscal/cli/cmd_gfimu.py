@@ -40,7 +40,8 @@ def _truth_on(rec_t: np.ndarray, path: Path, need_q: bool) -> tuple[np.ndarray, 
 
 def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, method: str, observation: str,
               initial_omega: str | None, truth: Path | None, attitude: bool, lag: int, noise_std: float | None,
-              time_column: str, fs: float | None, names: str | None, bias_std: float | None = None):
+              time_column: str, fs: float | None, names: str | None, bias_std: float | None = None,
+              smooth: bool = False):
     """Run the job; returns (document, recording time, estimate, truth w, quaternion)."""
     if layout_file is not None and distance is not None:
         raise InputError("give either --layout or --distance, not both")
@@ -58,7 +59,7 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
     rec = load(file, time_column=time_column, fs=fs, names=names)
     y = rec.data(list(layout.names))
     est = angular_velocity(y, rec.time, layout, methods=methods, observation=observation, initial=w0,
-                           noise_std=noise_std, lag=lag, bias_std=bias_std)
+                           noise_std=noise_std, lag=lag, bias_std=bias_std, smooth=smooth)
     doc: dict = {
         "file": str(file), "n_samples": int(rec.n_samples), "sample_rate_hz": rec.sample_rate,
         "layout": {"channels": list(layout.names), "condition_number": est.condition_number,
@@ -71,7 +72,7 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
     if est.filter is not None:
         f = est.filter
         doc["filter"] = {"observation": f.observation, "n_observed": f.n_observed, "n_dropped": f.n_dropped,
-                         "n_gated": f.n_gated, "passes": f.passes,
+                         "n_gated": f.n_gated, "passes": f.passes, "smoothed": f.smoothed,
                          "median_u_omega": dict(zip(_AXES, np.median(f.u_omega, axis=1).tolist()))}
         if f.offsets is not None:
             doc["filter"]["bias_std_m_s2"] = bias_std
@@ -130,6 +131,7 @@ def gfimu_cmd(
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
+    smooth: Annotated[bool, typer.Option("--smooth", help="Offline: the Kalman estimate from the fixed-interval (RTS) smoother over the whole record instead of the causal filter.")] = False,
     json_out: JsonOpt = False,
 ) -> None:
     """Angular velocity of a rigid body from an accelerometer array (no gyroscope)."""
@@ -144,7 +146,8 @@ def gfimu_cmd(
     doc, rec, est, w_true, q = run_gfimu(file, layout_file=layout_file, distance=distance, method=method,
                                          observation=observation, initial_omega=initial_omega, truth=truth,
                                          attitude=attitude, lag=lag, noise_std=noise_std,
-                                         time_column=time_column, fs=fs, names=names, bias_std=bias_std)
+                                         time_column=time_column, fs=fs, names=names, bias_std=bias_std,
+                                         smooth=smooth)
     if out is not None:
         doc["out"] = str(_write_out(out, rec, est, q))
     if plot is not None:
@@ -160,7 +163,8 @@ def gfimu_cmd(
     if est.filter is not None:
         f = doc["filter"]
         u = f["median_u_omega"]
-        console.print(f"Kalman filter ({f['observation']} observation): {f['n_gated']} samples gated, "
+        console.print(f"Kalman {'smoother (offline RTS)' if f['smoothed'] else 'filter'} "
+                      f"({f['observation']} observation): {f['n_gated']} samples gated, "
                       f"{f['n_dropped']} observation components dropped; median u(w) = "
                       + ", ".join(f"{ax} {u[ax]:.3g} (U {2 * u[ax]:.3g}, k=2)" for ax in _AXES) + " rad/s")
         if "offsets" in f:

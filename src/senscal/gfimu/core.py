@@ -64,7 +64,7 @@ class RateEstimate(ResultMixin):
 def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
                      methods: Sequence[str] = ("kalman",), observation: str = "quadratic",
                      initial=(0.0, 0.0, 0.0), noise_std=None, lag: int = 1,
-                     gate_probability: float = 1e-4, bias_std=None) -> RateEstimate:
+                     gate_probability: float = 1e-4, bias_std=None, smooth: bool = False) -> RateEstimate:
     """Solve the array's kinematics and estimate ``w`` by the chosen methods.
 
     Parameters
@@ -93,6 +93,9 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
         Standard uncertainty of the channels' constant errors, m/s^2; the
         quadratic Kalman filter then estimates the constant errors they put
         into the kinematics (see :func:`kalman_rate`).
+    smooth : bool
+        Offline: the Kalman estimate is the fixed-interval (RTS) smoother's
+        (uses the whole record; the default filter is causal).
 
     Returns
     -------
@@ -139,7 +142,7 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
     u_om = None
     if "kalman" in methods:
         filt = kalman_rate(kin, t, sig, observation=observation, initial=w0, lag=lag,
-                           gate_probability=gate_probability, bias_std=bias_std)
+                           gate_probability=gate_probability, bias_std=bias_std, smooth=smooth)
         out["kalman"] = filt.omega
         u_om = filt.u_omega
     ordered = {m: out[m] for m in METHODS if m in out}

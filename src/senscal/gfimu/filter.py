@@ -29,7 +29,7 @@ from scipy.stats import chi2
 
 from senscal._result import ResultMixin
 from senscal.errors import InputError
-from senscal.kalman import StateSpaceModel, kalman_filter
+from senscal.kalman import KalmanResult, StateSpaceModel, kalman_filter, rts_smoother
 from senscal.gfimu._kernels import quadratic_ekf, quadratic_ekf_offsets
 from senscal.gfimu.layout import KinematicSolution, square_map
 from senscal.gfimu.methods import differential_rate, integration_rate, rate_increments, sqrt_rate
@@ -69,6 +69,9 @@ class RateFilterResult(ResultMixin):
         ``W_yz``), at the end of the record.
     u_offsets : ndarray, shape (9,) or None
         Their standard uncertainties.
+    smoothed : bool
+        ``omega`` is the offline fixed-interval (RTS) smoother's, not the
+        causal filter's.
     """
 
     omega: np.ndarray = field(repr=False)
@@ -80,6 +83,7 @@ class RateFilterResult(ResultMixin):
     passes: int
     offsets: np.ndarray | None = None
     u_offsets: np.ndarray | None = None
+    smoothed: bool = False
 
 
 def sqrt_observation(squares: np.ndarray, cov_squares: np.ndarray, sign_reference: np.ndarray,
@@ -148,7 +152,7 @@ def channel_covariance(kin: KinematicSolution, noise_std) -> np.ndarray:
 
 def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation: str = "quadratic",
                 initial=None, initial_std: float = 1e-3, lag: int = 1, gate_probability: float = 1e-4,
-                passes: int = 3, bias_std=None) -> RateFilterResult:
+                passes: int = 3, bias_std=None, smooth: bool = False) -> RateFilterResult:
     """Independent Kalman filter: integration as process, the array's quadratic terms as observation.
 
     Parameters
@@ -194,6 +198,13 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         is the biases' image through the solve), so that they neither drift
         the integration nor floor the estimate, and ``u_omega`` includes
         their remaining uncertainty.  Quadratic observation only.
+    smooth : bool
+        Offline: return the Rauch-Tung-Striebel fixed-interval smoother's
+        estimate (every sample uses the whole record) instead of the causal
+        filter's; with ``bias_std`` the smoother runs on the kinematics
+        corrected by the filter's final constant-error estimates (their
+        remaining uncertainty, ~1e-3 of the white-noise part, is left out of
+        ``u_omega``).
 
     Returns
     -------
@@ -227,10 +238,23 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
     if bias_std is not None:
         if observation != "quadratic":
             raise InputError("bias_std (constant-error states) needs the quadratic observation")
-        return _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std)
+        res = _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std)
+        if not smooth:
+            return res
+        # Smooth the 3-state EKF on the kinematics freed of the constant errors found over the record.
+        c = res.offsets
+        u_c = u.copy()
+        u_c[:, :-1] -= np.diff(t) * c[:3, None]
+        x, P, _, rej = quadratic_ekf(np.ascontiguousarray(kin.W - c[3:, None]), u_c, Q,
+                                     np.linalg.inv(C[6:12, 6:12]), x0, P0, gate)
+        x, P = _smooth(x, P, u_c, Q, x0, P0)
+        return replace(_result(x, P, rej, np.ones((6, x.shape[1]), bool), observation, 1, True),
+                       offsets=res.offsets, u_offsets=res.u_offsets)
     if observation == "quadratic":
         x, P, _, rej = quadratic_ekf(np.ascontiguousarray(kin.W), u, Q, np.linalg.inv(C[6:12, 6:12]), x0, P0, gate)
-        return _result(x, P, rej, np.ones((6, x.shape[1]), bool), observation, 1)
+        if smooth:
+            x, P = _smooth(x, P, u, Q, x0, P0)
+        return _result(x, P, rej, np.ones((6, x.shape[1]), bool), observation, 1, smooth)
     S = square_map()
     cov_sq = S @ C[6:9, 6:9] @ S.T
     squares = kin.squares
@@ -241,7 +265,9 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
             keep[lag::lag] = True
             z[:, ~keep] = np.nan
         x, P, _, rej = _filter(z, u, Q, R, x0, P0, gate)
-        return _result(x, P, rej, np.isfinite(z), observation, 1)
+        if smooth:
+            x, P = _smooth(x, P, u, Q, x0, P0)
+        return _result(x, P, rej, np.isfinite(z), observation, 1, smooth)
     ref = integration_rate(alpha, t, x0)
     z, R = sqrt_observation(squares, cov_sq, ref)
     x, P, _, rej = _filter(z, u, Q, R, x0, P0, gate)
@@ -254,7 +280,9 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         n_pass += 1
         if same:
             break
-    return _result(x, P, rej, np.isfinite(z), observation, n_pass)
+    if smooth:
+        x, P = _smooth(x, P, u, Q, x0, P0)
+    return _result(x, P, rej, np.isfinite(z), observation, n_pass, smooth)
 
 
 def _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std) -> RateFilterResult:
@@ -277,11 +305,33 @@ def _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std) -> RateFilterResult
     return replace(res, offsets=x[3:, -1].copy(), u_offsets=np.sqrt(np.maximum(np.diag(Pend)[3:], 0.0)))
 
 
-def _result(x, P, rej, ok, observation, passes) -> RateFilterResult:
+def _result(x, P, rej, ok, observation, passes, smoothed=False) -> RateFilterResult:
     u_om = np.sqrt(np.maximum(np.einsum("iik->ik", P), 0.0))
     return RateFilterResult(omega=x, u_omega=u_om, observation=observation,
                             n_observed=int(np.any(ok, axis=0).sum()), n_dropped=int((~ok).sum()),
-                            n_gated=int(rej.sum()), passes=passes)
+                            n_gated=int(rej.sum()), passes=passes, smoothed=smoothed)
+
+
+def _smooth(x, P, u, Q, x0, P0):
+    """RTS smoother of a filter with ``F = B = I`` (linear, or the EKF's linearisation) on the shared engine.
+
+    The predictions are rebuilt from the filtered moments: ``x_pred[k] = x[k-1] + u[k-1]``,
+    ``P_pred[k] = P[k-1] + Q`` (a gated step has filtered = predicted, which the smoother then passes through).
+    """
+    n = x.shape[1]
+    xp = np.empty_like(x)
+    xp[:, 0] = x0
+    xp[:, 1:] = x[:, :-1] + u[:, :-1]
+    Pp = np.empty_like(P)
+    Pp[:, :, 0] = P0
+    Pp[:, :, 1:] = P[:, :, :-1] + Q[:, :, None]
+    eye = np.eye(3)
+    model = StateSpaceModel(F=eye, H=eye, Q=Q, R=eye, B=eye, x0=x0, P0=P0)
+    nan = np.full((3, n), np.nan)
+    res = KalmanResult(x=x, P=P, x_pred=xp, P_pred=Pp, innovation=nan, innovation_cov=np.full((3, 3, n), np.nan),
+                       normalized_innovation=nan, loglik=np.nan, rejected=np.zeros(n, bool))
+    sm = rts_smoother(model, res)
+    return sm.x, sm.P
 
 
 def _filter(z, u, Q, R, x0, P0, gate):
