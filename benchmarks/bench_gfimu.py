@@ -4,8 +4,8 @@ Prints the pipeline time against the time to load the same data (CSV and
 NPZ) and against filterpy's extended Kalman filter on the same model,
 all measured in this run.  Run: ``python benchmarks/bench_gfimu.py``.
 ``python benchmarks/bench_gfimu.py --seeds 20`` prints instead the accuracy
-table of the ``--paper`` simulation over seeds 0..19 (plain EKF and the EKF
-with the constant-error states).
+table of the ``--paper`` simulation over seeds 0..19 (plain EKF, the EKF
+with the constant-error states, and that one smoothed offline).
 """
 
 from __future__ import annotations
@@ -52,6 +52,7 @@ def main() -> None:
     t_all, _ = best(lambda: angular_velocity(y, t, layout, methods=METHODS))
     t_sqrt, _ = best(lambda: angular_velocity(y, t, layout, methods=("kalman",), observation="sqrt"))
     t_off, _ = best(lambda: angular_velocity(y, t, layout, methods=("kalman",), bias_std=1e-4 * 9.80665))
+    t_sm, _ = best(lambda: angular_velocity(y, t, layout, methods=("kalman",), bias_std=1e-4 * 9.80665, smooth=True))
 
     # filterpy's EKF on the same model, timed on 5000 steps and scaled.
     from filterpy.kalman import ExtendedKalmanFilter
@@ -92,6 +93,7 @@ def main() -> None:
     print(f"pipeline all four methods     {t_all * 1e3:9.1f} ms   = {t_all / t_csv:6.3f} x CSV load, {t_all / t_npz:6.2f} x NPZ load")
     print(f"pipeline kalman (sqrt, engine){t_sqrt * 1e3:9.1f} ms   = {t_sqrt / t_csv:6.3f} x CSV load")
     print(f"pipeline kalman EKF+offsets   {t_off * 1e3:9.1f} ms   = {t_off / t_csv:6.3f} x CSV load, {t_off / t_npz:6.2f} x NPZ load")
+    print(f"  ... + offline RTS smoother  {t_sm * 1e3:9.1f} ms   = {t_sm / t_csv:6.3f} x CSV load, {t_sm / t_npz:6.2f} x NPZ load")
     print(f"filterpy EKF (scaled from 5000 steps) {t_fp * 1e3:9.1f} ms: senscal EKF pipeline is {t_fp / t_k:6.1f}x faster")
 
 
@@ -101,18 +103,21 @@ def seeds(n: int) -> None:
     from senscal.simulate.gfimu import G0, simulate_gfimu
 
     singles = ("integration", "sqrt", "differential")
-    print("vibrating axis z: ratio single-method error / Kalman error (max |e| and std), plain EKF -> EKF+offsets")
+    print("vibrating axis z: ratio single-method error / Kalman error (max |e| and std), "
+          "plain EKF > EKF+offsets (causal) > EKF+offsets smoothed (offline)")
     print("seed cancel | " + " ".join(f"max/{m[:5]:5s}" for m in singles) + " | " + " ".join(f"std/{m[:5]:5s}" for m in singles)
           + " | z-score std")
-    count = {None: 0, "offsets": 0}
+    count = {None: 0, "offsets": 0, "smoothed": 0}
     for s in range(n):
         rec, tr, info = simulate_gfimu(paper=True, seed=s)
         b = info["bias_m_s2"]
         cancel = abs(b["a2y"] - b["a1y"] - b["a3x"] + b["a1x"]) < 1e-12
         w = tr.data(["wx", "wy", "wz"])
         cells = []
-        for key, bias_std in ((None, None), ("offsets", 1e-4 * G0)):
-            est = angular_velocity(rec.data(), rec.time, paper_layout(), methods=METHODS, bias_std=bias_std)
+        for key, bias_std, smooth in ((None, None, False), ("offsets", 1e-4 * G0, False),
+                                      ("smoothed", 1e-4 * G0, True)):
+            est = angular_velocity(rec.data(), rec.time, paper_layout(), methods=METHODS, bias_std=bias_std,
+                                   smooth=smooth)
             st = error_statistics(est.omega, w)
             k = st["kalman"]
             r = [st[m].max_abs_error[2] / k.max_abs_error[2] for m in singles] + \
@@ -120,10 +125,12 @@ def seeds(n: int) -> None:
             z = ((est.omega["kalman"][2] - w[2]) / est.u_omega[2]).std()
             count[key] += all(v >= 10 for v in r)
             cells.append((r, z))
-        (r0, z0), (r1, z1) = cells
-        print(f"{s:4d} {'yes' if cancel else 'no':6s} | " + " ".join(f"{a:5.1f}>{c:5.1f}" for a, c in zip(r0[:3], r1[:3]))
-              + " | " + " ".join(f"{a:5.1f}>{c:5.1f}" for a, c in zip(r0[3:], r1[3:])) + f" | {z0:.2f}>{z1:.2f}")
-    print(f"seeds with every ratio >= 10: plain EKF {count[None]}/{n}, EKF+offsets {count['offsets']}/{n}")
+        (r0, z0), (r1, z1), (r2, z2) = cells
+        trip = [f"{a:.1f}>{b:.1f}>{c:.1f}" for a, b, c in zip(r0, r1, r2)]
+        print(f"{s:4d} {'yes' if cancel else 'no':6s} | " + " ".join(trip[:3]) + " | " + " ".join(trip[3:])
+              + f" | {z0:.2f}>{z1:.2f}>{z2:.2f}")
+    print(f"seeds with every ratio >= 10: plain EKF {count[None]}/{n}, EKF+offsets {count['offsets']}/{n}, "
+          f"smoothed {count['smoothed']}/{n}")
 
 
 if __name__ == "__main__":
