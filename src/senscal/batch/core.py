@@ -282,9 +282,10 @@ def rows_table(summary: BatchSummary):
 
 def write_rows(summary: BatchSummary, path: str | Path) -> Path:
     """Write the results table as Parquet or CSV (by extension)."""
-    path = Path(path)
+    from senscal.io.guard import check_output
+
+    path = check_output(path)
     df = rows_table(summary)
-    path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix.lower() in (".parquet", ".pq"):
         df.to_parquet(path, index=False)
     elif path.suffix.lower() == ".csv":

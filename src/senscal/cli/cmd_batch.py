@@ -10,6 +10,7 @@ from typing_extensions import Annotated
 
 from senscal.cli.app import app
 from senscal.cli.common import console, err_console, print_json, progress_bar, table
+from senscal.io.guard import check_output, note_input
 
 
 @app.command(
@@ -111,7 +112,8 @@ def fit_array_cmd(
                        **{f: getattr(res, f) for f in SUMMARY_FIELDS}})
     df["phase_deg"] = np.degrees(df["phase"])
     df["u_phase_deg"] = np.degrees(df["u_phase"])
-    out.parent.mkdir(parents=True, exist_ok=True)
+    note_input(file)
+    out = check_output(out)
     df.to_parquet(out, index=False) if out.suffix.lower() in (".parquet", ".pq") else df.to_csv(out, index=False)
     summary = {"file": str(file), "dataset": dataset, "n_channels": res.n_channels, "n_samples": res.n_samples,
                "out": str(out), "amplitude_median": float(np.median(res.amplitude)),

@@ -16,7 +16,7 @@ from typing_extensions import Annotated
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.io import Recording, read_recording
+from senscal.io import Recording, check_output, read_recording
 
 T = TypeVar("T")
 
@@ -75,8 +75,7 @@ def print_json(obj: Any) -> None:
 
 def write_json(obj: Any, path: Path | str) -> Path:
     """Write ``obj`` as JSON to ``path`` (folders created)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = check_output(path)
     path.write_text(json.dumps(to_jsonable(obj), indent=2) + "\n")
     return path
 

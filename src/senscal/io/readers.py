@@ -13,6 +13,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from senscal.errors import DataError, FileFormatError, InputError
+from senscal.io.guard import check_output, note_input
 from senscal.io.recording import Recording
 
 __all__ = ["read_recording", "write_recording", "FORMATS"]
@@ -84,6 +85,7 @@ def read_recording(
         raise FileFormatError(f"file not found: {path}")
     if path.is_dir():
         raise FileFormatError(f"{path} is a folder; give a recording file")
+    note_input(path)
     if path.stat().st_size == 0:
         raise FileFormatError(f"{path} is empty")
     kind = _format_of(path, format)
@@ -327,7 +329,7 @@ def write_recording(rec: Recording, path: str | Path, *, format: str | None = No
     """
     path = Path(path)
     kind = _format_of(path, format)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_output(path)
     if time_column in rec.channels:
         raise InputError(f"a data channel is called '{time_column}'; rename it or choose another time_column")
     info = {"units": dict(rec.units), "metadata": {k: v for k, v in rec.metadata.items() if isinstance(v, (str, int, float, bool))}}

@@ -385,8 +385,9 @@ def save_response(resp: FrequencyResponse, path) -> "Path":
 
     from senscal._result import to_jsonable
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from senscal.io.guard import check_output
+
+    path = check_output(path, what="response file")
     doc = {"type": FORMAT, "format_version": FORMAT_VERSION, **to_jsonable(resp)}
     path.write_text(json.dumps(doc, indent=1) + "\n")
     return path
@@ -405,7 +406,10 @@ def load_response(path) -> FrequencyResponse:
     import json
     from pathlib import Path
 
+    from senscal.io.guard import note_input
+
     path = Path(path)
+    note_input(path)
     try:
         doc = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
