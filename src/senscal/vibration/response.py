@@ -19,7 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from senscal._result import ResultMixin
-from senscal.errors import FileFormatError, InputError
+from senscal.errors import DataError, FileFormatError, InputError
 from senscal.sinefit import fit_sine, wrap_phase
 from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget
 from senscal.vibration.fits import AngleSync, cut_whole_revolutions, fit_against_angle, fit_pair
@@ -216,6 +216,10 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         comps_b = [("input amplitude", "B", u_input * s)]
         phase, u_phase = float(fit.phase), float(fit.u_phase)
         n, snr = fit.n_samples, float(fit.snr_db)
+    if not a_out > 0:
+        # A dead (constant) output has no phase and no relative uncertainty.
+        raise DataError(f"the output channel of {source} carries no sinusoid at {float(f):g} Hz (amplitude 0); "
+                        "check --output and the sensor")
     s_budget = make_budget("sensitivity", s, unit, [("output fit (type A)", "A", u_fit)] + comps_b)
     n_budget = None
     if static_sensitivity is not None:
