@@ -76,3 +76,16 @@ def test_api_may_rewrite_a_file_it_read(tmp_path):
     rec = read_recording(f)
     write_recording(rec, f)
     assert read_recording(f).names == rec.names
+
+
+def test_batch_out_equal_to_an_input_is_refused_before_running(cli, tmp_path):
+    f = _sine(tmp_path / "v.csv")
+    before = _digest(f)
+    r = cli("batch", "fit", f, "--out", f, "--workers", "1")
+    _one_line_error(r)
+    assert _digest(f) == before
+
+
+def test_batch_malformed_scheduler_address_is_a_one_line_error(cli, tmp_path):
+    f = _sine(tmp_path / "v.csv")
+    _one_line_error(cli("batch", "fit", f, "--scheduler", "nonsense"))

@@ -235,7 +235,7 @@ def run_batch(job: str, files: Sequence[str], options: Sequence[str] = (), *, wo
         elif scheduler:
             try:
                 client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError) as exc:
                 raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({type(exc).__name__}); "
                                  "check the address or omit --scheduler for a local cluster") from None
         else:

@@ -44,6 +44,11 @@ def batch_cmd(
     if not files_part:
         raise InputError("name at least one recording file or glob after the job")
     files = expand_files(files_part)
+    # The recordings are read in worker processes: note them here so --out cannot overwrite one.
+    for f in files:
+        note_input(f)
+    if out is not None:
+        check_output(out)
     with progress_bar(f"{job} on {len(files)} recordings", len(files)) as advance:
         summary = run_batch(job, files, extra, workers=workers, scheduler=scheduler, files_per_task=files_per_task,
                             on_done=lambda r: advance())
