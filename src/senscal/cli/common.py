@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from contextlib import contextmanager
 from pathlib import Path
@@ -43,9 +44,12 @@ def split_names(text: str | None) -> list[str] | None:
 def parse_floats(text: str, what: str) -> list[float]:
     """Parse ``"1,2.5,3"`` into floats with a clear error."""
     try:
-        return [float(s) for s in text.split(",") if s.strip()]
+        values = [float(s) for s in text.split(",") if s.strip()]
     except ValueError:
         raise InputError(f"{what} must be comma-separated numbers, got {text!r}") from None
+    if not all(math.isfinite(v) for v in values):
+        raise InputError(f"{what} must be finite numbers, got {text!r}")
+    return values
 
 
 def parse_relative(text: str, what: str) -> float:
@@ -55,6 +59,8 @@ def parse_relative(text: str, what: str) -> float:
         value = float(s[:-1]) / 100.0 if s.endswith("%") else float(s)
     except ValueError:
         raise InputError(f"{what} must be a number or a percentage like 0.2%, got {text!r}") from None
+    if not math.isfinite(value):
+        raise InputError(f"{what} must be a finite number, got {text!r}")
     if value < 0:
         raise InputError(f"{what} must not be negative, got {text!r}")
     return value

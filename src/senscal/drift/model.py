@@ -328,6 +328,8 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
         raise FileFormatError(f"model file {path} does not exist") from None
     except yaml.YAMLError as exc:
         raise FileFormatError(f"model file {path} is not valid YAML ({str(exc).splitlines()[0]})") from None
+    except OSError as exc:
+        raise FileFormatError(f"cannot read model file {path}: {exc.strerror or exc}") from None
     if not isinstance(doc, dict) or "channels" not in doc:
         raise FileFormatError(f"model file {path} must be a mapping with at least 'channels' (see docs/drift.md)")
     unknown = set(doc) - {"channels", "trusted", "signal", "noise_std", "biases"}
