@@ -44,3 +44,18 @@ def test_drift_model_that_is_a_folder(cli, tmp_path):
     t = np.arange(50.0)
     write_recording(Recording({"a": np.ones(50), "b": np.ones(50)}, t=t), tmp_path / "d.csv")
     _one_line_error(cli("drift", tmp_path / "d.csv", "--preset", "model", "--model", tmp_path))
+
+
+@pytest.mark.parametrize("opts", [["--preset", "redundant", "--channels", "a,b", "--trusted", "a",
+                                   "--signal", "gauss_markov", "--signal-tau", "100", "--signal-mean", "nan"],
+                                  ["--preset", "covariate", "--channels", "a", "--covariate", "b",
+                                   "--covariate-reference", "inf"]])
+def test_drift_non_finite_model_numbers(cli, tmp_path, opts):
+    from senscal.io import Recording, write_recording
+
+    rng = np.random.default_rng(1)
+    t = np.arange(200.0)
+    write_recording(Recording({"a": rng.standard_normal(200), "b": rng.standard_normal(200)}, t=t), tmp_path / "d.csv")
+    r = cli("drift", tmp_path / "d.csv", *opts)
+    _one_line_error(r)
+    assert "finite" in r.err
