@@ -17,7 +17,7 @@ from typing import Iterator
 
 from senscal.errors import InputError
 
-__all__ = ["protect_inputs", "note_input", "check_output"]
+__all__ = ["protect_inputs", "note_input", "check_output", "check_output_dir"]
 
 _inputs: set[str] | None = None
 
@@ -78,4 +78,16 @@ def check_output(path: str | os.PathLike, *, suffixes: tuple[str, ...] | None = 
         raise InputError(f"cannot create the folder of {what} {path}: {exc.strerror or exc}") from None
     if not os.access(path.parent, os.W_OK):
         raise InputError(f"cannot write {what} {path}: its folder is not writable")
+    return path
+
+
+def check_output_dir(path: str | os.PathLike, *, what: str = "output folder") -> Path:
+    """Create the output folder ``path`` or raise a one-line :class:`InputError`."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(f"{what} {path} is a file; give a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create {what} {path}: {exc.strerror or exc}") from None
     return path
