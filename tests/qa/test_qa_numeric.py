@@ -54,3 +54,13 @@ def test_cli_fit_constant_channel_known_frequency_has_no_warning(cli, tmp_path):
 def test_cli_response_dead_output_is_a_one_line_error(cli, tmp_path):
     f = _write(tmp_path / "c.csv", np.ones(1000))
     _one_line_error(cli("response", f, "--output", "x", "--input-amplitude", "100", "--freq", "10"))
+
+
+def test_duplicate_time_message_shows_plain_numbers(cli, tmp_path):
+    t = np.arange(100) / 100.0
+    t[10] = t[9]
+    f = tmp_path / "dup.csv"
+    f.write_text("t,x\n" + "".join(f"{a!r},{np.sin(a)!r}\n" for a in t))
+    r = cli("fit", f)
+    _one_line_error(r)
+    assert "np.float64" not in r.err and "t=0.09 then 0.09" in r.err
