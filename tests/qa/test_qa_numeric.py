@@ -60,7 +60,7 @@ def test_duplicate_time_message_shows_plain_numbers(cli, tmp_path):
     t = np.arange(100) / 100.0
     t[10] = t[9]
     f = tmp_path / "dup.csv"
-    f.write_text("t,x\n" + "".join(f"{a!r},{np.sin(a)!r}\n" for a in t))
+    f.write_text("t,x\n" + "".join(f"{float(a)!r},{float(np.sin(a))!r}\n" for a in t))
     r = cli("fit", f)
     _one_line_error(r)
     assert "np.float64" not in r.err and "t=0.09 then 0.09" in r.err
