@@ -64,3 +64,11 @@ def test_duplicate_time_message_shows_plain_numbers(cli, tmp_path):
     r = cli("fit", f)
     _one_line_error(r)
     assert "np.float64" not in r.err and "t=0.09 then 0.09" in r.err
+
+
+@pytest.mark.parametrize("opts", [["--input-amplitude", "inf"],
+                                  ["--input-amplitude", "100", "--static-sensitivity", "inf"]])
+def test_cli_response_infinite_numbers(cli, tmp_path, opts):
+    x = np.sin(2 * np.pi * 10 * np.arange(1000) / 1000.0)
+    f = _write(tmp_path / "s.csv", x)
+    _one_line_error(cli("response", f, "--output", "x", "--freq", "10", *opts))

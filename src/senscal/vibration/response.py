@@ -175,7 +175,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
     if reference is not None:
         if input_amplitude is not None or angle_deg is not None:
             raise InputError("give either a reference channel (back-to-back) or a known input amplitude, not both")
-        if reference_sensitivity is None or not reference_sensitivity > 0:
+        if reference_sensitivity is None or not 0 < reference_sensitivity < math.inf:
             raise InputError("back-to-back comparison needs the reference sensitivity (> 0, reference unit per m/s^2)")
         pf = fit_pair(reference, y, t, freq=freq, drift=drift, harmonics=harmonics)
         a_ref, a_out = pf.reference_amplitude, pf.output_amplitude
@@ -192,7 +192,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         delay, u_delay_fit = pf.phase_difference, math.sqrt(pf.covariance[2, 2])
         method, n, snr = "back-to-back", pf.output.n_samples, float(pf.output.snr_db)
     else:
-        if input_amplitude is None or not input_amplitude > 0:
+        if input_amplitude is None or not 0 < input_amplitude < math.inf:
             raise InputError("give the known peak input acceleration (> 0, m/s^2) or a reference channel")
         a_in = float(input_amplitude)
         if angle_deg is not None:
@@ -223,7 +223,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
     s_budget = make_budget("sensitivity", s, unit, [("output fit (type A)", "A", u_fit)] + comps_b)
     n_budget = None
     if static_sensitivity is not None:
-        if not static_sensitivity > 0:
+        if not 0 < static_sensitivity < math.inf:
             raise InputError(f"static sensitivity S0 must be > 0, got {static_sensitivity!r}")
         r = s / static_sensitivity
         n_budget = make_budget("normalized sensitivity", r, "1",
