@@ -89,3 +89,15 @@ def test_batch_out_equal_to_an_input_is_refused_before_running(cli, tmp_path):
 def test_batch_malformed_scheduler_address_is_a_one_line_error(cli, tmp_path):
     f = _sine(tmp_path / "v.csv")
     _one_line_error(cli("batch", "fit", f, "--scheduler", "nonsense"))
+
+
+@pytest.mark.parametrize("cmd", [["velocity", "--position", "position", "--velocity", "velocity"],
+                                 ["linearity", "--output", "velocity", "--input-amplitudes", "1,2,3", "--freq", "5"]])
+def test_same_recording_twice_is_refused(cli, tmp_path, cmd):
+    # Counted twice it would shrink the reported spread of the points: a silently wrong uncertainty.
+    a = _sine(tmp_path / "a.csv")
+    b = _sine(tmp_path / "b.csv", f=6.0)
+    files = [a, tmp_path / "." / "a.csv"] + ([b] if cmd[0] == "linearity" else [])
+    r = cli(cmd[0], *files, *cmd[1:])
+    _one_line_error(r)
+    assert "more than once" in r.err
