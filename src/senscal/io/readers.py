@@ -106,6 +106,14 @@ def read_recording(
                 f"{path} has no time column '{time_column}' (columns: {', '.join(cols)}); "
                 "name it with --time-column or give the sample rate with --fs"
             )
+    elif time_column in cols and cols[time_column].size > 1:
+        # Both a time column and --fs: silently preferring one would shift every frequency.
+        tc = cols[time_column]
+        span = float(tc[-1] - tc[0])
+        rate = (tc.size - 1) / span if span > 0 else float("nan")
+        if not (np.isfinite(rate) and abs(rate / fs - 1.0) < 0.01):
+            raise InputError(f"--fs {fs:g} Hz contradicts the time column '{time_column}' of {path} "
+                             f"(about {rate:.6g} samples/s); --fs is for files without a time column")
     cols.pop(time_column, None)
     if not cols:
         raise FileFormatError(f"{path} holds only the time column; it needs data channels")
