@@ -96,6 +96,8 @@ def read_recording(
     src = str(path)
     t = None
     use_fs = fs
+    if time_column in cols and units.get(time_column):
+        cols[time_column] = _time_in_seconds(cols[time_column], units[time_column], time_column, path)
     if fs is None:
         if time_column in cols:
             t = cols[time_column]
@@ -125,6 +127,19 @@ def read_recording(
     return Recording(channels=cols, t=t, fs=use_fs, t0=file_t0 if t is None else 0.0,
                      units={k: v for k, v in units.items() if k in cols}, metadata=meta,
                      source=src, allow_nan=allow_nan)
+
+
+# Time units a header may carry ("t [ms]"); the Recording's time is always in seconds.
+_TIME_UNITS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "us": 1e-6, "\u00b5s": 1e-6,
+               "\u03bcs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+def _time_in_seconds(t: np.ndarray, unit: str, name: str, path: Path) -> np.ndarray:
+    factor = _TIME_UNITS.get(unit.strip())
+    if factor is None:
+        raise InputError(f"time column '{name}' of {path} is in {unit!r}, which senscal does not understand; "
+                         f"use one of {', '.join(_TIME_UNITS)} or give the time in s")
+    return t if factor == 1.0 else t * factor
 
 
 # -- numeric conversion with a precise message -------------------------------
