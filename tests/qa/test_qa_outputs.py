@@ -101,3 +101,32 @@ def test_same_recording_twice_is_refused(cli, tmp_path, cmd):
     r = cli(cmd[0], *files, *cmd[1:])
     _one_line_error(r)
     assert "more than once" in r.err
+
+
+def test_batch_job_plot_shared_by_several_recordings_is_refused(cli, tmp_path):
+    # Each task wrote the same --plot file in turn: the last one silently won.
+    a = _sine(tmp_path / "a.csv")
+    b = _sine(tmp_path / "b.csv")
+    r = cli("batch", "velocity", a, b, "--position", "position", "--velocity", "velocity",
+            "--plot", tmp_path / "v.png", "--workers", "1")
+    _one_line_error(r)
+    assert not (tmp_path / "v.png").exists()
+
+
+def test_batch_job_report_onto_its_recording_is_refused(cli, tmp_path):
+    a = _sine(tmp_path / "a.csv")
+    before = _digest(a)
+    r = cli("batch", "velocity", a, "--position", "position", "--velocity", "velocity", "--report", a)
+    _one_line_error(r)
+    assert _digest(a) == before
+
+
+def test_run_one_protects_the_recording_of_its_job(tmp_path):
+    # Inside a worker the job's own input is protected too.
+    from senscal.batch.core import run_one
+
+    a = _sine(tmp_path / "a.csv")
+    before = _digest(a)
+    row = run_one(["velocity"], str(a), ["--position", "position", "--velocity", "velocity", "--report", str(a)])
+    assert not row.ok and "input" in row.error
+    assert _digest(a) == before

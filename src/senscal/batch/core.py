@@ -149,7 +149,9 @@ def run_one(command: Sequence[str], file: str, options: Sequence[str]) -> BatchR
     out = io.StringIO()
     err = io.StringIO()
     try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        from senscal.io.guard import protect_inputs
+
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), protect_inputs():
             rv = root.main(args=args, prog_name="senscal", standalone_mode=False)
         if isinstance(rv, int) and rv != 0:
             raise SenscalError(f"job exited with code {rv}")

@@ -13,6 +13,26 @@ from senscal.cli.common import console, err_console, print_json, progress_bar, t
 from senscal.io.guard import check_output, note_input
 
 
+# Job options that name a file the job writes (--out always belongs to batch itself).
+_JOB_OUTPUTS = ("--plot", "--report", "--save-response")
+
+
+def _check_job_outputs(options: list[str], n_files: int) -> None:
+    """Refuse a job output file that every recording would overwrite, or that is a recording."""
+    from senscal.errors import InputError
+
+    for i, opt in enumerate(options):
+        name, eq, value = opt.partition("=")
+        if name not in _JOB_OUTPUTS:
+            continue
+        if not eq:
+            value = options[i + 1] if i + 1 < len(options) else ""
+        if n_files > 1:
+            raise InputError(f"{name} {value} would be written by each of the {n_files} recordings in turn; "
+                             f"run the job per file for its {name}")
+        check_output(value)
+
+
 @app.command(
     "batch",
     context_settings={"allow_extra_args": True, "ignore_unknown_options": True},
@@ -49,6 +69,7 @@ def batch_cmd(
         note_input(f)
     if out is not None:
         check_output(out)
+    _check_job_outputs(extra, len(files))
     with progress_bar(f"{job} on {len(files)} recordings", len(files)) as advance:
         summary = run_batch(job, files, extra, workers=workers, scheduler=scheduler, files_per_task=files_per_task,
                             on_done=lambda r: advance())
