@@ -59,3 +59,10 @@ def test_drift_non_finite_model_numbers(cli, tmp_path, opts):
     r = cli("drift", tmp_path / "d.csv", *opts)
     _one_line_error(r)
     assert "finite" in r.err
+
+
+def test_gfimu_absurd_noise_std(cli, tmp_path):
+    # 1e300 ran to exit 0 with NaN uncertainties (variances overflowed).
+    r = cli("simulate", "gfimu", "--out", tmp_path, "--seed", "0", "--duration", "1")
+    assert r.code == 0, r.err
+    _one_line_error(cli("gfimu", tmp_path / "gfimu.csv", "--method", "kalman", "--noise-std", "1e300"))

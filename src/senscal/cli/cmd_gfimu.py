@@ -130,8 +130,9 @@ def gfimu_cmd(
     """Angular velocity of a rigid body from an accelerometer array (no gyroscope)."""
     if lag < 1:
         raise InputError(f"--lag must be at least 1 sample, got {lag}")
-    if noise_std is not None and not noise_std > 0:
-        raise InputError("--noise-std must be a positive number in m/s^2")
+    # The filter works with variances; beyond 1e100 their products overflow to NaN rates.
+    if noise_std is not None and not 0 < noise_std < 1e100:
+        raise InputError(f"--noise-std must be a positive number in m/s^2 (below 1e100), got {noise_std:g}")
     doc, rec, est, w_true, q = run_gfimu(file, layout_file=layout_file, distance=distance, method=method,
                                          observation=observation, initial_omega=initial_omega, truth=truth,
                                          attitude=attitude, lag=lag, noise_std=noise_std,
