@@ -149,7 +149,9 @@ def run_one(command: Sequence[str], file: str, options: Sequence[str]) -> BatchR
     out = io.StringIO()
     err = io.StringIO()
     try:
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        from senscal.io.guard import protect_inputs
+
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), protect_inputs():
             rv = root.main(args=args, prog_name="senscal", standalone_mode=False)
         if isinstance(rv, int) and rv != 0:
             raise SenscalError(f"job exited with code {rv}")
@@ -235,7 +237,7 @@ def run_batch(job: str, files: Sequence[str], options: Sequence[str] = (), *, wo
         elif scheduler:
             try:
                 client = Client(scheduler, timeout="10s")
-            except (OSError, TimeoutError) as exc:
+            except (OSError, TimeoutError, ValueError) as exc:
                 raise InputError(f"cannot reach the Dask scheduler at {scheduler} ({type(exc).__name__}); "
                                  "check the address or omit --scheduler for a local cluster") from None
         else:
@@ -282,9 +284,10 @@ def rows_table(summary: BatchSummary):
 
 def write_rows(summary: BatchSummary, path: str | Path) -> Path:
     """Write the results table as Parquet or CSV (by extension)."""
-    path = Path(path)
+    from senscal.io.guard import check_output
+
+    path = check_output(path)
     df = rows_table(summary)
-    path.parent.mkdir(parents=True, exist_ok=True)
     if path.suffix.lower() in (".parquet", ".pq"):
         df.to_parquet(path, index=False)
     elif path.suffix.lower() == ".csv":

@@ -17,6 +17,7 @@ import typer
 from senscal.cli import _clickcompat as cx
 from senscal.cli.app import app, simulate_app
 from senscal.errors import SenscalError
+from senscal.io.guard import protect_inputs
 
 __all__ = ["app", "simulate_app", "main", "load_commands"]
 
@@ -38,8 +39,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     """Entry point of the ``senscal`` console script."""
     command = typer.main.get_command(load_commands())
     try:
-        rv = command.main(args=list(argv) if argv is not None else None, prog_name="senscal",
-                          standalone_mode=False)
+        with protect_inputs():
+            rv = command.main(args=list(argv) if argv is not None else None, prog_name="senscal",
+                              standalone_mode=False)
     except SenscalError as exc:
         print(f"senscal: error: {exc}", file=sys.stderr)
         sys.exit(exc.exit_code)

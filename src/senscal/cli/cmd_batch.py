@@ -10,6 +10,27 @@ from typing_extensions import Annotated
 
 from senscal.cli.app import app
 from senscal.cli.common import console, err_console, print_json, progress_bar, table
+from senscal.io.guard import check_output, note_input
+
+
+# Job options that name a file the job writes (--out always belongs to batch itself).
+_JOB_OUTPUTS = ("--plot", "--report", "--save-response")
+
+
+def _check_job_outputs(options: list[str], n_files: int) -> None:
+    """Refuse a job output file that every recording would overwrite, or that is a recording."""
+    from senscal.errors import InputError
+
+    for i, opt in enumerate(options):
+        name, eq, value = opt.partition("=")
+        if name not in _JOB_OUTPUTS:
+            continue
+        if not eq:
+            value = options[i + 1] if i + 1 < len(options) else ""
+        if n_files > 1:
+            raise InputError(f"{name} {value} would be written by each of the {n_files} recordings in turn; "
+                             f"run the job per file for its {name}")
+        check_output(value)
 
 
 @app.command(
@@ -43,6 +64,12 @@ def batch_cmd(
     if not files_part:
         raise InputError("name at least one recording file or glob after the job")
     files = expand_files(files_part)
+    # The recordings are read in worker processes: note them here so --out cannot overwrite one.
+    for f in files:
+        note_input(f)
+    if out is not None:
+        check_output(out)
+    _check_job_outputs(extra, len(files))
     with progress_bar(f"{job} on {len(files)} recordings", len(files)) as advance:
         summary = run_batch(job, files, extra, workers=workers, scheduler=scheduler, files_per_task=files_per_task,
                             on_done=lambda r: advance())
@@ -111,7 +138,8 @@ def fit_array_cmd(
                        **{f: getattr(res, f) for f in SUMMARY_FIELDS}})
     df["phase_deg"] = np.degrees(df["phase"])
     df["u_phase_deg"] = np.degrees(df["u_phase"])
-    out.parent.mkdir(parents=True, exist_ok=True)
+    note_input(file)
+    out = check_output(out)
     df.to_parquet(out, index=False) if out.suffix.lower() in (".parquet", ".pq") else df.to_csv(out, index=False)
     summary = {"file": str(file), "dataset": dataset, "n_channels": res.n_channels, "n_samples": res.n_samples,
                "out": str(out), "amplitude_median": float(np.median(res.amplitude)),

@@ -137,7 +137,7 @@ def simulate_drift_cmd(
     from senscal.simulate.common import write_truth
     from senscal.simulate.drift import simulate_drift
 
-    if days <= 0 or dt <= 0 or noise <= 0:
+    if not (0 < days < float("inf") and 0 < dt < float("inf") and 0 < noise < float("inf")):
         raise InputError("--days, --dt and --noise must be > 0")
     if dt * 20 > days * 86400:
         raise InputError("--dt is too long for --days: fewer than 20 samples")

@@ -137,9 +137,10 @@ def gfimu_cmd(
     """Angular velocity of a rigid body from an accelerometer array (no gyroscope)."""
     if lag < 1:
         raise InputError(f"--lag must be at least 1 sample, got {lag}")
-    if noise_std is not None and not noise_std > 0:
-        raise InputError("--noise-std must be a positive number in m/s^2")
-    if bias_std is not None and not bias_std > 0:
+    # The filter works with variances; beyond 1e100 their products overflow to NaN rates.
+    if noise_std is not None and not 0 < noise_std < 1e100:
+        raise InputError(f"--noise-std must be a positive number in m/s^2 (below 1e100), got {noise_std:g}")
+    if bias_std is not None and not 0 < bias_std < 1e100:
         raise InputError("--bias-std must be a positive number in m/s^2 (the channels' constant-error uncertainty)")
     if bias_std is not None and observation != "quadratic":
         raise InputError("--bias-std needs --observation quadratic (the constant errors are states of that filter)")

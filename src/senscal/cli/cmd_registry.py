@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 from typing import List, Optional
 
@@ -39,6 +40,8 @@ def _parse_nominal(items: list[str] | None) -> dict:
             if not sep or not name.strip() or not parts:
                 raise ValueError
             value = float(parts[0])
+            if not math.isfinite(value):
+                raise ValueError
         except ValueError:
             raise InputError(f"--nominal must look like NAME=VALUE [UNIT], e.g. 'sensitivity=0.01 V/(m/s^2)', "
                              f"got {item!r}") from None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from pathlib import Path
 from typing import Optional
 
@@ -27,8 +29,9 @@ def simulate_sine_cmd(
     """A noisy multi-channel sine recording (sine.csv) and its truth (sine_truth.json)."""
     from senscal.errors import InputError
 
-    if channels < 1 or duration <= 0 or fs <= 0 or noise < 0:
-        raise InputError("channels >= 1, duration > 0, fs > 0 and noise >= 0 are required")
+    if not (channels >= 1 and 0 < duration < math.inf and 0 < fs < math.inf and 0 <= noise < math.inf
+            and 0 < freq < math.inf):
+        raise InputError("channels >= 1, finite duration > 0, fs > 0, freq > 0 and noise >= 0 are required")
     rec, truth = simulate_sine(n_channels=channels, fs=fs, duration=duration, frequency=freq, noise=noise, seed=seed)
     p = write_recording(rec, out / "sine.csv")
     q = write_truth(truth, out / "sine_truth.json")

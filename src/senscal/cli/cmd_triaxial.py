@@ -121,7 +121,7 @@ def calibrate_cmd(
         h = st.means
     with progress_bar("calibrating", None):
         res = calibrate(h, field=field, method=method, model=model, lr=lr, epochs=epochs, strict=strict,
-                        outlier_sigma=outlier_sigma if outlier_sigma > 0 else None, unit=unit, channels=chans)
+                        outlier_sigma=None if outlier_sigma == 0 else outlier_sigma, unit=unit, channels=chans)
     doc = calibrate_document(res, file=file, channels=chans, static=st)
     if out is not None:
         write_json(doc, out)

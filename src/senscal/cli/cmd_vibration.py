@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 from typing import List, Optional
 
@@ -40,6 +41,16 @@ def _freqs(values: list[str] | None, n: int) -> list[float | None]:
     if len(fl) != n:
         raise InputError(f"give one --freq for all files or one per file: got {len(fl)} frequencies for {n} files")
     return fl
+
+
+def _distinct(files) -> None:
+    """Refuse a recording given twice: it would count as two independent points."""
+    seen: dict[str, Path] = {}
+    for f in files:
+        key = os.path.normcase(os.path.realpath(f))
+        if key in seen:
+            raise InputError(f"{f} is given more than once (also as {seen[key]}); each recording is one point")
+        seen[key] = f
 
 
 def _rel(text: str | None, what: str) -> float:
@@ -122,6 +133,7 @@ def velocity_cmd(
     from senscal.vibration import velocity_calibration, velocity_point
 
     ub = _rel(u_position, "--u-position")
+    _distinct(files)
     freqs = _freqs(freq, len(files))
     points, unit = [], None
     for path, f in zip(track(files, "fitting"), freqs):
@@ -181,6 +193,7 @@ def _response_points(files, freqs, *, output, input_amplitudes, reference, refer
                      output_unit):
     from senscal.vibration import response_point
 
+    _distinct(files)
     chans = [output] + ([reference] if reference else []) + ([angle] if angle else [])
     points, unit = [], None
     for path, f, a in zip(track(files, "fitting"), freqs, input_amplitudes):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from contextlib import contextmanager
 from pathlib import Path
@@ -16,7 +17,7 @@ from typing_extensions import Annotated
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.io import Recording, read_recording
+from senscal.io import Recording, check_output, read_recording
 
 T = TypeVar("T")
 
@@ -43,9 +44,12 @@ def split_names(text: str | None) -> list[str] | None:
 def parse_floats(text: str, what: str) -> list[float]:
     """Parse ``"1,2.5,3"`` into floats with a clear error."""
     try:
-        return [float(s) for s in text.split(",") if s.strip()]
+        values = [float(s) for s in text.split(",") if s.strip()]
     except ValueError:
         raise InputError(f"{what} must be comma-separated numbers, got {text!r}") from None
+    if not all(math.isfinite(v) for v in values):
+        raise InputError(f"{what} must be finite numbers, got {text!r}")
+    return values
 
 
 def parse_relative(text: str, what: str) -> float:
@@ -55,6 +59,8 @@ def parse_relative(text: str, what: str) -> float:
         value = float(s[:-1]) / 100.0 if s.endswith("%") else float(s)
     except ValueError:
         raise InputError(f"{what} must be a number or a percentage like 0.2%, got {text!r}") from None
+    if not math.isfinite(value):
+        raise InputError(f"{what} must be a finite number, got {text!r}")
     if value < 0:
         raise InputError(f"{what} must not be negative, got {text!r}")
     return value
@@ -75,8 +81,7 @@ def print_json(obj: Any) -> None:
 
 def write_json(obj: Any, path: Path | str) -> Path:
     """Write ``obj`` as JSON to ``path`` (folders created)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = check_output(path)
     path.write_text(json.dumps(to_jsonable(obj), indent=2) + "\n")
     return path
 

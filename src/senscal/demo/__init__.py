@@ -76,8 +76,9 @@ def run_demo(out: Path, *, seed: int = 1, only: list[str] | None = None,
     """
     from senscal.report.index import write_index
 
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    from senscal.io.guard import check_output_dir
+
+    out = check_output_dir(out, what="demo folder")
     sections = []
     for mod in discover():
         key = mod.__name__.rsplit(".", 1)[1][len("job_"):]

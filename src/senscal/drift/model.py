@@ -16,6 +16,7 @@ standard deviations ``[unit]`` with a time constant ``tau`` [s].
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -70,6 +71,9 @@ class Bias(ResultMixin):
             raise InputError(f"the Gauss-Markov bias of {self.channel} needs a time constant tau > 0 in seconds")
         if self.level is not None and not self.level >= 0:
             raise InputError(f"the noise level of the bias of {self.channel} must be >= 0, got {self.level}")
+        if self.reference is not None and not math.isfinite(self.reference):
+            raise InputError(f"the covariate reference of the bias of {self.channel} must be a finite number, "
+                             f"got {self.reference}")
 
     @property
     def name(self) -> str:
@@ -116,6 +120,8 @@ class SignalModel(ResultMixin):
             raise InputError(f"signal model must be random_walk, gauss_markov or matrix, got {self.kind!r}")
         if self.kind == "gauss_markov" and not (self.tau is not None and self.tau > 0):
             raise InputError("a Gauss-Markov signal needs a time constant tau > 0 in seconds")
+        if not math.isfinite(self.mean):
+            raise InputError(f"the signal mean must be a finite number, got {self.mean}")
         if self.kind == "matrix" and (self.F is None or self.Q is None or self.H is None):
             raise InputError("a matrix signal model needs F, Q and H")
 
@@ -328,6 +334,8 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
         raise FileFormatError(f"model file {path} does not exist") from None
     except yaml.YAMLError as exc:
         raise FileFormatError(f"model file {path} is not valid YAML ({str(exc).splitlines()[0]})") from None
+    except OSError as exc:
+        raise FileFormatError(f"cannot read model file {path}: {exc.strerror or exc}") from None
     if not isinstance(doc, dict) or "channels" not in doc:
         raise FileFormatError(f"model file {path} must be a mapping with at least 'channels' (see docs/drift.md)")
     unknown = set(doc) - {"channels", "trusted", "signal", "noise_std", "biases"}

@@ -26,6 +26,7 @@ import numpy as np
 
 from senscal._result import ResultMixin
 from senscal.errors import DegenerateGeometryError, FileFormatError, InputError
+from senscal.io.guard import check_output, note_input
 
 __all__ = ["Layout", "KinematicSolution", "paper_layout", "read_layout", "solve_kinematics",
            "UNKNOWNS", "MAX_CONDITION"]
@@ -148,6 +149,7 @@ def read_layout(path: str | Path) -> Layout:
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"layout file {path} does not exist")
+    note_input(path)
     with path.open(newline="") as fh:
         rows = [r for r in csv.reader(line for line in fh if line.strip() and not line.lstrip().startswith("#"))]
     if not rows:
@@ -173,8 +175,7 @@ def read_layout(path: str | Path) -> Layout:
 
 def write_layout(layout: Layout, path: str | Path) -> Path:
     """Write a layout table readable by :func:`read_layout`."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    path = check_output(path, what="layout file")
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(_LAYOUT_COLUMNS)

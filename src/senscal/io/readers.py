@@ -13,6 +13,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from senscal.errors import DataError, FileFormatError, InputError
+from senscal.io.guard import check_output, note_input
 from senscal.io.recording import Recording
 
 __all__ = ["read_recording", "write_recording", "FORMATS"]
@@ -84,6 +85,7 @@ def read_recording(
         raise FileFormatError(f"file not found: {path}")
     if path.is_dir():
         raise FileFormatError(f"{path} is a folder; give a recording file")
+    note_input(path)
     if path.stat().st_size == 0:
         raise FileFormatError(f"{path} is empty")
     kind = _format_of(path, format)
@@ -94,6 +96,8 @@ def read_recording(
     src = str(path)
     t = None
     use_fs = fs
+    if time_column in cols and units.get(time_column):
+        cols[time_column] = _time_in_seconds(cols[time_column], units[time_column], time_column, path)
     if fs is None:
         if time_column in cols:
             t = cols[time_column]
@@ -104,6 +108,14 @@ def read_recording(
                 f"{path} has no time column '{time_column}' (columns: {', '.join(cols)}); "
                 "name it with --time-column or give the sample rate with --fs"
             )
+    elif time_column in cols and cols[time_column].size > 1:
+        # Both a time column and --fs: silently preferring one would shift every frequency.
+        tc = cols[time_column]
+        span = float(tc[-1] - tc[0])
+        rate = (tc.size - 1) / span if span > 0 else float("nan")
+        if not (np.isfinite(rate) and abs(rate / fs - 1.0) < 0.01):
+            raise InputError(f"--fs {fs:g} Hz contradicts the time column '{time_column}' of {path} "
+                             f"(about {rate:.6g} samples/s); --fs is for files without a time column")
     cols.pop(time_column, None)
     if not cols:
         raise FileFormatError(f"{path} holds only the time column; it needs data channels")
@@ -115,6 +127,19 @@ def read_recording(
     return Recording(channels=cols, t=t, fs=use_fs, t0=file_t0 if t is None else 0.0,
                      units={k: v for k, v in units.items() if k in cols}, metadata=meta,
                      source=src, allow_nan=allow_nan)
+
+
+# Time units a header may carry ("t [ms]"); the Recording's time is always in seconds.
+_TIME_UNITS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "us": 1e-6, "\u00b5s": 1e-6,
+               "\u03bcs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+def _time_in_seconds(t: np.ndarray, unit: str, name: str, path: Path) -> np.ndarray:
+    factor = _TIME_UNITS.get(unit.strip())
+    if factor is None:
+        raise InputError(f"time column '{name}' of {path} is in {unit!r}, which senscal does not understand; "
+                         f"use one of {', '.join(_TIME_UNITS)} or give the time in s")
+    return t if factor == 1.0 else t * factor
 
 
 # -- numeric conversion with a precise message -------------------------------
@@ -327,7 +352,7 @@ def write_recording(rec: Recording, path: str | Path, *, format: str | None = No
     """
     path = Path(path)
     kind = _format_of(path, format)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_output(path)
     if time_column in rec.channels:
         raise InputError(f"a data channel is called '{time_column}'; rename it or choose another time_column")
     info = {"units": dict(rec.units), "metadata": {k: v for k, v in rec.metadata.items() if isinstance(v, (str, int, float, bool))}}

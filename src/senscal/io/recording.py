@@ -55,7 +55,7 @@ def check_time(t: np.ndarray, *, source: str | None = None, name: str = "t") -> 
             what = "duplicate" if d[row - 1] == 0 else "non-monotonic (goes backwards)"
             raise DataError(
                 f"time column '{name}'{where} is {what} at sample {row} "
-                f"(t={t[row - 1]!r} then {t[row]!r}); time stamps must strictly increase"
+                f"(t={float(t[row - 1])!r} then {float(t[row])!r}); time stamps must strictly increase"
             )
 
 

@@ -22,6 +22,7 @@ from sqlalchemy.engine import URL, Engine, make_url
 from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 
 from senscal.errors import InputError
+from senscal.io.guard import note_input
 
 __all__ = ["default_url", "parse_url", "mask_url", "create_registry_engine", "upgrade", "metadata",
            "sensors", "calibrations", "quantities", "UTC"]
@@ -138,6 +139,8 @@ def create_registry_engine(url: str | Path | URL | None = None) -> Engine:
                 path.parent.mkdir(parents=True, exist_ok=True)
             except OSError as exc:
                 raise InputError(f"cannot create the folder of the registry {path}: {exc.strerror}") from None
+            # The database file is an input: no output of the command may overwrite it.
+            note_input(path)
         kwargs["connect_args"] = {"timeout": 60}
     elif u.get_backend_name() == "postgresql":
         kwargs["connect_args"] = {"connect_timeout": 10}

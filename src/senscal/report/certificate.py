@@ -272,7 +272,8 @@ def certificate_html(kind: str, result: Any, *, sensor_id: str = "not stated", m
 
 def write_certificate(path: str | Path, kind: str, result: Any, **kw: Any) -> Path:
     """Write :func:`certificate_html` to ``path`` (folders created) and return the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from senscal.io.guard import check_output
+
+    path = check_output(path, what="report")
     path.write_text(certificate_html(kind, result, **kw), encoding="utf-8")
     return path

@@ -24,8 +24,10 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, width: float = 8.0, height: fl
 
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     """Save a figure (format from the extension: .png, .svg, .pdf)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from senscal.io.guard import check_output
+
+    formats = tuple("." + k for k in fig.canvas.get_supported_filetypes())
+    path = check_output(path, suffixes=formats, what="plot")
     fig.savefig(path, dpi=dpi)
     return path
 

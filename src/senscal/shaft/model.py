@@ -206,8 +206,9 @@ class GravityModel(ResultMixin):
 
     def save(self, path: str | Path) -> Path:
         """Write the model as JSON (folders created)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        from senscal.io.guard import check_output
+
+        path = check_output(path, what="model file")
         path.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
         return path
 
@@ -238,7 +239,10 @@ class GravityModel(ResultMixin):
 
 def load_model(path: str | Path) -> GravityModel:
     """Read a :class:`GravityModel` written by :meth:`GravityModel.save`."""
+    from senscal.io.guard import note_input
+
     path = Path(path)
+    note_input(path)
     try:
         d = json.loads(path.read_text())
     except FileNotFoundError:

@@ -11,7 +11,8 @@ from senscal._result import to_jsonable
 
 def write_truth(truth: dict[str, Any], path: str | Path) -> Path:
     """Write the simulation truth as JSON (folders created)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from senscal.io.guard import check_output
+
+    path = check_output(path)
     path.write_text(json.dumps(to_jsonable(truth), indent=2) + "\n")
     return path

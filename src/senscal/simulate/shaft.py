@@ -109,7 +109,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
         Parameters, the true gravity model (amplitude, phase, offset of the
         calibration run), and the noise floor of the angular acceleration.
     """
-    if radius <= 0 or fs <= 0 or noise < 0 or encoder_counts < 4 or cal_duration <= 0 or test_duration <= 0:
+    if not (radius > 0 and fs > 0 and noise >= 0 and encoder_counts >= 4 and cal_duration > 0 and test_duration > 0):
         raise InputError("radius > 0, fs > 0, noise >= 0, encoder_counts >= 4 and positive durations are required")
     if sensitivity <= 0:
         raise InputError("sensitivity must be positive")

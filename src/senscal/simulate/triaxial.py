@@ -70,8 +70,10 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
     scale = f / 50_000.0
     b = np.array(offsets if offsets is not None else (300.0 * scale, -200.0 * scale, 150.0 * scale), float)
     sigma = float(noise) if noise is not None else 20.0 * scale
-    if f <= 0 or sigma < 0 or min(gains) <= 0:
+    if not (f > 0 and sigma >= 0 and min(gains) > 0):
         raise InputError("field and gains must be positive and noise non-negative")
+    if n_outliers < 0:
+        raise InputError(f"the number of outliers must not be negative, got {n_outliers}")
     m = sensor_matrix(*gains, math.radians(alpha_deg), math.radians(beta_deg), math.radians(gamma_deg))
     intervals: list[list[float]] = []
     if motion == "sphere":

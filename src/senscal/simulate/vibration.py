@@ -97,6 +97,8 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
     """
     rng = np.random.default_rng(seed)
     freqs = _check_freqs(frequencies if frequencies is not None else [k / 2.0 for k in range(2, 12)], fs, "hydraulic")
+    if not (position_noise >= 0 and velocity_noise >= 0):
+        raise InputError("noise levels must be non-negative")
     recs, points = [], []
     for f in freqs:
         n = int(round(max(periods / f, min_duration) * fs))
@@ -180,8 +182,10 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
     accs = [float(a) for a in accelerations]
     if not accs or any(a <= 0 for a in accs):
         raise InputError("peak accelerations must be positive (m/s^2)")
-    if natural_frequency <= 0 or damping <= 0:
+    if not (natural_frequency > 0 and damping > 0):
         raise InputError("natural frequency and damping must be positive")
+    if not (noise >= 0 and angle_noise_deg >= 0):
+        raise InputError("noise levels must be non-negative")
     recs, points = [], []
     for a0 in accs:
         for f in freqs:

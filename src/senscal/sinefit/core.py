@@ -208,7 +208,19 @@ def _check_y(y, full: bool = True) -> np.ndarray:
         ch = tuple(int(i) for i in idx[:-1])
         where = f"channel {ch if len(ch) > 1 else ch[0]} " if ch else ""
         raise DataError(f"{where}has NaN or inf at sample {int(idx[-1])}; remove or interpolate bad samples before fitting")
+    _check_magnitude(y)
     return y
+
+
+# Squares and sums of squares of larger values overflow float64 inside the solver.
+_MAX_ABS = 1e150
+
+
+def _check_magnitude(y: np.ndarray) -> None:
+    peak = float(np.max(np.abs(y))) if y.size else 0.0
+    if peak > _MAX_ABS:
+        raise DataError(f"values up to {peak:.3g} are too large for a least-squares fit (their squares overflow); "
+                        f"rescale the data, e.g. express it in a larger unit")
 
 
 # ---------------------------------------------------------------------------
@@ -644,7 +656,7 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         wsum = (sw.reshape(-1, n) ** 2).sum(axis=1) if per_channel_w else np.full(nch, float((sw**2).sum()))
         res_ms = rsss / wsum
     res_rms = np.sqrt(res_ms)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
         snr = 10.0 * np.log10((h_amp[:, 0] ** 2 / 2.0) / res_ms)
     thd = None
     if harmonics > 1:

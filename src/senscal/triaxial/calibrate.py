@@ -263,6 +263,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         raise InputError(f"unknown model {model!r}; use one of {', '.join(MODELS)}")
     if field is not None and not (math.isfinite(field) and field > 0):
         raise InputError(f"field magnitude must be a positive number, got {field!r}")
+    if outlier_sigma is not None and not (math.isfinite(outlier_sigma) and outlier_sigma > 0):
+        raise InputError(f"the outlier threshold must be a positive number of robust sigmas, got {outlier_sigma!r}")
     n_total = h.shape[1]
     if n_total < 5:
         raise TooFewSamplesError(f"got {n_total} readings; even the simplest (offsets) model needs at least 5 "
@@ -288,6 +290,10 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     r0 = float(np.median(np.linalg.norm(hu - b0[:, None], axis=0)))
     if not r0 > 0:
         raise DegenerateGeometryError("all readings are identical; turn the sensor through many orientations")
+    if field is not None and not 1e-6 < r0 / field < 1e6:
+        # Gains this far from 1 are a unit mix-up, and the solvers lose all precision on them.
+        raise InputError(f"--field {field:g} does not match the readings (their magnitude is about {r0:.3g}); "
+                         "give the field in the unit of the data")
     k0, f0 = (r0 / field, field) if field is not None else (1.0, r0)
     i, j = plane
     r_plane = float(np.median(np.hypot(hu[i] - b0[i], hu[j] - b0[j])))

@@ -167,8 +167,9 @@ class TriaxialCalibration(ResultMixin):
 
     def save(self, path: str | Path, extra: Mapping[str, Any] | None = None) -> Path:
         """Write as JSON (``extra`` adds fields such as the parameter report)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
+        from senscal.io.guard import check_output
+
+        path = check_output(path, what="parameter file")
         doc = self.to_dict()
         if extra:
             doc = {**to_jsonable(dict(extra)), **doc}
@@ -178,7 +179,10 @@ class TriaxialCalibration(ResultMixin):
 
 def load_calibration(path: str | Path) -> TriaxialCalibration:
     """Read a calibration written by :meth:`TriaxialCalibration.save` or ``--out``."""
+    from senscal.io.guard import note_input
+
     path = Path(path)
+    note_input(path)
     try:
         doc = json.loads(path.read_text())
     except FileNotFoundError:

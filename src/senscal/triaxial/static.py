@@ -6,6 +6,7 @@ segments between poses add the hand's acceleration and must be left out.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -80,6 +81,9 @@ def detect_static(x: np.ndarray, fs: float, *, window_s: float = 0.5, min_durati
         raise InputError(f"static detection needs 3 axes x N samples, got shape {x.shape}")
     if not fs > 0:
         raise InputError(f"sample rate must be positive, got {fs!r}")
+    if not (math.isfinite(window_s) and window_s > 0 and math.isfinite(min_duration_s) and min_duration_s >= 0):
+        raise InputError(f"the static window must be a positive number of seconds and the shortest pose "
+                         f"non-negative, got {window_s!r} and {min_duration_s!r}")
     w = max(int(round(window_s * fs)), 3)
     if x.shape[1] < 2 * w:
         raise TooFewSamplesError(f"static detection with a {window_s:g} s window needs at least {2 * w} samples, "

@@ -19,7 +19,7 @@ from typing import Sequence
 import numpy as np
 
 from senscal._result import ResultMixin
-from senscal.errors import FileFormatError, InputError
+from senscal.errors import DataError, FileFormatError, InputError
 from senscal.sinefit import fit_sine, wrap_phase
 from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget
 from senscal.vibration.fits import AngleSync, cut_whole_revolutions, fit_against_angle, fit_pair
@@ -175,7 +175,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
     if reference is not None:
         if input_amplitude is not None or angle_deg is not None:
             raise InputError("give either a reference channel (back-to-back) or a known input amplitude, not both")
-        if reference_sensitivity is None or not reference_sensitivity > 0:
+        if reference_sensitivity is None or not 0 < reference_sensitivity < math.inf:
             raise InputError("back-to-back comparison needs the reference sensitivity (> 0, reference unit per m/s^2)")
         pf = fit_pair(reference, y, t, freq=freq, drift=drift, harmonics=harmonics)
         a_ref, a_out = pf.reference_amplitude, pf.output_amplitude
@@ -192,7 +192,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         delay, u_delay_fit = pf.phase_difference, math.sqrt(pf.covariance[2, 2])
         method, n, snr = "back-to-back", pf.output.n_samples, float(pf.output.snr_db)
     else:
-        if input_amplitude is None or not input_amplitude > 0:
+        if input_amplitude is None or not 0 < input_amplitude < math.inf:
             raise InputError("give the known peak input acceleration (> 0, m/s^2) or a reference channel")
         a_in = float(input_amplitude)
         if angle_deg is not None:
@@ -216,10 +216,14 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         comps_b = [("input amplitude", "B", u_input * s)]
         phase, u_phase = float(fit.phase), float(fit.u_phase)
         n, snr = fit.n_samples, float(fit.snr_db)
+    if not a_out > 0:
+        # A dead (constant) output has no phase and no relative uncertainty.
+        raise DataError(f"the output channel of {source} carries no sinusoid at {float(f):g} Hz (amplitude 0); "
+                        "check --output and the sensor")
     s_budget = make_budget("sensitivity", s, unit, [("output fit (type A)", "A", u_fit)] + comps_b)
     n_budget = None
     if static_sensitivity is not None:
-        if not static_sensitivity > 0:
+        if not 0 < static_sensitivity < math.inf:
             raise InputError(f"static sensitivity S0 must be > 0, got {static_sensitivity!r}")
         r = s / static_sensitivity
         n_budget = make_budget("normalized sensitivity", r, "1",
@@ -385,8 +389,9 @@ def save_response(resp: FrequencyResponse, path) -> "Path":
 
     from senscal._result import to_jsonable
 
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
+    from senscal.io.guard import check_output
+
+    path = check_output(path, what="response file")
     doc = {"type": FORMAT, "format_version": FORMAT_VERSION, **to_jsonable(resp)}
     path.write_text(json.dumps(doc, indent=1) + "\n")
     return path
@@ -405,7 +410,10 @@ def load_response(path) -> FrequencyResponse:
     import json
     from pathlib import Path
 
+    from senscal.io.guard import note_input
+
     path = Path(path)
+    note_input(path)
     try:
         doc = json.loads(path.read_text())
     except (OSError, ValueError) as exc:
