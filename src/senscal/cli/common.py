@@ -125,3 +125,26 @@ def track(items: Sequence[T], description: str) -> Iterator[T]:
         for item in items:
             yield item
             advance()
+
+
+StrictOpt = Annotated[bool, typer.Option(
+    "--strict", help="Exit with code 3 when the data raise a warning (a departure from the method's model).")]
+
+
+def emit_warnings(warnings: Iterable[str], strict: bool = False) -> None:
+    """Print each warning as one line on stderr; with ``strict`` exit 3.
+
+    Warnings are plain text (user strings inside them are never read as Rich
+    markup).  Call this after the result has been printed or written, so
+    ``--strict`` still leaves the output for inspection.
+    """
+    from rich.markup import escape
+
+    from senscal.errors import DiagnosticError
+
+    warnings = [str(w) for w in warnings]
+    for w in warnings:
+        err_console.print(f"[yellow]warning:[/yellow] {escape(w)}", soft_wrap=True)
+    if strict and warnings:
+        more = f" (and {len(warnings) - 1} more)" if len(warnings) > 1 else ""
+        raise DiagnosticError(f"--strict: {warnings[0]}{more}")
