@@ -7,12 +7,15 @@ Input files are only ever opened for reading.
 from __future__ import annotations
 
 import json
+import math
+import os
+import re
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-from senscal.errors import DataError, FileFormatError, InputError
+from senscal.errors import DataError, FileFormatError, InputError, SenscalError
 from senscal.io.guard import check_output, note_input
 from senscal.io.recording import Recording
 
@@ -51,6 +54,8 @@ def read_recording(
     group: str | None = None,
     format: str | None = None,
     allow_nan: bool = False,
+    skip_rows: int | None = None,
+    time_required: bool = True,
 ) -> Recording:
     """Read a recording file into a :class:`Recording`.
 
@@ -75,22 +80,62 @@ def read_recording(
         Force a format ("csv", "parquet", "hdf5", "tdms", "npz").
     allow_nan : bool
         Keep NaN samples as missing values instead of refusing them.
+    skip_rows : int, optional
+        Text files: lines before the header (or first data row) to skip.  By
+        default a preamble of comment lines (``;``, ``#``, ``%``, ``//``) and
+        ``key,value`` metadata lines is detected; an ``Fs``/``sample rate``
+        entry in it gives the sample rate (Hz) of a file without time column.
+    time_required : bool
+        When false, a file with neither a time column nor a sample rate is
+        read with sample index as its time base (``fs = 1``, marked in
+        ``metadata["time_basis"]``) instead of refused; for jobs that never
+        use time (e.g. a triaxial fit of readings).
 
     Returns
     -------
     Recording
+
+    Raises
+    ------
+    FileFormatError
+        The file is missing, empty, corrupt, or not in a layout senscal
+        reads (one line naming the file and what is wrong).
     """
     path = Path(path)
+    if fs is not None and not (isinstance(fs, (int, float, np.floating, np.integer)) and math.isfinite(float(fs))
+                               and float(fs) > 0):
+        raise InputError(f"--fs must be a positive, finite sample rate in Hz, got {fs!r}")
+    if skip_rows is not None and (isinstance(skip_rows, bool) or int(skip_rows) != skip_rows or skip_rows < 0):
+        raise InputError(f"--skip-rows must be a whole number >= 0, got {skip_rows!r}")
     if not path.exists():
         raise FileFormatError(f"file not found: {path}")
     if path.is_dir():
         raise FileFormatError(f"{path} is a folder; give a recording file")
     note_input(path)
-    if path.stat().st_size == 0:
+    try:
+        size = path.stat().st_size
+    except OSError as exc:
+        raise FileFormatError(f"cannot read {path}: {_reason(exc)}") from None
+    if size == 0:
         raise FileFormatError(f"{path} is empty")
     kind = _format_of(path, format)
+    if not os.access(path, os.R_OK):
+        raise FileFormatError(f"cannot read {path}: permission denied")
     reader = {"csv": _read_csv, "parquet": _read_parquet, "hdf5": _read_hdf5, "tdms": _read_tdms, "npz": _read_npz}[kind]
-    cols, units, meta, file_fs, file_t0 = reader(path, names=names, group=group)
+    try:
+        cols, units, meta, file_fs, file_t0 = reader(path, names=names, group=group, skip_rows=skip_rows)
+        units, meta, file_fs, file_t0 = _check_file_info(path, units, meta, file_fs, file_t0)
+    except SenscalError:
+        raise
+    except MemoryError:
+        raise FileFormatError(f"{path} is too large to read into memory (or declares absurd sizes); "
+                              "split the recording") from None
+    except RecursionError:
+        raise FileFormatError(f"{path} is not a readable {_LABEL[kind]} file (nested too deeply)") from None
+    except Exception as exc:
+        # Third-party parsers raise anything (OSError, KeyError, zipfile/zlib errors, TypeError ...) on a
+        # damaged file; whatever it is, the file cannot be read, and the user needs its name, not a traceback.
+        raise FileFormatError(f"{path} is not a readable {_LABEL[kind]} file ({_describe(exc)})") from None
     if not cols:
         raise FileFormatError(f"{path} holds no data columns")
     src = str(path)
@@ -103,6 +148,9 @@ def read_recording(
             t = cols[time_column]
         elif file_fs is not None:
             use_fs = file_fs
+        elif not time_required:
+            use_fs = 1.0
+            meta = {**meta, "time_basis": "sample index: the file has no time column or sample rate"}
         else:
             raise FileFormatError(
                 f"{path} has no time column '{time_column}' (columns: {', '.join(cols)}); "
@@ -112,7 +160,7 @@ def read_recording(
         # Both a time column and --fs: silently preferring one would shift every frequency.
         tc = cols[time_column]
         span = float(tc[-1] - tc[0])
-        rate = (tc.size - 1) / span if span > 0 else float("nan")
+        rate = (tc.size - 1) / span if span > 0 and math.isfinite(span) else float("nan")
         if not (np.isfinite(rate) and abs(rate / fs - 1.0) < 0.01):
             raise InputError(f"--fs {fs:g} Hz contradicts the time column '{time_column}' of {path} "
                              f"(about {rate:.6g} samples/s); --fs is for files without a time column")
@@ -127,6 +175,60 @@ def read_recording(
     return Recording(channels=cols, t=t, fs=use_fs, t0=file_t0 if t is None else 0.0,
                      units={k: v for k, v in units.items() if k in cols}, metadata=meta,
                      source=src, allow_nan=allow_nan)
+
+
+_LABEL = {"csv": "CSV/text", "parquet": "Parquet", "hdf5": "HDF5", "tdms": "TDMS", "npz": "NPZ"}
+
+
+def _reason(exc: OSError) -> str:
+    return (exc.strerror or str(exc) or type(exc).__name__).rstrip(".").lower()
+
+
+def _describe(exc: BaseException) -> str:
+    """``TypeName: first line of the message``, at most 200 characters."""
+    msg = str(exc).strip().splitlines()[0].strip() if str(exc).strip() else ""
+    text = f"{type(exc).__name__}: {msg}" if msg else type(exc).__name__
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def _check_file_info(path: Path, units: Any, meta: Any, fs: Any, t0: Any):
+    """Validate what a file says about itself (units, metadata, fs, t0): types and finiteness."""
+    if not isinstance(units, dict) or not all(isinstance(k, str) and isinstance(v, str) for k, v in units.items()):
+        raise FileFormatError(f"{path} has malformed units metadata (it must map channel names to unit strings); "
+                              "rewrite the file with senscal or drop the metadata")
+    if not isinstance(meta, dict):
+        raise FileFormatError(f"{path} has malformed metadata (a {type(meta).__name__}, not a mapping); "
+                              "rewrite the file with senscal or drop the metadata")
+    if fs is not None:
+        fs = _finite_scalar(fs, "sample rate (fs)", path)
+        if fs <= 0:
+            raise FileFormatError(f"{path} declares a sample rate of {fs:g} Hz; it must be positive")
+    t0 = 0.0 if t0 is None else _finite_scalar(t0, "start time (t0)", path)
+    return units, meta, fs, t0
+
+
+def _finite_scalar(value: Any, what: str, path: Path) -> float:
+    try:
+        arr = np.asarray(value)
+        if arr.size != 1 or arr.dtype.kind not in "fiub":
+            raise TypeError
+        out = float(arr.reshape(()))
+    except (TypeError, ValueError, OverflowError):
+        raise FileFormatError(f"{path} has a malformed {what}: {str(value)[:60]!r}; it must be one number") from None
+    if not math.isfinite(out):
+        raise FileFormatError(f"{path} declares a {what} of {out}; it must be finite")
+    return out
+
+
+def _add_column(cols: dict[str, np.ndarray], raw: dict[str, str], name: str, raw_name: str, values: np.ndarray,
+                path: Path) -> None:
+    """Add a column, refusing a name already taken (pandas and dict() would silently keep one of them)."""
+    if name in cols:
+        both = f"'{raw[name]}' and '{raw_name}'"
+        read_as = f" (both read as '{name}')" if raw[name] != raw_name else ""
+        raise FileFormatError(f"{path} has duplicate column names {both}{read_as}; make every column name unique")
+    cols[name] = values
+    raw[name] = raw_name
 
 
 # Time units a header may carry ("t [ms]"); the Recording's time is always in seconds.
@@ -145,139 +247,299 @@ def _time_in_seconds(t: np.ndarray, unit: str, name: str, path: Path) -> np.ndar
 # -- numeric conversion with a precise message -------------------------------
 
 def _numeric(name: str, values: Any, path: Path) -> np.ndarray:
+    """A 1-D float64 column, or a one-line DataError saying why the values are not numbers."""
+    arr = np.asarray(values)
+    kind = arr.dtype.kind
+    if arr.ndim != 1:
+        raise DataError(f"column '{name}' in {path} has shape {arr.shape}; data columns must be 1-D")
+    if kind in "fiub":
+        with np.errstate(over="ignore"):
+            # float128 beyond float64's range becomes inf, which check_finite reports by sample.
+            return arr.astype(np.float64)
+    if kind == "c":
+        raise DataError(f"column '{name}' in {path} holds complex numbers; store real and imaginary parts "
+                        "as two real columns")
+    if kind in "mM":
+        raise DataError(f"column '{name}' in {path} holds dates/durations ({arr.dtype}); give time as seconds")
+    if kind not in "OSU":
+        raise DataError(f"column '{name}' in {path} has data type {arr.dtype}, which is not a number")
     try:
-        return np.asarray(values, dtype=np.float64)
-    except (TypeError, ValueError):
+        out = np.asarray(values, dtype=np.float64)
+        if out.ndim == 1:
+            return out
+    except (TypeError, ValueError, OverflowError):
         pass
     import pandas as pd
 
-    ser = pd.Series(values)
+    ser = pd.Series(list(arr), dtype=object)
     num = pd.to_numeric(ser, errors="coerce")
     bad = num.isna() & ser.notna()
     if bad.any():
         row = int(np.flatnonzero(bad.to_numpy())[0])
+        cell = str(ser.iloc[row])
+        cell = cell if len(cell) <= 40 else cell[:37] + "..."
         raise DataError(
-            f"column '{name}' in {path} has a non-numeric value {str(ser.iloc[row])!r} at data row {row}; "
+            f"column '{name}' in {path} has a non-numeric value {cell!r} at data row {row}; "
             "keep only numbers in data columns"
         )
     return num.to_numpy(dtype=np.float64)
 
 
-def _read_csv(path: Path, *, names=None, group=None):
+# A preamble line naming the sample rate: "Fs,50.00", ";Sample rate,1e+06", "sampling frequency [Hz];200".
+_FS_KEY = re.compile(r"^(fs|sample[ _-]?rate|sampling[ _-]?(rate|frequency)|sample[ _-]?frequency)"
+                     r"\s*(\[\s*(hz|s/s|sps)\s*\]|\(\s*(hz|s/s|sps)\s*\))?$", re.I)
+_COMMENT = (";", "#", "%", "//")
+_SNIFF_LINES = 500
+
+
+def _is_number(s: str) -> bool:
+    try:
+        float(s)
+        return True
+    except ValueError:
+        return False
+
+
+def _sep_of(line: str) -> str:
+    if "," in line:
+        return ","
+    if ";" in line:
+        return ";"
+    if "\t" in line:
+        return "\t"
+    return r"\s+"
+
+
+def _fields(line: str, sep: str) -> list[str]:
+    parts = line.split() if sep == r"\s+" else line.rstrip("\r\n").split(sep)
+    return [f.strip() for f in parts]
+
+
+def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
     import pandas as pd
 
-    with open(path, "r", encoding="utf-8", errors="replace") as fh:
-        first = ""
-        for line in fh:
-            if line.strip() and not line.lstrip().startswith("#"):
-                first = line
-                break
-    if not first:
-        raise FileFormatError(f"{path} is empty (no data rows)")
-    if "," in first:
-        sep = ","
-    elif ";" in first:
-        sep = ";"
-    elif "\t" in first:
-        sep = "\t"
-    else:
-        sep = r"\s+"
-    fields = [f for f in (first.split() if sep == r"\s+" else first.split(sep)) if f.strip()]
-
-    def _is_number(s: str) -> bool:
-        try:
-            float(s)
-            return True
-        except ValueError:
-            return False
-
-    header_is_numeric = all(_is_number(f) for f in fields)
-    if names is not None:
-        if len(names) != len(fields):
-            raise InputError(f"{path} has {len(fields)} columns but {len(names)} names were given")
-        header = None if header_is_numeric else 0
-        kw: dict[str, Any] = dict(names=list(names), header=header)
-    else:
-        if header_is_numeric:
-            raise FileFormatError(
-                f"{path} has no header row; give column names, e.g. names=['t','x','y','z'] "
-                "(--names t,x,y,z on the command line)"
-            )
-        kw = dict(header=0)
+    head: list[str] = []
     try:
-        df = pd.read_csv(path, sep=sep, comment="#", skipinitialspace=True,
-                         engine="python" if sep == r"\s+" else "c", **kw)
+        with open(path, "r", encoding="utf-8-sig", newline="") as fh:
+            for i, line in enumerate(fh):
+                if i >= _SNIFF_LINES + (skip_rows or 0):
+                    break
+                head.append(line)
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(f"{path} is not UTF-8 text (bad byte at offset {exc.start}); "
+                              "save it as UTF-8 CSV") from None
+    if any("\x00" in line for line in head):
+        raise FileFormatError(f"{path} holds NUL bytes: it is a binary file, not CSV text; "
+                              "check the file or give its format")
+    # Split the start of the file into preamble (comments, key,value metadata), header and data.
+    start = int(skip_rows or 0)
+    if start >= len(head) and skip_rows:
+        raise FileFormatError(f"{path} has no lines after --skip-rows {skip_rows}")
+    content = [i for i in range(start, len(head)) if head[i].strip()
+               and (skip_rows is not None or not head[i].lstrip().startswith(_COMMENT))]
+    if skip_rows is None:
+        content = [i for i in content if not head[i].lstrip().startswith(_COMMENT)]
+    if not content:
+        raise FileFormatError(f"{path} is empty (no data rows)")
+    first_data = next((i for i in content
+                       if all(f and _is_number(f) for f in _fields(head[i], _sep_of(head[i])))), None)
+    header_i: int | None
+    if first_data is None:
+        header_i = content[0]  # no numeric row near the top: the first line is the header
+    else:
+        before = [i for i in content if i < first_data]
+        header_i = None
+        if before:
+            cand = before[-1]
+            sep_d = _sep_of(head[first_data])
+            if len(_fields(head[cand], sep_d)) == len(_fields(head[first_data], sep_d)):
+                header_i = cand
+            elif skip_rows is None or cand != content[0] or len(before) > 1:
+                header_i = None
+            else:
+                header_i = cand  # --skip-rows put us on the header: its width is checked below
+    data_i = first_data if first_data is not None else (header_i + 1 if header_i is not None else content[0])
+    preamble = [head[i] for i in range(0, header_i if header_i is not None else data_i) if head[i].strip()]
+    meta, file_fs = _preamble_metadata(preamble, path)
+    ref_line = head[data_i] if data_i < len(head) else head[header_i]  # type: ignore[index]
+    sep = _sep_of(ref_line if header_i is None else head[header_i])
+    if names is not None:
+        fields = list(names)
+    elif header_i is None:
+        n = len(_fields(ref_line, sep))
+        raise FileFormatError(
+            f"{path} has no header row ({n} columns); give column names, e.g. --names "
+            f"{','.join(['t', 'x', 'y', 'z'][:n]) if n <= 4 else ','.join(f'c{k}' for k in range(n))}"
+        )
+    else:
+        fields = _fields(head[header_i], sep)
+    if names is not None and header_i is not None:
+        width = len(_fields(head[header_i], sep))
+        if width != len(fields):
+            raise InputError(f"{path} has {width} columns but {len(fields)} names were given")
+    if any(not f for f in fields):
+        k = [i for i, f in enumerate(fields) if not f][0]
+        raise FileFormatError(f"{path}: column {k + 1} of the header has no name; name every column")
+    body_start = (header_i + 1) if header_i is not None else data_i
+    if names is not None and header_i is None:
+        width = len(_fields(ref_line, sep))
+        if width != len(fields):
+            raise InputError(f"{path} has {width} columns but {len(fields)} names were given")
+    # Split "name [unit]" and refuse duplicates before pandas renames them ("ch1", "ch1.1").
+    cols_meta: list[tuple[str, str, str | None]] = []
+    seen_raw: set[str] = set()
+    for f in fields:
+        if f in seen_raw:
+            raise FileFormatError(f"{path} has the column name '{f}' twice; make every column name unique")
+        seen_raw.add(f)
+        if f.endswith("]") and "[" in f:
+            nm, unit = f[:-1].split("[", 1)
+            cols_meta.append((f, nm.strip(), unit.strip()))
+        else:
+            cols_meta.append((f, f, None))
+    try:
+        df = pd.read_csv(path, sep=sep, comment="#", skipinitialspace=True, header=None,
+                         names=list(range(len(fields))), skiprows=body_start, skip_blank_lines=True,
+                         index_col=False, dtype=object, encoding="utf-8-sig",
+                         engine="python" if sep == r"\s+" else "c", on_bad_lines="error")
     except pd.errors.EmptyDataError:
-        raise FileFormatError(f"{path} is empty (no data rows)") from None
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise FileFormatError(f"{path} is not a readable CSV: {msg}") from None
+        raise FileFormatError(f"{path} has a header but no data rows") from None
+    except pd.errors.ParserError as exc:
+        raise FileFormatError(f"{path} is not a readable CSV: {_describe(exc).split(': ', 1)[-1]}; every row "
+                              f"needs the header's {len(fields)} columns") from None
+    except UnicodeDecodeError as exc:
+        raise FileFormatError(f"{path} is not UTF-8 text (bad byte at offset {exc.start}); "
+                              "save it as UTF-8 CSV") from None
     if len(df) == 0:
         raise FileFormatError(f"{path} has a header but no data rows")
-    df.columns = [str(c).strip() for c in df.columns]
-    if len(set(df.columns)) != len(df.columns):
-        raise FileFormatError(f"{path} has duplicate column names; make every column name unique")
     units: dict[str, str] = {}
     cols: dict[str, np.ndarray] = {}
-    for c in df.columns:
-        name = c
-        # "accel [m/s^2]" headers carry units.
-        if c.endswith("]") and "[" in c:
-            name, unit = c[:-1].split("[", 1)
-            name = name.strip()
-            units[name] = unit.strip()
-        cols[name] = _numeric(name, df[c].to_numpy(), path)
-    return cols, units, {}, None, 0.0
+    raw: dict[str, str] = {}
+    for k, (f, nm, unit) in enumerate(cols_meta):
+        _add_column(cols, raw, nm, f, _numeric(nm, df[k].to_numpy(), path), path)
+        if unit is not None:
+            units[nm] = unit
+    return cols, units, meta, file_fs, 0.0
 
 
-def _read_parquet(path: Path, *, names=None, group=None):
+def _preamble_metadata(lines: list[str], path: Path) -> tuple[dict[str, str], float | None]:
+    """``key,value`` pairs of a CSV preamble (comment marks stripped) and the sample rate it names."""
+    meta: dict[str, str] = {}
+    fs = None
+    for line in lines:
+        text = line.strip()
+        for mark in _COMMENT:
+            if text.startswith(mark):
+                text = text[len(mark):].strip()
+                break
+        if not text:
+            continue
+        sep = _sep_of(text) if any(c in text for c in ",;\t") else None
+        if sep is None:
+            key, value = (text.split(":", 1) + [""])[:2] if ":" in text else (text, "")
+        else:
+            key, *rest = [f.strip() for f in text.split(sep)]
+            value = sep.join(r for r in rest if r)
+        key, value = key.strip(), value.strip()
+        if key:
+            meta[key] = value
+            if _FS_KEY.match(key) and _is_number(value):
+                v = float(value)
+                if not (math.isfinite(v) and v > 0):
+                    raise FileFormatError(f"{path} states a sample rate of {value!r} in '{key}'; it must be a "
+                                          "positive number of Hz (fix the line or skip it with --skip-rows)")
+                fs = v
+    return meta, fs
+
+
+def _read_parquet(path: Path, *, names=None, group=None, skip_rows=None):
     import pyarrow.parquet as pq
 
     try:
         table = pq.read_table(path)
     except Exception as exc:  # pyarrow raises many types for corrupt files
-        raise FileFormatError(f"{path} is not a readable Parquet file: {str(exc).splitlines()[0]}") from None
+        raise FileFormatError(f"{path} is not a readable Parquet file ({_describe(exc)})") from None
     meta_raw = (table.schema.metadata or {}).get(b"senscal")
-    meta = json.loads(meta_raw) if meta_raw else {}
-    cols = {name: _numeric(name, table.column(name).to_numpy(zero_copy_only=False), path) for name in table.column_names}
-    return cols, dict(meta.get("units", {})), dict(meta.get("metadata", {})), meta.get("fs"), float(meta.get("t0", 0.0))
+    meta: Any = {}
+    if meta_raw:
+        try:
+            meta = json.loads(meta_raw)
+        except (ValueError, RecursionError):
+            raise FileFormatError(f"{path} has senscal metadata that is not valid JSON; rewrite the file with "
+                                  "senscal or drop its metadata") from None
+        if not isinstance(meta, dict):
+            raise FileFormatError(f"{path} has senscal metadata that is a {type(meta).__name__}, not a mapping; "
+                                  "rewrite the file with senscal or drop its metadata")
+    cols: dict[str, np.ndarray] = {}
+    raw: dict[str, str] = {}
+    for i, name in enumerate(table.column_names):
+        _add_column(cols, raw, name, name, _numeric(name, table.column(i).to_numpy(zero_copy_only=False), path), path)
+    return cols, meta.get("units", {}), meta.get("metadata", {}), meta.get("fs"), meta.get("t0", 0.0)
 
 
-def _read_hdf5(path: Path, *, names=None, group=None):
+def _read_hdf5(path: Path, *, names=None, group=None, skip_rows=None):
     import h5py
 
     try:
         fh = h5py.File(path, "r")
     except OSError as exc:
-        raise FileFormatError(f"{path} is not a readable HDF5 file: {exc}") from None
+        raise FileFormatError(f"{path} is not a readable HDF5 file ({_describe(exc)})") from None
     with fh:
         grp = fh
         if group is not None:
             if group not in fh:
                 raise FileFormatError(f"no group '{group}' in {path}; groups: {', '.join(k for k in fh if isinstance(fh[k], h5py.Group)) or 'none'}")
             grp = fh[group]
+            if not isinstance(grp, h5py.Group):
+                raise FileFormatError(f"'{group}' in {path} is a dataset, not a group; give the group holding "
+                                      "the channels")
         cols: dict[str, np.ndarray] = {}
+        raw: dict[str, str] = {}
         units: dict[str, str] = {}
         for key, obj in grp.items():
             if isinstance(obj, h5py.Dataset) and obj.ndim == 1:
-                cols[key] = _numeric(key, obj[()], path)
+                if obj.dtype.kind == "V" or obj.dtype.names:
+                    raise DataError(f"dataset '{key}' in {path} is a compound/opaque type ({obj.dtype}); "
+                                    "store each channel as a 1-D numeric dataset")
+                _add_column(cols, raw, key, key, _numeric(key, obj[()], path), path)
                 u = obj.attrs.get("unit", obj.attrs.get("units"))
                 if u is not None:
-                    units[key] = u.decode() if isinstance(u, bytes) else str(u)
+                    units[key] = _attr_text(u, f"unit of '{key}'", path)
         fs = grp.attrs.get("fs")
-        t0 = float(grp.attrs.get("t0", 0.0))
+        t0 = grp.attrs.get("t0", 0.0)
         meta_raw = grp.attrs.get("metadata")
-        meta = json.loads(meta_raw) if meta_raw is not None else {}
-    return cols, units, meta, float(fs) if fs is not None else None, t0
+        meta: Any = {}
+        if meta_raw is not None:
+            try:
+                meta = json.loads(_attr_text(meta_raw, "metadata attribute", path))
+            except (ValueError, RecursionError):
+                raise FileFormatError(f"{path} has a metadata attribute that is not valid JSON; rewrite the file "
+                                      "with senscal or drop the attribute") from None
+    return cols, units, meta, fs, t0
 
 
-def _read_tdms(path: Path, *, names=None, group=None):
+def _attr_text(value: Any, what: str, path: Path) -> str:
+    if isinstance(value, bytes):
+        try:
+            return value.decode("utf-8")
+        except UnicodeDecodeError:
+            raise FileFormatError(f"{path} has a {what} that is not UTF-8 text") from None
+    if isinstance(value, str):
+        return value
+    arr = np.asarray(value)
+    if arr.ndim == 0 and arr.dtype.kind in "OSU":
+        return _attr_text(arr.item(), what, path)
+    raise FileFormatError(f"{path} has a {what} that is not text ({type(value).__name__}); "
+                          "rewrite the file with senscal or drop the attribute")
+
+
+def _read_tdms(path: Path, *, names=None, group=None, skip_rows=None):
     from nptdms import TdmsFile
 
     try:
         tdms = TdmsFile.read(path)
     except Exception as exc:
-        raise FileFormatError(f"{path} is not a readable TDMS file: {str(exc).splitlines()[0]}") from None
+        raise FileFormatError(f"{path} is not a readable TDMS file ({_describe(exc)})") from None
     groups = tdms.groups()
     if group is not None:
         try:
@@ -290,46 +552,72 @@ def _read_tdms(path: Path, *, names=None, group=None):
             raise FileFormatError(f"{path} has no channels")
         grp = with_data[0]
     cols: dict[str, np.ndarray] = {}
+    raw: dict[str, str] = {}
     units: dict[str, str] = {}
     fs = None
-    t0 = 0.0
+    t0: Any = 0.0
     for ch in grp.channels():
-        cols[ch.name] = _numeric(ch.name, ch[:], path)
+        _add_column(cols, raw, ch.name, ch.name, _numeric(ch.name, ch[:], path), path)
         u = ch.properties.get("unit_string")
         if u:
             units[ch.name] = str(u)
         inc = ch.properties.get("wf_increment")
         if inc and fs is None:
-            fs = 1.0 / float(inc)
+            inc = _finite_scalar(inc, f"wf_increment of channel '{ch.name}'", path)
+            if inc <= 0:
+                raise FileFormatError(f"{path}: channel '{ch.name}' has a sample interval (wf_increment) of "
+                                      f"{inc:g} s; it must be positive")
+            fs = 1.0 / inc
             off = ch.properties.get("wf_start_offset")
-            t0 = float(off) if off is not None else 0.0
+            t0 = off if off is not None else 0.0
     meta = {k: (v if isinstance(v, (int, float, str)) else str(v)) for k, v in tdms.properties.items()}
     return cols, units, meta, fs, t0
 
 
-def _read_npz(path: Path, *, names=None, group=None):
+def _read_npz(path: Path, *, names=None, group=None, skip_rows=None):
     try:
         npz = np.load(path, allow_pickle=False)
     except Exception as exc:
-        raise FileFormatError(f"{path} is not a readable NPZ file: {str(exc).splitlines()[0]}") from None
+        raise FileFormatError(f"{path} is not a readable NPZ file ({_describe(exc)})") from None
+    if not hasattr(npz, "files"):
+        # np.load also reads a bare .npy array (or a pickle it then refuses).
+        raise FileFormatError(f"{path} is a single array, not an NPZ archive of named channels; "
+                              "save it with numpy.savez(path, t=..., x=...)")
     with npz:
         cols: dict[str, np.ndarray] = {}
+        raw: dict[str, str] = {}
         fs = None
-        t0 = 0.0
-        units: dict[str, str] = {}
-        meta: dict[str, Any] = {}
+        t0: Any = 0.0
+        units: Any = {}
+        meta: Any = {}
+        if len(set(npz.files)) != len(npz.files):
+            dup = next(k for k in npz.files if npz.files.count(k) > 1)
+            raise FileFormatError(f"{path} holds the array '{dup}' twice; make every channel name unique")
         for key in npz.files:
-            arr = npz[key]
+            try:
+                arr = npz[key]
+            except ValueError as exc:
+                if "allow_pickle" in str(exc):
+                    raise FileFormatError(f"array '{key}' in {path} holds Python objects (a pickle), which senscal "
+                                          "never loads; save plain numeric arrays") from None
+                raise
             if key == "fs" and arr.ndim == 0:
-                fs = float(arr)
+                fs = arr
             elif key == "t0" and arr.ndim == 0:
-                t0 = float(arr)
+                t0 = arr
             elif key == "__senscal__":
-                info = json.loads(str(arr))
+                try:
+                    info = json.loads(_attr_text(arr, "'__senscal__' entry", path))
+                except (ValueError, RecursionError):
+                    raise FileFormatError(f"{path} has a '__senscal__' entry that is not valid JSON; rewrite the "
+                                          "file with senscal or drop the entry") from None
+                if not isinstance(info, dict):
+                    raise FileFormatError(f"{path} has a '__senscal__' entry that is a {type(info).__name__}, "
+                                          "not a mapping; rewrite the file with senscal or drop the entry")
                 units = info.get("units", {})
                 meta = info.get("metadata", {})
             elif arr.ndim == 1:
-                cols[key] = _numeric(key, arr, path)
+                _add_column(cols, raw, key, key, _numeric(key, arr, path), path)
     return cols, units, meta, fs, t0
 
 
