@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping
+import dataclasses
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
 from senscal._result import ResultMixin
+from senscal.diagnostics import named
+from senscal.drift.adequacy import InnovationCheck, MomentLevels, innovation_checks, moment_levels
 from senscal.drift.detect import cusum, cusum_threshold
 from senscal.drift.estimate import NoiseParameter, estimate_levels
 from senscal.drift.model import DriftSetup, augmented_model, check_observable
@@ -18,6 +21,11 @@ __all__ = ["DriftResult", "correct_drift", "DEFAULT_FALSE_ALARM_RATE"]
 
 #: Default false-alarm rate of the drift-onset detector [alarms per hour per channel].
 DEFAULT_FALSE_ALARM_RATE = 1e-4
+
+#: AIC difference above which an alternative model is called clearly better:
+#: a likelihood ratio of e^5 (~150) at equal parameters, beyond the few nats
+#: by which the conventional vague priors of different models can differ.
+_AIC_MARGIN = 10.0
 
 
 @dataclass(frozen=True)
@@ -60,6 +68,14 @@ class DriftResult(ResultMixin):
         Detector false-alarm rate [1/h per channel].
     cusum_threshold : float
         Detector threshold h [standard deviations].
+    check : InnovationCheck or None
+        Scale and whiteness tests of the final model's innovations.
+    comparison : tuple of dict
+        Model used first, then each alternative fitted: ``model``,
+        ``loglik`` [nats], ``n_levels``, ``aic``.
+    warnings : tuple of str
+        Named warnings (``degenerate-noise-levels``, ``model-inadequate``,
+        ``better-model``, ``covariate-reference-defaulted``).
     """
 
     t: np.ndarray
@@ -79,6 +95,9 @@ class DriftResult(ResultMixin):
     window: int | None
     false_alarm_rate: float
     cusum_threshold: float
+    check: InnovationCheck | None = None
+    comparison: tuple = ()
+    warnings: tuple[str, ...] = ()
 
     def final(self, name: str) -> tuple[float, float]:
         """Last estimate of a state and its standard deviation."""
@@ -106,6 +125,9 @@ class DriftResult(ResultMixin):
                       for p in self.noise},
             "loglik": self.loglik,
             "detector": {"false_alarm_rate_per_hour": self.false_alarm_rate, "cusum_threshold": self.cusum_threshold},
+            "model_check": None if self.check is None else self.check.to_dict(),
+            "model_comparison": [dict(c) for c in self.comparison],
+            "warnings": list(self.warnings),
         }
 
 
@@ -141,6 +163,119 @@ def _starting_levels(setup: DriftSetup, y: np.ndarray, dt: float, duration: floa
         else:
             start[b.level_name] = noise * unit
     return start
+
+
+def _moment_levels_start(setup: DriftSetup, y: np.ndarray, dt: float, duration: float,
+                         cov: Mapping[str, np.ndarray], mom: MomentLevels) -> dict[str, float]:
+    """Starting levels from differenced autocovariances (:func:`moment_levels`).
+
+    Unlike the spread of the increments, the lag-one autocovariance of the
+    differences sees only the white noise, however large the quantity's own
+    steps are; the cross-covariance of two channels' differences sees only
+    the quantity.  Levels the moments cannot give keep the robust
+    first-difference values of :func:`_starting_levels`.
+    """
+    start = _starting_levels(setup, y, dt, duration, cov)
+    idx = {c: i for i, c in enumerate(setup.channels)}
+    for c, i in idx.items():
+        r = mom.noise_var[i]
+        if np.isfinite(r) and r > 0:
+            start[f"{c}_noise_std"] = float(np.sqrt(r))
+    floor = 1e-4 * min(start[f"{c}_noise_std"] for c in setup.channels) ** 2
+    common = mom.common_var if np.isfinite(mom.common_var) and setup.signal.kind != "known" else 0.0
+    if setup.signal.level_name == "signal_rate_std":
+        q = common if len(setup.channels) > 1 else float(np.nanmin(mom.own_var))
+        start["signal_rate_std"] = float(np.sqrt(max(q, floor) / dt))
+    for b in setup.biases:
+        if b.covariate is not None or b.dynamics == "gauss_markov":
+            continue
+        q = max(float(mom.own_var[idx[b.channel]]) - common, floor)
+        rate = float(np.sqrt(q / dt))
+        # A ramp whose slope wanders at a moves the bias by ~a D^1.5 / sqrt(3)
+        # over D seconds; match the random walk's r sqrt(D).
+        start[b.level_name] = rate if b.dynamics == "random_walk" else rate * np.sqrt(3.0) / duration
+    return start
+
+
+def _degenerate(setup: DriftSetup, noise: Sequence[NoiseParameter], mom: MomentLevels) -> list[str]:
+    """Named warning when the ML white-noise levels collapsed.
+
+    A channel's noise variance is resolved by the moments when its lag-one
+    estimate exceeds five standard errors; a maximum-likelihood variance
+    below a tenth of it (or at the search's lower bound) means the random
+    walks have absorbed the sensor noise: the filter then copies the
+    measurements into the states and its stated uncertainties are far too
+    small.
+    """
+    est = {p.name: p for p in noise if p.estimated}
+    bad = []
+    for i, c in enumerate(setup.channels):
+        p = est.get(f"{c}_noise_std")
+        r, se = mom.noise_var[i], mom.noise_var_se[i]
+        if p is None or not (np.isfinite(r) and r > 5 * se):
+            continue
+        if p.value**2 < 0.1 * r or (p.at_bound and p.value**2 < r):
+            bad.append(f"{c} {p.value:.3g} (differences show {np.sqrt(r):.3g})")
+    if not bad:
+        return []
+    return [named("degenerate-noise-levels", (
+        f"the maximum-likelihood white-noise std collapsed for {'; '.join(bad)}: the random walks absorb the "
+        "sensor noise and the stated uncertainties are too small; give the noise levels (noise_std in a model "
+        "file) or a better model of the quantity (--signal gauss_markov, --bias-dynamics ramp)"))]
+
+
+def _alternatives(setup: DriftSetup) -> list[tuple[str, DriftSetup]]:
+    """The other offered models: swap the signal model, swap the biases' dynamics."""
+    out = []
+    if setup.signal.kind == "gauss_markov":
+        out.append(("--signal random_walk", dataclasses.replace(setup, signal=dataclasses.replace(
+            setup.signal, kind="random_walk", tau=None, mean=0.0, level=None))))
+    swap = {"random_walk": "ramp", "ramp": "random_walk"}
+    add = [b for b in setup.biases if b.covariate is None and b.dynamics in swap and b.level is None]
+    if add:
+        new = swap[add[0].dynamics]
+        biases = tuple(dataclasses.replace(b, dynamics=new) if b in add else b for b in setup.biases)
+        out.append((f"--bias-dynamics {new}", dataclasses.replace(setup, biases=biases)))
+    return out
+
+
+def _compare_models(setup: DriftSetup, y: np.ndarray, t: np.ndarray, covariates, loglik: float,
+                    n_levels: int) -> tuple[dict, ...]:
+    """Maximised log-likelihood and AIC of the model used and its alternatives.
+
+    Every model is fitted to the same measurements, so the likelihoods are
+    comparable; AIC = 2 k - 2 ln L with k the estimated noise levels.
+    """
+    rows = [{"model": "used", "loglik": loglik, "n_levels": n_levels, "aic": 2 * n_levels - 2 * loglik}]
+    for label, alt in _alternatives(setup):
+        try:
+            r = correct_drift(alt, y, t, covariates, compare=False)
+        except Exception:  # an alternative that cannot be fitted is simply not offered
+            continue
+        k = sum(p.estimated for p in r.noise)
+        rows.append({"model": label, "loglik": r.loglik, "n_levels": k, "aic": 2 * k - 2 * r.loglik})
+    return tuple(rows)
+
+
+def _reference_warnings(setup: DriftSetup) -> list[str]:
+    """Warn when a defaulted covariate reference fixes a channel's offset.
+
+    Without an additive bias on the same channel, the bias is *defined* as
+    zero at the covariate's record mean; a real sensor's offset at that
+    temperature is then silently taken as part of the quantity, and no
+    stated u includes it.
+    """
+    out = []
+    for b in setup.biases:
+        if b.covariate is None or b.reference is not None:
+            continue
+        if any(o.channel == b.channel and o.covariate is None for o in setup.biases):
+            continue
+        out.append(named("covariate-reference-defaulted", (
+            f"the bias of {b.channel} is taken as zero at the mean of {b.covariate} over this record (no "
+            f"reference given), so its offset there is not estimated and not in the stated u; give "
+            f"--covariate-reference (the {b.covariate} of the sensor's last calibration)")))
+    return out
 
 
 def channel_residuals(innovation: np.ndarray, innovation_cov: np.ndarray, H_signal: np.ndarray) -> np.ndarray:
@@ -214,10 +349,19 @@ def _detect(build, setup: DriftSetup, levels: Mapping[str, float], yy: np.ndarra
     for _ in range(len(rows)):
         lv = dict(levels)
         lv.update({b.level_name: 0.0 for b in setup.biases if b.channel not in free})
-        model = build(lv)
+        # A ramp bias with no slope noise is still a straight line of unknown
+        # slope; "no drift" holds its slope at zero.
+        frozen = [i for i, (c, nm) in enumerate(zip(setup.state_channels, setup.state_names))
+                  if c is not None and c not in free and nm.endswith("_slope")]
+        model = build(lv, frozen)
         nres = kalman_filter(model, yy)
-        Hs = (model.H if model.H.ndim == 2 else model.H[0])[:, :ns]
-        z = channel_residuals(nres.innovation, nres.innovation_cov, Hs)
+        if setup.signal.kind == "known":
+            # Nothing common to remove: the quantity is given.
+            sd = np.sqrt(np.diagonal(nres.innovation_cov, axis1=0, axis2=1)).T
+            z = nres.innovation / sd
+        else:
+            Hs = (model.H if model.H.ndim == 2 else model.H[0])[:, :ns]
+            z = channel_residuals(nres.innovation, nres.innovation_cov, Hs)
         test = [i for i, c in enumerate(chans) if c not in free]
         det = cusum(z[[rows[i] for i in test]], arl0, k=0.5 * detect_shift)
         hit = [(det.alarm[j], test[j], det.onset[j]) for j in range(len(test)) if det.alarm[j] >= 0]
@@ -233,7 +377,8 @@ def _detect(build, setup: DriftSetup, levels: Mapping[str, float], yy: np.ndarra
 def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, Any] | None = None, *,
                   window: int | None = None, smooth: bool = False,
                   false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, detect_shift: float = 1.0,
-                  estimate: bool = True, progress: Callable[[], None] | None = None) -> DriftResult:
+                  estimate: bool = True, compare: bool = True,
+                  progress: Callable[[], None] | None = None) -> DriftResult:
     """Estimate and remove slowly drifting biases.
 
     The augmented state ``[signal; biases]`` (patent step a) is filtered
@@ -265,6 +410,11 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
         (CUSUM reference ``k = detect_shift / 2``) [standard deviations].
     estimate : bool
         Estimate the noise levels not given; if False they must all be given.
+    compare : bool
+        Also fit the alternative signal / bias models (random walk <->
+        Gauss-Markov quantity, random-walk <-> ramp biases) and warn
+        (``better-model``) when one is clearly more likely (AIC lower by
+        more than 10).  Costs one more estimation per alternative.
     progress : callable, optional
         Called once per likelihood evaluation (progress display).
 
@@ -325,40 +475,66 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
     dt = np.empty(T)
     dt[1:] = np.diff(tt)
     dt[0] = dt[1]
-    if setup.signal.kind == "gauss_markov":
+    if setup.signal.kind in ("gauss_markov", "known"):
         # Known mean: the filter works on the deviation.
         yy = yy - setup.signal.mean
 
     check_observable(setup, dt, cov)
 
-    n = len(setup.state_names)
+    names = setup.state_names
+    n = len(names)
     ns = setup.signal.n_states
+    duration = float(tt[-1] - tt[0])
     # Prior: the quantity near the first samples, biases near zero, both
     # ten times wider than the data's spread so the data dominate, yet not
     # so vague that the first updates lose precision to cancellation.
     spread = max(float(np.nanstd(yy)), float(np.nanmax(np.abs(yy))) * 1e-6, 1e-300)
     x0 = np.zeros(n)
     p0 = np.full(n, (10.0 * spread) ** 2)
-    if setup.signal.kind != "matrix":
+    if setup.signal.kind == "known":
+        p0[:ns] = 0.0
+    elif setup.signal.kind != "matrix":
         first = yy[:, : min(T, 10)]
         x0[0] = float(np.nanmedian(first)) if np.isfinite(first).any() else 0.0
     else:
         p0[:ns] = (1e3 * max(spread, float(np.nanmax(np.abs(yy))))) ** 2
-    for j, b in enumerate(setup.biases):
+    j = ns
+    for b in setup.biases:
+        scale = 1.0
         if b.covariate is not None:
-            p0[ns + j] = (10.0 * spread / max(float(np.std(cov[b.covariate])), 1e-300)) ** 2
+            scale = 1.0 / max(float(np.std(cov[b.covariate])), 1e-300)
+        p0[j] = (10.0 * spread * scale) ** 2
+        if b.dynamics == "ramp":
+            # A slope that moves the bias by ten spreads over the record.
+            p0[j + 1] = (10.0 * spread * scale / duration) ** 2
+        j += len(b.state_names)
     P0 = np.diag(p0)
 
-    def build(levels: Mapping[str, float]):
-        return augmented_model(setup, dt, levels, cov, x0=x0, P0=P0)
+    def build(levels: Mapping[str, float], frozen: Sequence[int] = ()):
+        P = P0
+        if len(frozen):
+            P = P0.copy()
+            P[list(frozen), list(frozen)] = 0.0
+        return augmented_model(setup, dt, levels, cov, x0=x0, P0=P)
 
     given = setup.given_levels()
     missing = [k for k in setup.level_names() if k not in given]
     if missing and not estimate:
         raise InputError(f"noise levels {', '.join(missing)} are not given; give them or allow estimation")
-    start = _starting_levels(setup, yy, float(np.median(dt)), float(tt[-1] - tt[0]), cov)
-    noise, loglik = estimate_levels(build, yy, {k: start[k] for k in missing}, given, progress=progress)
+    mom = moment_levels(yy)
+    step = float(np.median(dt))
+    first_start = _moment_levels_start(setup, yy, step, duration, cov, mom)
+    other = _starting_levels(setup, yy, step, duration, cov)
+    noise, loglik = estimate_levels(build, yy, {k: first_start[k] for k in missing}, given, progress=progress)
+    if missing and _degenerate(setup, noise, mom):
+        # A collapsed solution: search again from the spread-based start too
+        # and keep the most likely (a second start costs a full search, so it
+        # is spent only when the first one is suspect).
+        noise, loglik = estimate_levels(build, yy, {k: first_start[k] for k in missing}, given,
+                                        starts=[{k: other[k] for k in missing}], progress=progress)
     levels = {p.name: p.value for p in noise}
+    warnings: list[str] = []
+    warnings += _degenerate(setup, noise, mom)
     model = build(levels)
     res = kalman_filter(model, yy)
     if smooth:
@@ -381,22 +557,43 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
     E[:, :, :ns] = 0.0
     bias = np.einsum("tcn,nt->ct", E, x)
     bias_var = np.einsum("tcn,nkt,tck->ct", E, P, E)
-    y_c = yy[rows] + (setup.signal.mean if setup.signal.kind == "gauss_markov" else 0.0)
+    shift = setup.signal.mean if setup.signal.kind in ("gauss_markov", "known") else 0.0
+    y_c = yy[rows] + shift
     corrected = y_c - bias
 
-    det, onset, alarm = _detect(build, setup, levels, yy, rows, float(np.median(dt)), false_alarm_rate,
-                                detect_shift)
+    # Model adequacy: the prior's transient (a few times the number of
+    # states) is left out of the innovation tests.
+    check = innovation_checks(res.normalized_innovation, skip=min(T // 10, 5 * n))
+    if not check.adequate:
+        warnings.append(named("model-inadequate", (
+            f"the filter's innovations are not white noise of unit scale (whiteness p = {check.whiteness_p:.1g}, "
+            f"mean normalised innovation squared {check.nis:.3g}, p = {check.nis_p:.1g}), so the stated bias "
+            "uncertainties assume a model the data reject; try another --signal / --signal-tau or "
+            "--bias-dynamics ramp, or give a model file")))
+    comparison: tuple = ()
+    if compare and estimate:
+        comparison = _compare_models(setup, yy, tt, covariates, float(res.loglik), len(missing))
+        better = [c for c in comparison if c["aic"] < comparison[0]["aic"] - _AIC_MARGIN]
+        if better:
+            b = min(better, key=lambda c: c["aic"])
+            warnings.append(named("better-model", (
+                f"the data favour {b['model']} over the model used (AIC lower by "
+                f"{comparison[0]['aic'] - b['aic']:.1f}); rerun with it")))
+    warnings += _reference_warnings(setup)
+
+    det, onset, alarm = _detect(build, setup, levels, yy, rows, step, false_alarm_rate, detect_shift)
     onset_t = {c: (float(tt[onset[c]]) if onset[c] >= 0 else None) for c in chans}
     alarm_t = {c: (float(tt[alarm[c]]) if alarm[c] >= 0 else None) for c in chans}
-    if setup.signal.kind == "gauss_markov":
+    if shift:
         x = x.copy()
-        x[0] += setup.signal.mean
+        x[0] += shift
     return DriftResult(t=tt, channels=tuple(chans), corrected=corrected, bias=bias,
                        bias_std=np.sqrt(np.maximum(bias_var, 0.0)), state_names=tuple(setup.state_names),
-                       state_channels=(None,) * ns + tuple(b.channel for b in setup.biases),
+                       state_channels=tuple(setup.state_channels),
                        state=np.asarray(x), state_std=np.asarray(state_std), onset_t=onset_t, alarm_t=alarm_t,
                        noise=tuple(noise), loglik=float(res.loglik), method=method,
                        window=int(window) if window is not None else None,
                        false_alarm_rate=float(false_alarm_rate),
                        cusum_threshold=cusum_threshold(3600.0 / (false_alarm_rate * float(np.median(dt))),
-                                                       0.5 * detect_shift))
+                                                       0.5 * detect_shift),
+                       check=check, comparison=comparison, warnings=tuple(warnings))

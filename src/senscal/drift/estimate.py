@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Mapping
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import minimize
@@ -64,6 +64,7 @@ def _hessian(f: Callable[[np.ndarray], float], x: np.ndarray, h: float) -> np.nd
 
 def estimate_levels(build: Callable[[Mapping[str, float]], StateSpaceModel], y: np.ndarray,
                     free: Mapping[str, float], given: Mapping[str, float], *,
+                    starts: Sequence[Mapping[str, float]] = (),
                     progress: Callable[[], None] | None = None) -> tuple[list[NoiseParameter], float]:
     """Maximise the Kalman log-likelihood over the free noise levels.
 
@@ -77,6 +78,11 @@ def estimate_levels(build: Callable[[Mapping[str, float]], StateSpaceModel], y: 
         Free levels and their starting values (> 0).
     given : mapping
         Fixed levels.
+    starts : sequence of mapping, optional
+        Further starting points (same keys as ``free``); the search runs from
+        each and keeps the highest likelihood, so that one poor start (e.g.
+        a noise level guessed from increments the quantity dominates) cannot
+        trap it in a collapsed corner.
     progress : callable, optional
         Called after each likelihood evaluation.
 
@@ -90,7 +96,7 @@ def estimate_levels(build: Callable[[Mapping[str, float]], StateSpaceModel], y: 
     Notes
     -----
     The levels are searched on a log scale (L-BFGS-B, bounded to
-    ``[1e-7, 1e4]`` times the start); their standard uncertainties come from
+    ``[1e-7, 1e4]`` times the first start, from every start); their standard uncertainties come from
     the inverse Hessian of the log-likelihood by the delta method.
 
     References
@@ -126,8 +132,19 @@ def estimate_levels(build: Callable[[Mapping[str, float]], StateSpaceModel], y: 
                                "check the data for outliers or give the noise levels in a model YAML")
     # Stop when an iteration gains less than a thousandth of a nat in total:
     # far below the likelihood's statistical resolution (~1 nat).
-    res = minimize(nll, start, method="L-BFGS-B", bounds=list(zip(lo, hi)),
-                   options={"eps": 1e-6, "maxiter": 200, "ftol": 1e-3 / T, "gtol": 1e-3 / T})
+    best = None
+    for st in [start] + [np.log(np.array([s_[k] for k in names], dtype=float)) for s_ in starts]:
+        st = np.clip(st, lo + 1e-3, hi - 1e-3)
+        if st is not start and nll(st) >= 1e10:
+            continue
+        # Stop when an iteration gains less than 1e-5 nat in total: far
+        # below the likelihood's statistical resolution (~1 nat), and tight
+        # enough that the curvature below is taken at the maximum.
+        r = minimize(nll, st, method="L-BFGS-B", bounds=list(zip(lo, hi)),
+                     options={"eps": 1e-6, "maxiter": 300, "ftol": 1e-5 / T, "gtol": 1e-5 / T})
+        if best is None or r.fun < best.fun:
+            best = r
+    res = best
     if not np.all(np.isfinite(res.x)) or res.fun >= 1e10:
         raise ConvergenceError("the noise-level estimation failed (likelihood not finite); give the noise levels "
                                "in a model YAML or check the data for outliers")

@@ -27,10 +27,14 @@ from senscal._result import ResultMixin
 from senscal.errors import FileFormatError, InputError, UnobservableError
 from senscal.kalman import StateSpaceModel
 
-__all__ = ["Bias", "SignalModel", "DriftSetup", "redundant_setup", "covariate_setup", "load_model_yaml",
-           "augmented_model", "check_observable", "DYNAMICS"]
+__all__ = ["Bias", "SignalModel", "DriftSetup", "redundant_setup", "covariate_setup", "known_setup", "load_model_yaml",
+           "augmented_model", "check_observable", "DYNAMICS", "SIGNAL_KINDS"]
 
-DYNAMICS = ("random_walk", "gauss_markov")
+#: Bias dynamics: random walk, first-order Gauss-Markov, and ``ramp`` (an
+#: integrated random walk: the bias and its slope, the slope a random walk).
+DYNAMICS = ("random_walk", "gauss_markov", "ramp")
+#: Models of the measured quantity.
+SIGNAL_KINDS = ("random_walk", "gauss_markov", "matrix", "known")
 
 
 @dataclass(frozen=True)
@@ -48,11 +52,15 @@ class Bias(ResultMixin):
     reference : float, optional
         Covariate value at which a covariate-linked bias is zero; None: the
         covariate's mean over the record.
-    dynamics : {"random_walk", "gauss_markov"}
-        Bias model: random walk, or first-order Gauss-Markov with ``tau``.
+    dynamics : {"random_walk", "gauss_markov", "ramp"}
+        Bias model: random walk, first-order Gauss-Markov with ``tau``, or
+        ``ramp``: two states, the bias and its slope, the slope a random
+        walk (integrated random walk), so that a linear drift is followed
+        without lag.
     level : float, optional
         Random walk: rate [unit/sqrt(s)]; Gauss-Markov: stationary standard
-        deviation [unit].  None: estimated by maximum likelihood.
+        deviation [unit]; ramp: random-walk rate of the slope
+        [unit/s/sqrt(s)].  None: estimated by maximum likelihood.
     tau : float, optional
         Gauss-Markov time constant [s].
     """
@@ -83,7 +91,13 @@ class Bias(ResultMixin):
     @property
     def level_name(self) -> str:
         """Name of its noise parameter."""
-        return self.name + ("_rate_std" if self.dynamics == "random_walk" else "_std")
+        return self.name + {"random_walk": "_rate_std", "gauss_markov": "_std",
+                            "ramp": "_slope_rate_std"}[self.dynamics]
+
+    @property
+    def state_names(self) -> list[str]:
+        """Its states: the bias, and for a ramp also its slope [unit/s]."""
+        return [self.name] + ([self.name + "_slope"] if self.dynamics == "ramp" else [])
 
 
 @dataclass(frozen=True)
@@ -92,8 +106,10 @@ class SignalModel(ResultMixin):
 
     Parameters
     ----------
-    kind : {"random_walk", "gauss_markov", "matrix"}
+    kind : {"random_walk", "gauss_markov", "matrix", "known"}
         ``random_walk``: one state, rate ``level`` [unit/sqrt(s)];
+        ``known``: the true value is ``mean`` at every sample (a sensor at
+        rest, a gyro that does not turn); one state held at zero, no level;
         ``gauss_markov``: one state, ``mean + z`` with ``z`` first-order of
         time constant ``tau`` [s] and stationary std ``level`` [unit] (a
         model of the signal: its mean is known); ``matrix``: F, Q, H per
@@ -116,8 +132,8 @@ class SignalModel(ResultMixin):
     H: Any = None
 
     def __post_init__(self) -> None:
-        if self.kind not in DYNAMICS + ("matrix",):
-            raise InputError(f"signal model must be random_walk, gauss_markov or matrix, got {self.kind!r}")
+        if self.kind not in SIGNAL_KINDS:
+            raise InputError(f"signal model must be one of {', '.join(SIGNAL_KINDS)}, got {self.kind!r}")
         if self.kind == "gauss_markov" and not (self.tau is not None and self.tau > 0):
             raise InputError("a Gauss-Markov signal needs a time constant tau > 0 in seconds")
         if not math.isfinite(self.mean):
@@ -131,7 +147,7 @@ class SignalModel(ResultMixin):
 
     @property
     def level_name(self) -> str | None:
-        if self.kind == "matrix":
+        if self.kind in ("matrix", "known"):
             return None
         return "signal_rate_std" if self.kind == "random_walk" else "signal_std"
 
@@ -205,7 +221,12 @@ class DriftSetup(ResultMixin):
     def state_names(self) -> list[str]:
         ns = self.signal.n_states
         sig = ["signal"] if ns == 1 else [f"signal_{i}" for i in range(ns)]
-        return sig + [b.name for b in self.biases]
+        return sig + [s for b in self.biases for s in b.state_names]
+
+    @property
+    def state_channels(self) -> list[str | None]:
+        """The channel each state biases (None for signal states)."""
+        return [None] * self.signal.n_states + [b.channel for b in self.biases for _ in b.state_names]
 
     def level_names(self) -> list[str]:
         """Every noise parameter of the set-up (given or to estimate)."""
@@ -299,6 +320,50 @@ def covariate_setup(channel: str, covariate: str, *, signal: str = "random_walk"
                       biases=(Bias(channel, covariate=covariate, reference=covariate_reference),))
 
 
+def known_setup(channels: Sequence[str], value: float = 0.0, *, bias_dynamics: str = "random_walk",
+                bias_tau: float | None = None, covariate: str | None = None,
+                covariate_reference: float | None = None) -> DriftSetup:
+    """Preset ``known``: sensors whose true reading is known (zero or a constant).
+
+    A gyro lying still reads the Earth rate (about zero for a MEMS gyro), a
+    thermometer in a reference bath reads the bath: everything else is the
+    sensor's own error.  Each channel gets an additive bias (random walk by
+    default, ``ramp`` for a steady drift) plus, with ``covariate``, one
+    linear in the covariate; the quantity is ``value`` at every sample, so
+    even a constant offset is observable.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        The sensors [unit].
+    value : float
+        Their common true reading [unit] (0 for a gyro at rest).
+    bias_dynamics, bias_tau :
+        Dynamics of the additive biases (see :class:`Bias`); tau in s.
+    covariate : str, optional
+        Covariate channel (e.g. the sensor's temperature).
+    covariate_reference : float, optional
+        Covariate value of zero covariate-linked bias (default: its mean;
+        the additive bias absorbs the difference).
+
+    Returns
+    -------
+    DriftSetup
+    """
+    channels = list(channels)
+    if not channels:
+        raise InputError("the known preset needs at least one channel")
+    if not math.isfinite(value):
+        raise InputError(f"the known true value must be a finite number, got {value}")
+    biases: list[Bias] = []
+    for c in channels:
+        biases.append(Bias(c, dynamics=bias_dynamics, tau=bias_tau))
+        if covariate is not None:
+            biases.append(Bias(c, covariate=covariate, reference=covariate_reference))
+    return DriftSetup(channels=tuple(channels), signal=SignalModel(kind="known", mean=float(value)),
+                      biases=tuple(biases), trusted=())
+
+
 def load_model_yaml(path: str | Path) -> DriftSetup:
     """Read preset ``model``: a YAML file describing the set-up.
 
@@ -365,12 +430,26 @@ def _signal_blocks(sig: SignalModel, dt: np.ndarray, level: float | None) -> tup
         F = np.atleast_2d(np.asarray(sig.F, dtype=float))
         Q = np.atleast_2d(np.asarray(sig.Q, dtype=float))
         return np.broadcast_to(F, (T,) + F.shape), np.broadcast_to(Q, (T,) + Q.shape)
+    if sig.kind == "known":
+        # The deviation from the known value: zero, held there.
+        return np.ones((T, 1, 1)), np.zeros((T, 1, 1))
     return _scalar_dynamics(sig.kind, dt, level, sig.tau)
 
 
 def _scalar_dynamics(kind: str, dt: np.ndarray, level: float | None, tau: float | None):
     """Exact discretisation of a scalar random walk / Gauss-Markov state."""
     lev = 0.0 if level is None else float(level)
+    if kind == "ramp":
+        # Integrated random walk: bias b' = s, slope s' = white noise of
+        # density lev^2 (exact discretisation).
+        F = np.zeros((dt.size, 2, 2))
+        F[:, 0, 0] = F[:, 1, 1] = 1.0
+        F[:, 0, 1] = dt
+        Q = np.empty((dt.size, 2, 2))
+        Q[:, 0, 0] = dt**3 / 3.0
+        Q[:, 0, 1] = Q[:, 1, 0] = dt**2 / 2.0
+        Q[:, 1, 1] = dt
+        return F, lev**2 * Q
     if kind == "random_walk":
         F = np.ones_like(dt)
         Q = lev**2 * dt
@@ -422,7 +501,7 @@ def augmented_model(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, floa
         dt = dt[:1]
     m = len(setup.channels)
     ns = setup.signal.n_states
-    nb = len(setup.biases)
+    nb = sum(len(b.state_names) for b in setup.biases)
     n = ns + nb
     Fs, Qs = _signal_blocks(setup.signal, dt, levels.get(setup.signal.level_name) if setup.signal.level_name else None)
     F = np.zeros((dt.size, n, n))
@@ -432,17 +511,22 @@ def augmented_model(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, floa
     Hs = np.ones((m, 1)) if setup.signal.kind != "matrix" else np.atleast_2d(np.asarray(setup.signal.H, dtype=float))
     H = np.zeros((T, m, n))
     H[:, :, :ns] = Hs
-    for j, b in enumerate(setup.biases):
+    j = 0
+    for b in setup.biases:
         Fb, Qb = _scalar_dynamics(b.dynamics, dt, levels[b.level_name], b.tau)
-        F[:, ns + j, ns + j] = Fb[:, 0, 0]
-        Q[:, ns + j, ns + j] = Qb[:, 0, 0]
+        k = Fb.shape[-1]
+        F[:, ns + j:ns + j + k, ns + j:ns + j + k] = Fb
+        Q[:, ns + j:ns + j + k, ns + j:ns + j + k] = Qb
+        j += k
         row = setup.channels.index(b.channel)
+        # Only the bias itself is seen; a ramp's slope acts through F.
+        col = ns + j - k
         if b.covariate is None:
-            H[:, row, ns + j] = 1.0
+            H[:, row, col] = 1.0
         else:
             if covariates is None or b.covariate not in covariates:
                 raise InputError(f"covariate channel {b.covariate} is needed by the bias of {b.channel} but was not given")
-            H[:, row, ns + j] = covariates[b.covariate]
+            H[:, row, col] = covariates[b.covariate]
     R = np.diag([levels[f"{c}_noise_std"] ** 2 for c in setup.channels])
     # Constant matrices where possible: cheaper validation, and a
     # time-invariant model lets the engine take its steady-state path.
@@ -510,8 +594,12 @@ def check_observable(setup: DriftSetup, dt: np.ndarray, covariates: Mapping[str,
             break
         Hp = (Ht[0] if Ht.shape[0] == 1 else Ht[t]) @ Phi
         W += Hp.T @ Hp
-    d = np.sqrt(np.diag(W))
     names = setup.state_names
+    if setup.signal.kind == "known":
+        # The quantity is given: only the biases need to be observable.
+        ns = setup.signal.n_states
+        W, names, n = W[ns:, ns:], names[ns:], n - ns
+    d = np.sqrt(np.diag(W))
     dead = [names[i] for i in range(n) if d[i] == 0]
     if not dead:
         Wn = W / np.outer(d, d)
