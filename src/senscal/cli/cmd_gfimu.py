@@ -10,10 +10,10 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, parse_floats,
-                                print_json, table)
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings,
+                                err_console, load, parse_floats, print_json, table)
 from senscal.errors import InputError
-from senscal.gfimu import (METHODS, OBSERVATIONS, UNKNOWNS, angular_velocity, attitude_error, error_statistics,
+from senscal.gfimu import (DEFAULT_BIAS_STD, METHODS, OBSERVATIONS, UNKNOWNS, angular_velocity, attitude_error, error_statistics,
                            integrate_attitude, paper_layout, read_layout)
 from senscal.io import Recording, write_recording
 
@@ -41,7 +41,8 @@ def _truth_on(rec_t: np.ndarray, path: Path, need_q: bool) -> tuple[np.ndarray, 
 def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, method: str, observation: str,
               initial_omega: str | None, truth: Path | None, attitude: bool, lag: int, noise_std: float | None,
               time_column: str, fs: float | None, names: str | None, bias_std: float | None = None,
-              smooth: bool = False):
+              smooth: bool = False, plain: bool = False, rest: str | None = None,
+              differential_max_u: float | None = None):
     """Run the job; returns (document, recording time, estimate, truth w, quaternion)."""
     if layout_file is not None and distance is not None:
         raise InputError("give either --layout or --distance, not both")
@@ -56,10 +57,16 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
         w0 = parse_floats(initial_omega, "--initial-omega")
         if len(w0) != 3:
             raise InputError(f"--initial-omega needs three numbers WX,WY,WZ in rad/s, got {initial_omega!r}")
+    span = None
+    if rest is not None:
+        span = parse_floats(rest.replace(":", ","), "--rest")
+        if len(span) != 2:
+            raise InputError(f"--rest needs START:END in s (e.g. 0:2), got {rest!r}")
     rec = load(file, time_column=time_column, fs=fs, names=names)
     y = rec.data(list(layout.names))
     est = angular_velocity(y, rec.time, layout, methods=methods, observation=observation, initial=w0,
-                           noise_std=noise_std, lag=lag, bias_std=bias_std, smooth=smooth)
+                           noise_std=noise_std, lag=lag, bias_std=bias_std, smooth=smooth, plain=plain,
+                           rest=span, differential_max_u=differential_max_u)
     doc: dict = {
         "file": str(file), "n_samples": int(rec.n_samples), "sample_rate_hz": rec.sample_rate,
         "layout": {"channels": list(layout.names), "condition_number": est.condition_number,
@@ -68,14 +75,23 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
         "initial_omega": list(w0),
         "noise_std_m_s2": dict(zip(layout.names, est.noise_std.tolist())),
         "differential_rejected": est.differential_rejected if "differential" in est.omega else None,
+        "differential_max_u_rad_s": differential_max_u if "differential" in est.omega else None,
+        "noise_scale": est.noise_scale,
     }
+    if est.rest is not None:
+        r = est.rest
+        doc["rest"] = {"span_s": list(r.span), "n_samples": r.n, "spread_ratio": r.spread_ratio,
+                       "offsets": {n: {"value": float(v), "u": float(u)}
+                                   for n, v, u in zip(UNKNOWNS[3:], r.offsets, r.u_offsets)}}
     if est.filter is not None:
         f = est.filter
         doc["filter"] = {"observation": f.observation, "n_observed": f.n_observed, "n_dropped": f.n_dropped,
                          "n_gated": f.n_gated, "passes": f.passes, "smoothed": f.smoothed,
+                         "constant_error_states": f.offsets is not None,
                          "median_u_omega": dict(zip(_AXES, np.median(f.u_omega, axis=1).tolist()))}
         if f.offsets is not None:
-            doc["filter"]["bias_std_m_s2"] = bias_std
+            doc["filter"]["bias_std_m_s2"] = (None if rest is not None else
+                                              DEFAULT_BIAS_STD if bias_std is None else bias_std)
             doc["filter"]["offsets"] = {n: {"value": float(v), "u": float(u)}
                                         for n, v, u in zip(UNKNOWNS[3:], f.offsets, f.u_offsets)}
     w_true = q_true = None
@@ -93,6 +109,7 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
             ae = attitude_error(q, q_true, rec.time)
             doc["attitude"].update(max_error_deg=ae.max_deg, final_error_deg=ae.final_deg,
                                    growth_deg_per_s=ae.growth_deg_per_s, position_drift_m=ae.position_drift_m)
+    doc["warnings"] = list(est.warnings)
     return doc, rec, est, w_true, q
 
 
@@ -127,7 +144,11 @@ def gfimu_cmd(
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Plot the rates (and errors with --truth) to a PNG.")] = None,
     lag: Annotated[int, typer.Option("--lag", help="Span of the differential method in samples (1 = the paper's).")] = 1,
     noise_std: Annotated[Optional[float], typer.Option("--noise-std", help="Channel white-noise std in m/s^2 (default: estimated).")] = None,
-    bias_std: Annotated[Optional[float], typer.Option("--bias-std", help="Standard uncertainty of each channel's constant error (bias) in m/s^2: the quadratic filter then also estimates the constant errors of alpha and W.")] = None,
+    bias_std: Annotated[Optional[float], typer.Option("--bias-std", help="Standard uncertainty of each channel's constant error (bias) in m/s^2 (default 0.1): the quadratic filter estimates the constant errors of alpha and W, and u(w) includes them.")] = None,
+    plain: Annotated[bool, typer.Option("--plain", help="The paper's plain filter without constant-error states: u(w) is white noise only and does NOT cover biased channels (warning constant-errors-ignored).")] = False,
+    rest: Annotated[Optional[str], typer.Option("--rest", help="START:END in s of a segment where the body is at rest (e.g. 0:2): the constant errors of alpha and W are measured there and start the filter.")] = None,
+    differential_max_u: Annotated[Optional[float], typer.Option("--differential-max-u", help="Differential method: reject samples whose standard uncertainty exceeds this many rad/s (absolute; the 3x-median rule alone passes gross errors on axes that hardly turn).")] = None,
+    strict: StrictOpt = False,
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
@@ -142,13 +163,19 @@ def gfimu_cmd(
         raise InputError(f"--noise-std must be a positive number in m/s^2 (below 1e100), got {noise_std:g}")
     if bias_std is not None and not 0 < bias_std < 1e100:
         raise InputError("--bias-std must be a positive number in m/s^2 (the channels' constant-error uncertainty)")
-    if bias_std is not None and observation != "quadratic":
-        raise InputError("--bias-std needs --observation quadratic (the constant errors are states of that filter)")
+    if (bias_std is not None or rest is not None) and observation != "quadratic":
+        raise InputError("--bias-std and --rest need --observation quadratic (the constant errors are states of that "
+                         "filter)")
+    if plain and (bias_std is not None or rest is not None):
+        raise InputError("--plain is the filter without constant-error states: drop --bias-std / --rest, or --plain")
+    if differential_max_u is not None and not 0 < differential_max_u < float("inf"):
+        raise InputError(f"--differential-max-u must be a positive rate in rad/s, got {differential_max_u:g}")
     doc, rec, est, w_true, q = run_gfimu(file, layout_file=layout_file, distance=distance, method=method,
                                          observation=observation, initial_omega=initial_omega, truth=truth,
                                          attitude=attitude, lag=lag, noise_std=noise_std,
                                          time_column=time_column, fs=fs, names=names, bias_std=bias_std,
-                                         smooth=smooth)
+                                         smooth=smooth, plain=plain, rest=rest,
+                                         differential_max_u=differential_max_u)
     if out is not None:
         doc["out"] = str(_write_out(out, rec, est, q))
     if plot is not None:
@@ -157,6 +184,7 @@ def gfimu_cmd(
         doc["plot"] = str(plot_rates(rec.time, est.omega, plot, truth=w_true, title=str(file.name)))
     if json_out:
         print_json(doc)
+        emit_warnings(est.warnings, strict)
         return
     console.print(f"{file}: {doc['n_samples']} samples at {doc['sample_rate_hz']:.6g} Hz, "
                   f"layout {doc['layout']['source']}, condition number {est.condition_number:.3g}")
@@ -185,9 +213,15 @@ def gfimu_cmd(
         console.print(f"attitude ({a['method']}): max error {a['max_error_deg']:.3g} deg, final {a['final_error_deg']:.3g} deg, "
                       f"growth {a['growth_deg_per_s']:.3g} deg/s; gravity alone then drifts position by "
                       f"{a['position_drift_m']:.3g} m")
+    if "rest" in doc:
+        r = doc["rest"]
+        rows = [[n, f"{o['value']:.4g}", f"{o['u']:.3g}", f"{2 * o['u']:.3g}"] for n, o in r["offsets"].items()]
+        console.print(table(f"Constant errors on the rest segment {r['span_s'][0]:g}:{r['span_s'][1]:g} s "
+                            "(alpha rad/s^2, W (rad/s)^2)", ["term", "value", "u (k=1)", "U (k=2)"], rows))
     for key in ("out", "plot"):
         if key in doc:
             err_console.print(f"wrote {doc[key]}")
+    emit_warnings(est.warnings, strict)
 
 
 @simulate_app.command("gfimu")

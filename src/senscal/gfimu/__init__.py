@@ -12,7 +12,8 @@ References
 """
 
 from senscal.gfimu.attitude import AttitudeError, attitude_error, integrate_attitude
-from senscal.gfimu.core import METHODS, ErrorStatistics, RateEstimate, angular_velocity, error_statistics
+from senscal.gfimu.core import (DEFAULT_BIAS_STD, METHODS, ErrorStatistics, RateEstimate, RestOffsets, angular_velocity,
+                               error_statistics, rest_offsets)
 from senscal.gfimu.filter import OBSERVATIONS, RateFilterResult, kalman_rate
 from senscal.gfimu.layout import (UNKNOWNS, KinematicSolution, Layout, paper_layout, read_layout, solve_kinematics,
                                   write_layout)
@@ -20,7 +21,8 @@ from senscal.gfimu.methods import differential_rate, estimate_noise_std, integra
 
 __all__ = [
     "AttitudeError", "attitude_error", "integrate_attitude",
-    "METHODS", "ErrorStatistics", "RateEstimate", "angular_velocity", "error_statistics",
+    "DEFAULT_BIAS_STD", "METHODS", "ErrorStatistics", "RateEstimate", "RestOffsets", "angular_velocity",
+    "error_statistics", "rest_offsets",
     "OBSERVATIONS", "RateFilterResult", "kalman_rate",
     "UNKNOWNS", "KinematicSolution", "Layout", "paper_layout", "read_layout", "solve_kinematics", "write_layout",
     "differential_rate", "estimate_noise_std", "integration_rate", "sqrt_rate",

@@ -60,6 +60,20 @@ def _inv3(A, out):
 
 
 @nb.njit(cache=True, inline="always")
+def _below_cap(Pk, xk, wq, k):
+    """Is the rate variance still below the squared rate magnitude (the widest a re-acquisition needs)?
+
+    ``|w|^2`` is taken as the larger of the state's and the measurement's
+    (``trace W = -2 |w|^2``), floored at 1e-6 (rad/s)^2: a rate covariance
+    as wide as the rate itself already lets the filter accept any
+    measurement of that magnitude, and widening further only invites
+    overflow.
+    """
+    m = max(xk[0] * xk[0] + xk[1] * xk[1] + xk[2] * xk[2], -0.5 * (wq[0, k] + wq[1, k] + wq[2, k]), 1e-6)
+    return Pk[0, 0] + Pk[1, 1] + Pk[2, 2] < 3.0 * m
+
+
+@nb.njit(cache=True, inline="always")
 def _quadratic_innovation(wq, k, xk, nu, H):
     """Innovation of the six quadratic terms at sample k and its Jacobian in ``w`` (H: 6x3, zeros kept)."""
     a, b, c = xk[0], xk[1], xk[2]
@@ -84,7 +98,7 @@ def _quadratic_innovation(wq, k, xk, nu, H):
 
 
 @nb.njit(cache=True)
-def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate):
+def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate, reset_after=0, inflate=4.0):
     """Extended Kalman filter on the six quadratic terms of the array.
 
     State ``w`` (3), process ``w_k = w_{k-1} + u_{k-1} + noise(Q)``;
@@ -93,7 +107,11 @@ def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate):
     The update is done in information form, ``P+ = (P^-1 + H' R^-1 H)^-1``,
     which needs only 3x3 inverses; the normalised innovation squared comes
     from the Woodbury identity.  Steps whose NIS exceeds ``gate`` (if > 0)
-    are rejected.
+    are rejected.  After ``reset_after`` (> 0) consecutive rejections every
+    further rejection multiplies ``P`` by ``inflate``, so that a filter whose
+    state has left the measurements (a lock-out) widens until it accepts
+    them again instead of integrating on with a covariance that no longer
+    describes its error.
     """
     n = wq.shape[1]
     x = np.empty((3, n))
@@ -110,6 +128,7 @@ def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate):
     Pn = np.empty((3, 3))
     g = np.empty(3)
     dx = np.empty(3)
+    run = 0
     for k in range(n):
         if k > 0:
             for i in range(3):
@@ -154,7 +173,13 @@ def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate):
         nis[k] = d2
         if gate > 0 and d2 > gate:
             rejected[k] = True
+            run += 1
+            if reset_after > 0 and run >= reset_after and _below_cap(Pk, xk, wq, k):
+                for i in range(3):
+                    for j in range(3):
+                        Pk[i, j] *= inflate
         else:
+            run = 0
             for i in range(3):
                 xk[i] += dx[i]
                 for j in range(3):
@@ -165,7 +190,7 @@ def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate):
 
 
 @nb.njit(cache=True)
-def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate):
+def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=4.0):
     """EKF on the quadratic terms with the array's constant errors as states.
 
     State (12): ``w`` (3), the constant error of the angular acceleration
@@ -176,6 +201,9 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate):
     measurement Jacobian is ``[H_w, 0, I]``, which the update exploits.
     Returns the filtered state (12, T), the covariance of ``w`` (3, 3, T),
     the final full covariance (12, 12), the NIS (T,) and the gate flags.
+    ``reset_after`` and ``inflate`` as in :func:`quadratic_ekf`; only the
+    rate block is widened (its rows and columns scaled by ``sqrt(inflate)``,
+    which keeps ``P`` positive definite), the constant errors keep theirs.
     """
     n = wq.shape[1]
     x = np.empty((12, n))
@@ -191,6 +219,8 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate):
     L = np.zeros((6, 6))
     Si = np.empty((6, 6))
     K = np.empty((12, 6))
+    run = 0
+    sq = np.sqrt(inflate)
     for k in range(n):
         if k > 0:
             h = dt[k]
@@ -255,7 +285,14 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate):
         nis[k] = d2
         if gate > 0 and d2 > gate:
             rejected[k] = True
+            run += 1
+            if reset_after > 0 and run >= reset_after and _below_cap(Pk, xk, wq, k):
+                for i in range(3):
+                    for j in range(12):
+                        Pk[i, j] *= sq
+                        Pk[j, i] *= sq
         else:
+            run = 0
             for i in range(12):
                 for r in range(6):
                     s = 0.0

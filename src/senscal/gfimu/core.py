@@ -9,21 +9,105 @@ References
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
+from scipy.stats import binom, chi2
 
 from senscal._result import ResultMixin
+from senscal.diagnostics import named
 from senscal.errors import InputError, TooFewSamplesError
 from senscal.gfimu.filter import OBSERVATIONS, RateFilterResult, channel_covariance, kalman_rate
 from senscal.gfimu.layout import KinematicSolution, Layout, solve_kinematics, square_map
 from senscal.gfimu.methods import differential_rate, estimate_noise_std, integration_rate, sqrt_rate
 
-__all__ = ["METHODS", "RateEstimate", "ErrorStatistics", "angular_velocity", "error_statistics"]
+__all__ = ["METHODS", "DEFAULT_BIAS_STD", "RestOffsets", "RateEstimate", "ErrorStatistics", "angular_velocity",
+           "error_statistics", "rest_offsets"]
 
 #: Methods in the order the paper presents them.
 METHODS = ("integration", "sqrt", "differential", "kalman")
+
+#: Default standard uncertainty of each channel's constant error, m/s^2 (about 10 mg, the zero-g offset of a
+#: MEMS accelerometer after a factory trim).  The filter learns the constant errors from the motion, so the
+#: rate band is insensitive to this prior (coverage is unchanged from 1e-4 g to 5e-2 g on the paper's
+#: simulation); it only has to be wide enough to hold the true errors.
+DEFAULT_BIAS_STD = 0.1
+
+#: False-alarm probability of the model checks (gating count, innovation consistency, rest segment).
+CHECK_PROBABILITY = 1e-6
+
+
+@dataclass(frozen=True)
+class RestOffsets(ResultMixin):
+    """Constant errors of the kinematics measured on a segment where the body is at rest.
+
+    At rest ``alpha = 0`` and ``W = 0``, so the mean of the solved
+    ``alpha`` and ``W`` over the segment is the image of the channel biases
+    (and of any static mounting error) in them; the specific force takes the
+    rest (gravity), which is why the 12 channel biases themselves are not
+    all identifiable, only these nine combinations, which are all the rate
+    estimate needs.
+
+    Attributes
+    ----------
+    span : tuple of float
+        Start and end of the segment, s.
+    n : int
+        Samples in the segment.
+    offsets : ndarray, shape (9,)
+        ``alpha`` (rad/s^2) and ``W`` ((rad/s)^2) offsets, UNKNOWNS[3:] order.
+    u_offsets : ndarray, shape (9,)
+        Standard uncertainties (white channel noise averaged over the segment).
+    covariance : ndarray, shape (9, 9)
+    spread_ratio : float
+        Observed over expected variance of the kinematics inside the segment
+        (1 when the body really is at rest).
+    """
+
+    span: tuple
+    n: int
+    offsets: np.ndarray
+    u_offsets: np.ndarray
+    covariance: np.ndarray = field(repr=False)
+    spread_ratio: float
+
+
+def rest_offsets(kin: KinematicSolution, t: np.ndarray, noise_std, span) -> RestOffsets:
+    """Measure the nine constant errors of ``alpha`` and ``W`` on a rest segment.
+
+    Parameters
+    ----------
+    kin : KinematicSolution
+    t : ndarray, shape (T,)
+        Time, s.
+    noise_std : float or ndarray, shape (M,)
+        White-noise standard deviation of each channel, m/s^2.
+    span : tuple (start, end)
+        The segment, s (inclusive).
+
+    Returns
+    -------
+    RestOffsets
+    """
+    a, b = (float(v) for v in span)
+    if not (np.isfinite(a) and np.isfinite(b) and b > a):
+        raise InputError(f"the rest segment must be START:END in s with END > START, got {a:g}:{b:g}")
+    sel = (t >= a) & (t <= b)
+    n = int(sel.sum())
+    if n < 10:
+        raise InputError(f"the rest segment {a:g}:{b:g} s holds {n} samples of the recording "
+                         f"(t = {t[0]:g}..{t[-1]:g} s); give a segment of at least 10 samples inside it")
+    C = channel_covariance(kin, noise_std)[3:12, 3:12]
+    x = kin.x[3:12, sel]
+    c = x.mean(axis=1)
+    # Whitened spread of the segment: chi-square with 9 (n - 1) degrees of freedom when the body is at rest.
+    L = np.linalg.cholesky(C)
+    r = np.linalg.solve(L, x - c[:, None])
+    ratio = float(np.sum(r * r) / (9 * (n - 1)))
+    return RestOffsets(span=(a, b), n=n, offsets=c, u_offsets=np.sqrt(np.diag(C) / n), covariance=C / n,
+                       spread_ratio=ratio)
 
 
 @dataclass(frozen=True)
@@ -49,6 +133,17 @@ class RateEstimate(ResultMixin):
         Diagnostics of the Kalman filter.
     differential_rejected : int
         Samples x axes the differential method rejected as ill-conditioned.
+    rest : RestOffsets or None
+        Constant errors measured on the user's rest segment.
+    noise_scale : float
+        Factor on the channel noise of the final Kalman run: 1, or (when the
+        innovations showed a departure from the model and the noise was
+        estimated, not given) the factor that made the innovations
+        consistent again (see the ``filter-gated`` and
+        ``innovations-inconsistent`` warnings).
+    warnings : tuple of str
+        Named warnings (:mod:`senscal.diagnostics`): ``constant-errors-ignored``,
+        ``filter-gated``, ``innovations-inconsistent``, ``rest-not-at-rest``.
     """
 
     t: np.ndarray = field(repr=False)
@@ -59,12 +154,16 @@ class RateEstimate(ResultMixin):
     condition_number: float
     filter: RateFilterResult | None
     differential_rejected: int
+    rest: RestOffsets | None = None
+    noise_scale: float = 1.0
+    warnings: tuple = ()
 
 
 def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
                      methods: Sequence[str] = ("kalman",), observation: str = "quadratic",
                      initial=(0.0, 0.0, 0.0), noise_std=None, lag: int = 1,
-                     gate_probability: float = 1e-4, bias_std=None, smooth: bool = False) -> RateEstimate:
+                     gate_probability: float = 1e-4, bias_std=None, smooth: bool = False, plain: bool = False,
+                     rest=None, differential_max_u: float | None = None, reset_after: int = 5) -> RateEstimate:
     """Solve the array's kinematics and estimate ``w`` by the chosen methods.
 
     Parameters
@@ -90,12 +189,30 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
     gate_probability : float
         False-rejection probability of the filter's innovation gate.
     bias_std : float or ndarray (M,), optional
-        Standard uncertainty of the channels' constant errors, m/s^2; the
-        quadratic Kalman filter then estimates the constant errors they put
-        into the kinematics (see :func:`kalman_rate`).
+        Standard uncertainty of the channels' constant errors, m/s^2
+        (default :data:`DEFAULT_BIAS_STD`); the quadratic Kalman filter
+        estimates the constant errors they put into the kinematics (see
+        :func:`kalman_rate`) and ``u_omega`` includes what remains of them.
     smooth : bool
         Offline: the Kalman estimate is the fixed-interval (RTS) smoother's
         (uses the whole record; the default filter is causal).
+    plain : bool
+        The paper's plain filter: no constant-error states, so ``u_omega``
+        holds white noise only and does not cover the truth when the
+        channels have biases (warning ``constant-errors-ignored``).  The
+        ``sqrt`` and ``differential`` observations are always plain.
+    rest : tuple (start, end), optional
+        A segment (s) where the body is at rest: the constant errors of the
+        kinematics are measured there (:func:`rest_offsets`) and start the
+        filter's constant-error states instead of the ``bias_std`` prior.
+    differential_max_u : float, optional
+        Absolute rejection threshold of the differential method (and
+        observation), rad/s: samples whose standard uncertainty exceeds it
+        are rejected (the relative 3x-median rule alone passes gross errors
+        on an axis that hardly turns).
+    reset_after : int
+        Consecutive gated samples after which the quadratic filter widens
+        its rate covariance to re-acquire the measurements (0: never).
 
     Returns
     -------
@@ -120,6 +237,8 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
     sig = estimate_noise_std(y) if noise_std is None else np.broadcast_to(np.asarray(noise_std, float), (y.shape[0],))
     if not np.all(np.isfinite(sig)) or np.any(sig < 0):
         raise InputError("noise_std must be non-negative numbers (m/s^2)")
+    if differential_max_u is not None and not differential_max_u > 0:
+        raise InputError(f"differential_max_u must be a positive rate in rad/s, got {differential_max_u}")
     # A noise-free record still needs a non-singular observation covariance.
     sig = np.maximum(sig, 1e-12)
     w0 = None if initial is None else np.asarray(initial, float).reshape(3)
@@ -135,19 +254,91 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
         C = channel_covariance(kin, sig)
         S = square_map()
         s_sq = np.sqrt(np.diag(S @ C[6:9, 6:9] @ S.T))
-        w_d, _, rej = differential_rate(squares, alpha, t, lag=lag, squares_std=s_sq)
+        w_d, _, rej = differential_rate(squares, alpha, t, lag=lag, squares_std=s_sq,
+                                        max_uncertainty=differential_max_u)
         out["differential"] = w_d
         n_rej = int(rej.sum())
     filt = None
     u_om = None
+    warns: list[str] = []
+    noise_scale = 1.0
+    rest_res = rest_offsets(kin, t, sig, rest) if rest is not None else None
+    if rest_res is not None:
+        dof = 9 * (rest_res.n - 1)
+        if rest_res.spread_ratio > chi2.isf(CHECK_PROBABILITY, dof) / dof:
+            warns.append(named("rest-not-at-rest", (
+                f"the kinematics vary {rest_res.spread_ratio:.3g}x more than white noise inside the rest segment "
+                f"{rest_res.span[0]:g}:{rest_res.span[1]:g} s, so the body moved there and the constant errors "
+                "measured on it are wrong; mark a segment where the body is still")))
     if "kalman" in methods:
-        filt = kalman_rate(kin, t, sig, observation=observation, initial=w0, lag=lag,
-                           gate_probability=gate_probability, bias_std=bias_std, smooth=smooth)
+        states = observation == "quadratic" and not plain
+        if plain and (bias_std is not None or rest is not None):
+            raise InputError("plain (the paper's filter) has no constant-error states: drop bias_std and rest")
+        if not states and (bias_std is not None or rest is not None):
+            raise InputError("bias_std and rest (constant-error states) need the quadratic observation")
+        b = (DEFAULT_BIAS_STD if bias_std is None else bias_std) if states else None
+        prior = (rest_res.offsets, rest_res.covariance) if (states and rest_res is not None) else None
+        def run(s):
+            return kalman_rate(kin, t, s, observation=observation, initial=w0, lag=lag,
+                               gate_probability=gate_probability, bias_std=b, smooth=smooth,
+                               reset_after=reset_after, offsets_prior=prior)
+
+        filt = run(sig)
+        fw = _filter_warnings(filt, states, gate_probability)
+        if noise_std is None and filt.nis is not None and any(w.startswith(("filter-gated", "innovations-")) for w in fw):
+            # The measurements disagree with the model by more than white noise: re-run with the channel
+            # noise scaled to the innovations (median NIS over its chi-square median), so that the filter
+            # tracks them instead of gating most of them.  The warnings of the first run stand: the
+            # departure is correlated in time, so the rescaled u still understates the error.
+            for _ in range(3):
+                r = float(np.median(filt.nis) / chi2.median(6))
+                if not (np.isfinite(r) and r > 1.5):
+                    break
+                noise_scale *= math.sqrt(r)
+                filt = run(sig * noise_scale)
+            fw = [w + f" (re-estimated with the channel noise scaled {noise_scale:.3g}x to the innovations)"
+                  if w.startswith(("filter-gated", "innovations-")) else w for w in fw]
         out["kalman"] = filt.omega
         u_om = filt.u_omega
+        warns.extend(fw)
     ordered = {m: out[m] for m in METHODS if m in out}
     return RateEstimate(t=t, omega=ordered, u_omega=u_om, kinematics=kin, noise_std=np.asarray(sig),
-                        condition_number=kin.condition_number, filter=filt, differential_rejected=n_rej)
+                        condition_number=kin.condition_number, filter=filt, differential_rejected=n_rej,
+                        rest=rest_res, noise_scale=noise_scale, warnings=tuple(warns))
+
+
+def _filter_warnings(filt: RateFilterResult, states: bool, gate_probability: float) -> list[str]:
+    """Named warnings on a Kalman rate estimate: what its u leaves out, and tests of its model."""
+    out = []
+    if not states:
+        out.append(named("constant-errors-ignored", (
+            f"the {filt.observation} filter without constant-error states leaves the channels' biases out of "
+            "u(w), which then covers the truth far less than 95 %; use the quadratic observation with "
+            "constant-error states (the default, or --bias-std / --rest)")))
+    n = filt.omega.shape[1]
+    if gate_probability > 0:
+        # Under the model the gated count is binomial(n, gate_probability).
+        limit = int(binom.isf(CHECK_PROBABILITY, n, gate_probability))
+        if filt.n_gated > limit:
+            out.append(named("filter-gated", (
+                f"the innovation gate rejected {filt.n_gated} of {n} samples ({100 * filt.n_gated / n:.3g} %, "
+                f"at most {limit} expected when the array model holds): the measurements disagree with the "
+                "layout (mounting position/direction or scale-factor errors, a wrong layout or noise level), "
+                "u(w) does not describe the error; calibrate the layout, or mark a rest segment (--rest)")))
+    if filt.nis is not None and filt.gated is not None:
+        ok = ~filt.gated & np.isfinite(filt.nis)
+        m = ok.sum()
+        if m > 0:
+            dof = 6 * int(m)
+            mean = float(filt.nis[ok].sum() / m)
+            limit = float(chi2.isf(CHECK_PROBABILITY, dof) / m)
+            if mean > limit:
+                out.append(named("innovations-inconsistent", (
+                    f"the filter's accepted innovations are {mean / 6:.3g}x larger than the array model "
+                    f"predicts (mean NIS {mean:.3g}, at most {limit:.3g} expected for 6 terms): a departure "
+                    "from the model (mounting errors, scale factors, wrong noise level) that u(w) does not "
+                    "include; calibrate the layout or give --noise-std")))
+    return out
 
 
 @dataclass(frozen=True)

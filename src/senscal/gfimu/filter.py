@@ -72,6 +72,12 @@ class RateFilterResult(ResultMixin):
     smoothed : bool
         ``omega`` is the offline fixed-interval (RTS) smoother's, not the
         causal filter's.
+    nis : ndarray, shape (T,) or None
+        Normalised innovation squared of every sample (quadratic
+        observation: chi-square with 6 degrees of freedom when the model
+        holds), before gating.
+    gated : ndarray of bool, shape (T,) or None
+        Samples the innovation gate rejected.
     """
 
     omega: np.ndarray = field(repr=False)
@@ -84,6 +90,8 @@ class RateFilterResult(ResultMixin):
     offsets: np.ndarray | None = None
     u_offsets: np.ndarray | None = None
     smoothed: bool = False
+    nis: np.ndarray | None = field(default=None, repr=False)
+    gated: np.ndarray | None = field(default=None, repr=False)
 
 
 def sqrt_observation(squares: np.ndarray, cov_squares: np.ndarray, sign_reference: np.ndarray,
@@ -152,7 +160,8 @@ def channel_covariance(kin: KinematicSolution, noise_std) -> np.ndarray:
 
 def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation: str = "quadratic",
                 initial=None, initial_std: float = 1e-3, lag: int = 1, gate_probability: float = 1e-4,
-                passes: int = 3, bias_std=None, smooth: bool = False) -> RateFilterResult:
+                passes: int = 3, bias_std=None, smooth: bool = False, reset_after: int = 5,
+                offsets_prior=None) -> RateFilterResult:
     """Independent Kalman filter: integration as process, the array's quadratic terms as observation.
 
     Parameters
@@ -205,6 +214,17 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         corrected by the filter's final constant-error estimates (their
         remaining uncertainty, ~1e-3 of the white-noise part, is left out of
         ``u_omega``).
+    reset_after : int
+        Quadratic observation: after this many consecutive gated samples the
+        rate covariance is widened (x4 per further gated sample) until the
+        filter accepts the measurements again (0: never; the filter then
+        integrates on, which is the paper's behaviour).  Five false
+        rejections in a row have probability ``gate_probability**5`` when
+        the model holds, so the reset only acts on a real lock-out.
+    offsets_prior : tuple (ndarray (9,), ndarray (9, 9)), optional
+        With ``bias_std`` replaced: prior mean and covariance of the nine
+        constant errors (e.g. measured on a rest segment), in
+        :data:`~senscal.gfimu.layout.UNKNOWNS` order ``alpha_x`` ... ``W_yz``.
 
     Returns
     -------
@@ -235,10 +255,13 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         P0 = np.eye(3) * initial_std ** 2
     m = 6 if observation == "quadratic" else 3
     gate = float(chi2.isf(gate_probability, m)) if gate_probability > 0 else 0.0
-    if bias_std is not None:
+    reset_after = int(reset_after)
+    if reset_after < 0:
+        raise InputError("reset_after must be a non-negative number of samples")
+    if bias_std is not None or offsets_prior is not None:
         if observation != "quadratic":
             raise InputError("bias_std (constant-error states) needs the quadratic observation")
-        res = _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std)
+        res = _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std, offsets_prior, reset_after)
         if not smooth:
             return res
         # Smooth the 3-state EKF on the kinematics freed of the constant errors found over the record.
@@ -246,15 +269,17 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         u_c = u.copy()
         u_c[:, :-1] -= np.diff(t) * c[:3, None]
         x, P, _, rej = quadratic_ekf(np.ascontiguousarray(kin.W - c[3:, None]), u_c, Q,
-                                     np.linalg.inv(C[6:12, 6:12]), x0, P0, gate)
+                                     np.linalg.inv(C[6:12, 6:12]), x0, P0, gate, reset_after)
         x, P = _smooth(x, P, u_c, Q, x0, P0)
-        return replace(_result(x, P, rej, np.ones((6, x.shape[1]), bool), observation, 1, True),
-                       offsets=res.offsets, u_offsets=res.u_offsets)
+        # The diagnostics (NIS, gating) stay the causal filter's: they judge the model, not the smoother.
+        return replace(_result(x, P, res.gated, np.ones((6, x.shape[1]), bool), observation, 1, True),
+                       offsets=res.offsets, u_offsets=res.u_offsets, nis=res.nis)
     if observation == "quadratic":
-        x, P, _, rej = quadratic_ekf(np.ascontiguousarray(kin.W), u, Q, np.linalg.inv(C[6:12, 6:12]), x0, P0, gate)
+        x, P, nis, rej = quadratic_ekf(np.ascontiguousarray(kin.W), u, Q, np.linalg.inv(C[6:12, 6:12]), x0, P0,
+                                       gate, reset_after)
         if smooth:
             x, P = _smooth(x, P, u, Q, x0, P0)
-        return _result(x, P, rej, np.ones((6, x.shape[1]), bool), observation, 1, smooth)
+        return replace(_result(x, P, rej, np.ones((6, x.shape[1]), bool), observation, 1, smooth), nis=nis)
     S = square_map()
     cov_sq = S @ C[6:9, 6:9] @ S.T
     squares = kin.squares
@@ -285,31 +310,38 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
     return _result(x, P, rej, np.isfinite(z), observation, n_pass, smooth)
 
 
-def _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std) -> RateFilterResult:
+def _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std, offsets_prior=None,
+                    reset_after: int = 0) -> RateFilterResult:
     """The quadratic EKF with the nine constant errors of ``alpha`` and ``W`` as states."""
-    b = np.broadcast_to(np.asarray(bias_std, float), (kin.sensitivity.shape[1],))
-    if not np.all(np.isfinite(b)) or np.any(b < 0):
-        raise InputError("bias_std must be non-negative numbers (m/s^2)")
-    # The offsets are a linear image of the channel biases: their prior is that image's covariance.
-    Pb = channel_covariance(kin, np.maximum(b, 1e-12))[3:12, 3:12]
-    P12 = np.zeros((12, 12))
-    P12[:3, :3] = P0
-    P12[3:, 3:] = Pb
     x12 = np.zeros(12)
     x12[:3] = x0
+    P12 = np.zeros((12, 12))
+    P12[:3, :3] = P0
+    if offsets_prior is not None:
+        c0, Pc = (np.asarray(a, float) for a in offsets_prior)
+        if c0.shape != (9,) or Pc.shape != (9, 9) or not (np.all(np.isfinite(c0)) and np.all(np.isfinite(Pc))):
+            raise InputError("offsets_prior must be a finite mean (9,) and covariance (9, 9)")
+        x12[3:] = c0
+        P12[3:, 3:] = 0.5 * (Pc + Pc.T)
+    else:
+        b = np.broadcast_to(np.asarray(bias_std, float), (kin.sensitivity.shape[1],))
+        if not np.all(np.isfinite(b)) or np.any(b < 0):
+            raise InputError("bias_std must be non-negative numbers (m/s^2)")
+        # The offsets are a linear image of the channel biases: their prior is that image's covariance.
+        P12[3:, 3:] = channel_covariance(kin, np.maximum(b, 1e-12))[3:12, 3:12]
     dt = np.zeros(t.size)
     dt[1:] = np.diff(t)
-    x, Pw, Pend, _, rej = quadratic_ekf_offsets(np.ascontiguousarray(kin.W), u, dt, Q, C[6:12, 6:12], x12, P12,
-                                                gate)
+    x, Pw, Pend, nis, rej = quadratic_ekf_offsets(np.ascontiguousarray(kin.W), u, dt, Q, C[6:12, 6:12], x12, P12,
+                                                  gate, reset_after)
     res = _result(x[:3], Pw, rej, np.ones((6, x.shape[1]), bool), "quadratic", 1)
-    return replace(res, offsets=x[3:, -1].copy(), u_offsets=np.sqrt(np.maximum(np.diag(Pend)[3:], 0.0)))
+    return replace(res, offsets=x[3:, -1].copy(), u_offsets=np.sqrt(np.maximum(np.diag(Pend)[3:], 0.0)), nis=nis)
 
 
 def _result(x, P, rej, ok, observation, passes, smoothed=False) -> RateFilterResult:
     u_om = np.sqrt(np.maximum(np.einsum("iik->ik", P), 0.0))
     return RateFilterResult(omega=x, u_omega=u_om, observation=observation,
                             n_observed=int(np.any(ok, axis=0).sum()), n_dropped=int((~ok).sum()),
-                            n_gated=int(rej.sum()), passes=passes, smoothed=smoothed)
+                            n_gated=int(rej.sum()), passes=passes, smoothed=smoothed, gated=np.asarray(rej, bool))
 
 
 def _smooth(x, P, u, Q, x0, P0):
