@@ -47,7 +47,11 @@ def _harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.nd
 
 
 def _project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, pilot: np.ndarray, nthreads: int):
-    """One pass: ``A^T (y - pilot)`` and ``sum((y - pilot)^2)`` per channel.
+    """One pass: ``A^T (y - pilot)``, ``sum((y - pilot)^2)`` and the lag-one sum per channel.
+
+    The lag-one sum ``sum_i v_i v_{i-1}`` (``v = y - pilot``) costs one
+    multiply-add on data already in cache; from it the residual's lag-one
+    autocorrelation (the whiteness test) follows without a second pass.
 
     The design matrix ``A`` has the rows of ``basis``, then a constant row,
     then (if ``use_tau``) the centred time ``tau``.  Block partial sums keep
@@ -58,6 +62,7 @@ def _project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, p
     p = nb_ + 1 + (1 if use_tau else 0)
     aty = np.zeros((nch, p))
     yy = np.zeros(nch)
+    l1 = np.zeros(nch)
     ngroups = min(nthreads, nch)
     for g in nb.prange(ngroups):
         c0 = (g * nch) // ngroups
@@ -70,9 +75,13 @@ def _project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, p
                 for j in range(p):
                     part[j] = 0.0
                 sq = 0.0
+                lag = 0.0
+                prev = y[c, s - 1] - pv if s > 0 else 0.0
                 for i in range(s, e):
                     v = y[c, i] - pv
                     sq += v * v
+                    lag += v * prev
+                    prev = v
                     for j in range(nb_):
                         part[j] += v * basis[j, i]
                     part[nb_] += v
@@ -81,21 +90,26 @@ def _project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, p
                 for j in range(p):
                     aty[c, j] += part[j]
                 yy[c] += sq
-    return aty, yy
+                l1[c] += lag
+    return aty, yy, l1
 
 
 @nb.njit(cache=True, parallel=True, fastmath=False)
 def residual_ss(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, coef: np.ndarray, rows: np.ndarray):
-    """Second pass: exact residual sum of squares for the channels in ``rows``."""
+    """Second pass: exact residual sum of squares and lag-one sum for the channels in ``rows``."""
     nb_ = basis.shape[0]
     n = y.shape[1]
     out = np.zeros(rows.size)
+    lag = np.zeros(rows.size)
     for r in nb.prange(rows.size):
         c = rows[r]
         acc = 0.0
+        acc1 = 0.0
+        prev = 0.0
         for s in range(0, n, _BLOCK):
             e = min(s + _BLOCK, n)
             part = 0.0
+            part1 = 0.0
             for i in range(s, e):
                 m = coef[c, nb_]
                 for j in range(nb_):
@@ -104,9 +118,13 @@ def residual_ss(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool
                     m += coef[c, nb_ + 1] * tau[i]
                 d = y[c, i] - m
                 part += d * d
+                part1 += d * prev
+                prev = d
             acc += part
+            acc1 += part1
         out[r] = acc
-    return out
+        lag[r] = acc1
+    return out, lag
 
 
 @nb.njit(cache=True)
@@ -131,26 +149,37 @@ def _row_rotated(yr, ts, tc, sa, ca, pv):
         a1 += v * b1
         a2 += v
         sq += v * v
-    return a0, a1, a2, sq
+    # Lag-one products in their own loop: no carried dependency, so both loops vectorise.
+    lag = 0.0
+    for k in range(1, yr.size):
+        lag += (yr[k] - pv) * (yr[k - 1] - pv)
+    return a0, a1, a2, sq, lag
 
 
 def _project_rotated(y: np.ndarray, w_dt: float, tau0_w: float, pilot: np.ndarray):
-    """``A^T (y - pilot)`` and ``sum((y - pilot)^2)`` for the fundamental + offset, basis generated on the fly."""
+    """``A^T (y - pilot)``, ``sum((y - pilot)^2)`` and the lag-one sum for the fundamental + offset.
+
+    The basis is generated on the fly.
+    """
     nch, n = y.shape
     ts, tc = _template(w_dt)
     aty = np.zeros((nch, 3))
     yy = np.zeros(nch)
+    l1 = np.zeros(nch)
     for c in nb.prange(nch):
         pv = pilot[c]
         for s in range(0, n, _TEMPLATE):
             e = min(s + _TEMPLATE, n)
             a = tau0_w + s * w_dt
-            r0, r1, r2, r3 = _row_rotated(y[c, s:e], ts, tc, math.sin(a), math.cos(a), pv)
+            r0, r1, r2, r3, r4 = _row_rotated(y[c, s:e], ts, tc, math.sin(a), math.cos(a), pv)
             aty[c, 0] += r0
             aty[c, 1] += r1
             aty[c, 2] += r2
             yy[c] += r3
-    return aty, yy
+            l1[c] += r4
+            if s > 0:
+                l1[c] += (y[c, s] - pv) * (y[c, s - 1] - pv)
+    return aty, yy, l1
 
 
 @nb.njit(cache=True, fastmath=True)

@@ -87,6 +87,28 @@ class SineFit(ResultMixin):
         Gauss-Newton iterations (0 for a known frequency).
     frequency_estimated : bool
         True when the frequency was estimated.
+    phase_centre, u_phase_centre : float or ndarray
+        Phase of the fundamental (rad, in (-pi, pi]) at ``t_ref``, the
+        record's centre time, and its standard uncertainty.  With an
+        estimated frequency the phase at ``t = 0`` carries the frequency's
+        uncertainty times the lever arm ``2 pi t_ref``; the centre phase does
+        not, so it is the one to quote when ``t_ref`` is far from 0.
+    noise_model : str or ndarray of str
+        ``"white"``: uncertainties from the residual variance (the residual
+        passed the whiteness test, or was not tested).  ``"coloured"``: the
+        residual was correlated, so the uncertainties come from its
+        autoregressive noise spectrum at the fitted frequency (and at 0 Hz
+        for the offset and drift), propagated through the design matrix.
+    dof_effective : float or ndarray
+        Effective degrees of freedom of the uncertainties (``dof`` for white
+        noise; from the variance of the noise-spectrum estimate otherwise).
+    residual_lag1 : float or ndarray
+        Lag-one autocorrelation of the residuals (dimensionless; NaN for a
+        zero residual).  ``|r1| sqrt(N) > 2.58`` is the whiteness test's
+        rejection.
+    warnings : tuple of str
+        Named warnings (``coloured-noise``, ``phase-origin-far``) that say
+        what departs from the fit's assumptions and what to do.
     """
 
     frequency: Any
@@ -114,6 +136,12 @@ class SineFit(ResultMixin):
     converged: Any
     iterations: Any
     frequency_estimated: bool
+    phase_centre: Any = None
+    u_phase_centre: Any = None
+    noise_model: Any = "white"
+    dof_effective: Any = None
+    residual_lag1: Any = float("nan")
+    warnings: tuple[str, ...] = ()
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -139,12 +167,16 @@ class SineFit(ResultMixin):
             if v is None or isinstance(v, (str, tuple, bool)) or np.ndim(v) == 0:
                 return v
             x = np.asarray(v)[index]
-            return x.item() if np.ndim(x) == 0 else x
+            # Object arrays (noise_model) give back plain str on indexing.
+            return (x.item() if hasattr(x, "item") else x) if np.ndim(x) == 0 else x
 
         kw = {}
         for name in self.__dataclass_fields__:
             v = getattr(self, name)
-            kw[name] = v if name in ("parameter_names", "t_ref", "n_samples", "dof", "frequency_estimated") else pick(v)
+            kw[name] = v if name in ("parameter_names", "t_ref", "n_samples", "dof", "frequency_estimated",
+                                     "warnings") else pick(v)
+        kw["warnings"] = fit_warnings(kw["noise_model"], kw["residual_lag1"], kw["dof_effective"], kw["u_phase"],
+                                      self.t_ref, self.n_samples, self.frequency_estimated)
         return SineFit(**kw)
 
     def evaluate(self, t) -> np.ndarray:
@@ -165,7 +197,77 @@ class SineFit(ResultMixin):
         d = {k: to_jsonable(getattr(self, k)) for k in self.__dataclass_fields__}
         d["phase_deg"] = to_jsonable(np.degrees(self.phase))
         d["u_phase_deg"] = to_jsonable(np.degrees(self.u_phase))
+        if self.phase_centre is not None:
+            d["phase_centre_deg"] = to_jsonable(np.degrees(self.phase_centre))
+            d["u_phase_centre_deg"] = to_jsonable(np.degrees(self.u_phase_centre))
         return d
+
+
+# The phase at t = 0 of an estimated frequency is useless beyond one radian.
+PHASE_U_LIMIT = 1.0
+
+
+def fit_warnings(noise_model, residual_lag1, dof_effective, u_phase, t_ref: float, n_samples: int,
+                 frequency_estimated: bool) -> tuple[str, ...]:
+    """Named warnings of a fit (one channel or a batch) from its per-channel fields.
+
+    Parameters
+    ----------
+    noise_model, residual_lag1, dof_effective, u_phase : scalar or ndarray
+        The fields of :class:`SineFit` (u_phase in rad).
+    t_ref : float
+        Record centre (s).
+    n_samples : int
+    frequency_estimated : bool
+
+    Returns
+    -------
+    tuple of str
+    """
+    from senscal.diagnostics import named
+    from senscal.sinefit.noise import WHITE_Z, lag1_significant
+
+    model = np.atleast_1d(np.asarray(noise_model))
+    r1 = np.atleast_1d(np.asarray(residual_lag1, dtype=float))
+    nu = np.atleast_1d(np.asarray(dof_effective if dof_effective is not None else np.nan, dtype=float))
+    nu = np.broadcast_to(nu, r1.shape)
+    up = np.atleast_1d(np.asarray(u_phase, dtype=float))
+    batch = np.ndim(residual_lag1) > 0
+
+    def which(mask):
+        idx = np.flatnonzero(mask)
+        if not batch:
+            return ""
+        shown = ", ".join(str(i) for i in idx[:8]) + (", ..." if idx.size > 8 else "")
+        return f"channel{'s' if idx.size > 1 else ''} {shown} ({idx.size} of {mask.size}): "
+
+    out = []
+    bad = lag1_significant(r1, n_samples)
+    lim = WHITE_Z / math.sqrt(n_samples)
+    sw = bad & (model == "coloured")
+    if sw.any():
+        j = np.flatnonzero(sw)[np.argmax(np.abs(r1[sw]))]
+        out.append(named("coloured-noise", (
+            f"{which(sw)}the fit residual is correlated (lag-1 autocorrelation {r1[j]:.2f}, white-noise limit "
+            f"+/-{lim:.2g}); the uncertainties use the residual's noise spectrum at the fitted frequency instead of "
+            f"its total variance ({nu[j]:.0f} effective degrees of freedom: for 95 % use Student t, not k=2, when "
+            f"that is small); check for interference or drift, or average longer records")))
+    st = bad & (model == "white")
+    if st.any():
+        j = np.flatnonzero(st)[np.argmax(np.abs(r1[st]))]
+        out.append(named("coloured-noise", (
+            f"{which(st)}the fit residual is correlated (lag-1 autocorrelation {r1[j]:.2f}, white-noise limit "
+            f"+/-{lim:.2g}) but the uncertainties assume white noise (time base not uniform, or noise_model='white' "
+            f"was forced), so they can be several times too small; resample to a uniform time base")))
+    if frequency_estimated:
+        far = up > PHASE_U_LIMIT
+        if far.any():
+            j = np.flatnonzero(far)[np.argmax(up[far])]
+            out.append(named("phase-origin-far", (
+                f"{which(far)}u(phase at t=0) = {up[j]:.3g} rad: the phase is extrapolated from the record "
+                f"(centre t = {t_ref:.6g} s) to t = 0 with the estimated frequency's uncertainty, so it is "
+                f"meaningless; quote the phase at the record centre (phase_centre)")))
+    return tuple(out)
 
 
 # ---------------------------------------------------------------------------
@@ -317,15 +419,16 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
     yc = np.ascontiguousarray(y2)
     big = yc.size >= kern.PARALLEL_MIN_SAMPLES and yc.shape[0] > 1
     if rotated:
-        aty, yy = (kern.project_rotated if big else kern.project_rotated_serial)(yc, w * dt, w * tau0, pilot)
+        aty, yy, l1v = (kern.project_rotated if big else kern.project_rotated_serial)(yc, w * dt, w * tau0, pilot)
     else:
         proj = kern.project_parallel if big else kern.project_serial
-        aty, yy = proj(yc, basis, tau, drift, pilot, int(nb.get_num_threads()) if big else 1)
+        aty, yy, l1v = proj(yc, basis, tau, drift, pilot, int(nb.get_num_threads()) if big else 1)
     if not (np.all(np.isfinite(aty)) and np.all(np.isfinite(yy))):
         # NaN/inf poisons the sums: locate it for the message.
         _check_y(y2, full=True)
     coef = scipy.linalg.cho_solve(cho, (aty * sc).T).T * sc
     rss = yy - np.einsum("ij,ij->i", coef, aty)
+    lag1 = _residual_lag1(coef, aty, l1v, gram, yc[:, -1] - pilot, n, dt, tau0, w, harmonics, drift)
     # Cancellation guard: where the residual is a tiny fraction of the signal
     # energy, recompute it exactly in a second pass.
     coef[:, 2 * harmonics] += pilot
@@ -333,10 +436,55 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
     if redo.size:
         if basis is None:
             basis = kern.harmonic_basis(n, w * dt, w * tau0, harmonics)
-        rss[redo] = kern.residual_ss(yc, basis, tau, drift, coef, redo)
+        rss[redo], lag1[redo] = kern.residual_ss(yc, basis, tau, drift, coef, redo)
     rss = np.maximum(rss, 0.0)
     ginv = scipy.linalg.cho_solve(cho, np.eye(p)) * sc[:, None] * sc[None, :]
-    return coef, rss, ginv
+    return coef, rss, ginv, lag1
+
+
+def _basis_at(tau_i: float, w: float, harmonics: int, drift: bool) -> np.ndarray:
+    """One row of the design matrix at centred time ``tau_i`` (s)."""
+    row = []
+    for k in range(1, harmonics + 1):
+        row += [math.sin(k * w * tau_i), math.cos(k * w * tau_i)]
+    row.append(1.0)
+    if drift:
+        row.append(tau_i)
+    return np.array(row)
+
+
+def _shift(w: float, dt: float, harmonics: int, drift: bool, sign: float) -> np.ndarray:
+    """Matrix M with ``a(tau - sign dt) = M a(tau)`` for a design row ``a``."""
+    p = 2 * harmonics + 1 + int(drift)
+    m = np.eye(p)
+    for k in range(1, harmonics + 1):
+        c, s = math.cos(k * w * dt), sign * math.sin(k * w * dt)
+        i = 2 * k - 2
+        m[i, i], m[i, i + 1], m[i + 1, i], m[i + 1, i + 1] = c, -s, s, c
+    if drift:
+        m[p - 1, p - 2] = -sign * dt
+    return m
+
+
+def _residual_lag1(coef, aty, l1v, gram, vlast, n, dt, tau0, w, harmonics, drift):
+    """``sum_i r_i r_{i-1}`` of the residuals from the one-pass sums, per channel.
+
+    With ``v = y - pilot`` (so ``v_0 = 0``), model ``m_i = c . a_i`` and a
+    design row one sample earlier ``a_{i-1} = M a_i``::
+
+        sum r_i r_{i-1} = sum v_i v_{i-1} - (M^T c).P - (M^-T c).P + v_{N-1} (M^-T c).a_{N-1}
+                          + c' G M^T c - m_0 (M^T c).a_0
+
+    where ``P = A^T v`` and ``G = A^T A``: no second pass over the data.
+    """
+    mt = _shift(w, dt, harmonics, drift, 1.0)
+    mi = _shift(w, dt, harmonics, drift, -1.0)
+    a0 = _basis_at(tau0, w, harmonics, drift)
+    al = _basis_at(tau0 + (n - 1) * dt, w, harmonics, drift)
+    cm = coef @ mt
+    cp = coef @ mi
+    return (l1v - np.einsum("ij,ij->i", cm, aty) - np.einsum("ij,ij->i", cp, aty) + vlast * (cp @ al)
+            + np.einsum("ij,jk,ik->i", coef, gram, cm) - (coef @ a0) * (cm @ a0))
 
 
 # ---------------------------------------------------------------------------
@@ -464,7 +612,13 @@ def _transform(coef, cov_lin, w, harmonics, drift, t_mid, with_freq):
         if k > 1:
             row += 2
     cov = jac @ cov_lin @ jac.T
-    return vals, cov, tuple(names)
+    # Phase of the fundamental at the centre time: the same row without the
+    # frequency's lever arm.
+    jc = jac[1].copy()
+    if with_freq:
+        jc[ifr] = 0.0
+    centre = (math.atan2(coef[1], coef[0]), math.sqrt(max(float(jc @ cov_lin @ jc), 0.0)))
+    return vals, cov, tuple(names), centre
 
 
 # ---------------------------------------------------------------------------
@@ -472,7 +626,7 @@ def _transform(coef, cov_lin, w, harmonics, drift, t_mid, with_freq):
 # ---------------------------------------------------------------------------
 
 def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, harmonics: int = 1,
-             weights=None, drift: bool = False, max_iter: int = 100) -> SineFit:
+             weights=None, drift: bool = False, max_iter: int = 100, noise_model: str = "auto") -> SineFit:
     """Least-squares fit of ``y = A sin(2 pi f t + phi) + C`` (+ harmonics, drift).
 
     Parameters
@@ -498,6 +652,15 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         the record's centre time.
     max_iter : int
         Iteration limit of the frequency estimation.
+    noise_model : {"auto", "white", "coloured"}
+        How the uncertainties treat the noise.  ``"auto"`` (default): test the
+        residual for whiteness (lag-one autocorrelation, 1 % false alarms) and
+        switch to the coloured-noise covariance only when the test fails (a
+        ``coloured-noise`` warning says so).  ``"white"``: residual variance
+        only (a correlated residual is still named in a warning).  ``"coloured"``: always the
+        autoregressive noise spectrum.  The coloured model needs a uniform time
+        base; on a non-uniform one the white formula is kept and a
+        correlated residual is reported as a warning.
 
     Returns
     -------
@@ -519,6 +682,12 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
 
     Notes
     -----
+    Coloured noise: the covariance becomes ``G^-1 (A^T Sigma A) G^-1`` with
+    ``Sigma`` the autocovariance of an autoregressive model of the residual
+    (order by AIC), see :mod:`senscal.sinefit.noise`; for white noise it is
+    ``sigma^2 G^-1``, the Cramer-Rao bound.  The whiteness test of the
+    compiled path comes from sums taken in its single pass.
+
     With a known frequency the fit is linear least squares in the basis
     ``sin(k w tau), cos(k w tau), 1`` on the centred time ``tau = t - t_mid``
     (centring keeps the basis nearly orthogonal, so the normal matrix is well
@@ -528,6 +697,8 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
     """
     # The compiled path checks finiteness inside its single pass over y.
     y = _check_y(y, full=False)
+    if noise_model not in ("auto", "white", "coloured"):
+        raise InputError(f"noise_model must be 'auto', 'white' or 'coloured', got {noise_model!r}")
     harmonics = int(harmonics)
     if harmonics < 1:
         raise InputError(f"harmonics must be >= 1, got {harmonics}")
@@ -575,12 +746,53 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
     iters = np.zeros(nch, dtype=int)
     freqs = np.empty(nch)
 
+    from senscal.sinefit.noise import coloured_covariance, lag1_significant
+
+    lag1s = np.full(nch, np.nan)
+    models = np.array(["white"] * nch, dtype=object)
+    nus = np.full(nch, float(n - p))
+    centres = np.empty((nch, 2))
+    test = noise_model == "auto"
+
+    def noise_cov(i, resid_w, design_w, ginv, rss_i, omegas):
+        """White or coloured covariance of the linear parameters of channel i."""
+        if resid_w is not None and rss_i > 0:
+            lag1s[i] = float(resid_w[1:] @ resid_w[:-1]) / rss_i
+        switch = noise_model == "coloured" or (test and bool(lag1_significant(lag1s[i], n)))
+        if switch and uniform and rss_i > 0:
+            if design_w is None:
+                resid_w, design_w = explicit(i)
+            cn = coloured_covariance(resid_w, design_w, ginv, p, omegas)
+            models[i] = "coloured"
+            nus[i] = cn.dof_effective
+            return cn.cov_lin
+        return ginv * (rss_i / (n - p))
+
+    def col_omegas(wv, with_freq):
+        om = []
+        for k in range(1, harmonics + 1):
+            om += [k * wv * dt] * 2
+        om.append(0.0)
+        if drift:
+            om.append(0.0)
+        if with_freq:
+            om.append(wv * dt)
+        return np.array(om)
+
     if freq is not None:
         w = TWO_PI * freq
+        omegas = col_omegas(w, False)
         if fast:
-            coef, rss, ginv = _fast_uniform(y2, n, dt, tau0, w, harmonics, drift)
+            coef, rss, ginv, lag1_sum = _fast_uniform(y2, n, dt, tau0, w, harmonics, drift)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                lag1s[:] = np.where(rss > 0, lag1_sum / rss, np.nan)
             coef_all = coef
             ginv_all = [ginv] * nch
+            resid_all = None
+
+            def explicit(i):
+                a = _design(tau0 + np.arange(n) * dt, w, harmonics, drift)
+                return y2[i] - a @ coef_all[i], a
         elif per_channel_w:
             sw2 = sw.reshape(-1, n)
             coef_all = np.empty((nch, p))
@@ -591,16 +803,28 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
                 c, r, g = _lstsq_many(a, y2[i:i + 1], sw2[i])
                 coef_all[i], rss[i] = c[0], r[0]
                 ginv_all.append(g)
+            resid_all = [sw2[i] * (y2[i] - a @ coef_all[i]) for i in range(nch)]
+
+            def explicit(i):
+                return resid_all[i], a * sw2[i][:, None]
         else:
             a = _design(tau, w, harmonics, drift)
             coef_all, rss, ginv = _lstsq_many(a, y2, sw)
             ginv_all = [ginv] * nch
+            aw = a if sw is None else a * sw[:, None]
+            resid_all = (y2 - coef_all @ a.T) if sw is None else (y2 - coef_all @ a.T) * sw[None, :]
+
+            def explicit(i):
+                return resid_all[i], aw
         rsss[:] = rss
         freqs[:] = freq
         dof = n - p
         for i in range(nch):
-            cov_lin = ginv_all[i] * (rss[i] / dof)
-            v, c, q_names = _transform(coef_all[i], cov_lin, w, harmonics, drift, t_mid, False)
+            if resid_all is None:
+                cov_lin = noise_cov(i, None, None, ginv_all[i], rss[i], omegas)
+            else:
+                cov_lin = noise_cov(i, resid_all[i], None, ginv_all[i], rss[i], omegas)
+            v, c, q_names, centres[i] = _transform(coef_all[i], cov_lin, w, harmonics, drift, t_mid, False)
             vals.append(v)
             covs.append(c)
     else:
@@ -628,9 +852,14 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
                 jw += k * tau * (coef[2 * k - 2] * a[:, 2 * k - 1] - coef[2 * k - 1] * a[:, 2 * k - 2])
             full = np.column_stack([a, jw])
             _, _, ginv = _lstsq_many(full, y2[i:i + 1], swi)
-            cov_lin = ginv * (rss / dof)
+            resid = y2[i] - a @ coef
+            fw = full
+            if swi is not None:
+                resid = resid * swi
+                fw = full * swi[:, None]
+            cov_lin = noise_cov(i, resid, fw, ginv, rss, col_omegas(w, True))
             coef_ext = np.append(coef, 0.0)
-            v, c, q_names = _transform(coef_ext, cov_lin, w, harmonics, drift, t_mid, True)
+            v, c, q_names, centres[i] = _transform(coef_ext, cov_lin, w, harmonics, drift, t_mid, True)
             vals.append(v)
             covs.append(c)
             rsss[i] = rss
@@ -695,4 +924,11 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         converged=shaped(conv),
         iterations=shaped(iters),
         frequency_estimated=freq is None,
+        phase_centre=shaped(wrap_phase(centres[:, 0])),
+        u_phase_centre=shaped(centres[:, 1]),
+        noise_model=shaped(models) if batch else str(models[0]),
+        dof_effective=shaped(nus),
+        residual_lag1=shaped(lag1s),
+        warnings=fit_warnings(shaped(models) if batch else str(models[0]), shaped(lag1s), shaped(nus),
+                              shaped(u[:, idx["phase"]]), float(t_mid), int(n), freq is None),
     )
