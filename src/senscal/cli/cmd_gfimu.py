@@ -236,15 +236,36 @@ def simulate_gfimu_cmd(
     noise_g: Annotated[float, typer.Option("--noise-g", help="White-noise standard deviation, g.")] = 1e-3,
     position_error: Annotated[float, typer.Option("--position-error", help="Mounting position error std, m.")] = 0.0,
     direction_error: Annotated[float, typer.Option("--direction-error", help="Mounting direction error std, rad.")] = 0.0,
+    direction_error_deg: Annotated[Optional[float], typer.Option("--direction-error-deg", help="Mounting direction error std, deg (instead of --direction-error).")] = None,
+    rest: Annotated[float, typer.Option("--rest", help="Rest before the motion starts, s (mark it with 'senscal gfimu --rest 0:REST').")] = 0.0,
+    offset: Annotated[Optional[str], typer.Option("--offset", help="Array origin relative to the rotation centre X,Y,Z in m (default 0.1,0,0 with --paper, else 0.05,-0.03,0.02).")] = None,
+    amplitudes: Annotated[Optional[str], typer.Option("--amplitudes", help="Roll, pitch, yaw amplitudes R,P,Y in deg (default 0,0,30 with --paper, else 10,15,30).")] = None,
+    freqs: Annotated[Optional[str], typer.Option("--freqs", help="Roll, pitch, yaw frequencies in Hz (default 1,1,2 with --paper, else 1.3,0.7,2).")] = None,
+    linear_amplitude: Annotated[Optional[float], typer.Option("--linear-amplitude", help="Linear vibration of the rotation centre per axis, m/s^2 (default 0 with --paper, else 2).")] = None,
 ) -> None:
     """An accelerometer array on a moving rigid body: gfimu.csv, gfimu_truth.csv/.json, layout.csv."""
     from senscal.gfimu import write_layout
     from senscal.simulate.common import write_truth
     from senscal.simulate.gfimu import simulate_gfimu
 
+    def three(text, opt):
+        if text is None:
+            return None
+        v = parse_floats(text, opt)
+        if len(v) != 3:
+            raise InputError(f"{opt} needs three numbers separated by commas, got {text!r}")
+        return v
+
+    if direction_error_deg is not None:
+        if direction_error:
+            raise InputError("give either --direction-error (rad) or --direction-error-deg, not both")
+        direction_error = float(np.radians(direction_error_deg))
     rec, truth, info = simulate_gfimu(paper=paper, fs=fs, duration=duration, distance=distance, bias_g=bias_g,
                                       noise_g=noise_g, position_error_m=position_error,
-                                      direction_error_rad=direction_error, seed=seed)
+                                      direction_error_rad=direction_error, seed=seed, rest_s=rest,
+                                      offset_m=three(offset, "--offset"),
+                                      amplitudes_deg=three(amplitudes, "--amplitudes"),
+                                      freqs_hz=three(freqs, "--freqs"), linear_amplitude=linear_amplitude)
     paths = [write_recording(rec, out / "gfimu.csv"), write_recording(truth, out / "gfimu_truth.csv"),
              write_truth(info, out / "gfimu_truth.json"), write_layout(paper_layout(distance), out / "layout.csv")]
     console.print("wrote " + ", ".join(str(p) for p in paths))

@@ -85,7 +85,7 @@ def rest_offsets(kin: KinematicSolution, t: np.ndarray, noise_std, span) -> Rest
     noise_std : float or ndarray, shape (M,)
         White-noise standard deviation of each channel, m/s^2.
     span : tuple (start, end)
-        The segment, s (inclusive).
+        The segment, s: ``start <= t < end``.
 
     Returns
     -------
@@ -94,7 +94,8 @@ def rest_offsets(kin: KinematicSolution, t: np.ndarray, noise_std, span) -> Rest
     a, b = (float(v) for v in span)
     if not (np.isfinite(a) and np.isfinite(b) and b > a):
         raise InputError(f"the rest segment must be START:END in s with END > START, got {a:g}:{b:g}")
-    sel = (t >= a) & (t <= b)
+    # Half-open, like a slice: "--rest 0:2" on a record whose motion starts at t = 2 s is all rest.
+    sel = (t >= a) & (t < b)
     n = int(sel.sum())
     if n < 10:
         raise InputError(f"the rest segment {a:g}:{b:g} s holds {n} samples of the recording "

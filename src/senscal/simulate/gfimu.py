@@ -99,7 +99,7 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
                    amplitudes_deg=None, freqs_hz=None,
                    offset_m=None, linear_amplitude: float | None = None, linear_freqs_hz=(5.0, 7.0, 11.0),
                    bias_g: float = 1e-4, noise_g: float = 1e-3,
-                   position_error_m: float = 0.0, direction_error_rad: float = 0.0,
+                   position_error_m: float = 0.0, direction_error_rad: float = 0.0, rest_s: float = 0.0,
                    seed: int | None = None) -> tuple[Recording, Recording, dict[str, Any]]:
     """Accelerometer-array readings on a moving rigid body, with the truth.
 
@@ -129,6 +129,11 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
     position_error_m, direction_error_rad : float
         Standard deviation of the actual mounting position (m) and direction
         (rad) about the nominal layout (the solver sees the nominal one).
+    rest_s : float
+        The body rests (at its starting attitude, rotation centre still)
+        for this long, s, before the motion starts; the record is
+        ``duration`` s of motion after it (so that a rest segment can be
+        marked, ``senscal gfimu --rest 0:REST``).
     seed : int, optional
         Random seed.
 
@@ -155,19 +160,28 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
         offset_m = offset_m if offset_m is not None else (0.05, -0.03, 0.02)
         linear_amplitude = linear_amplitude if linear_amplitude is not None else 2.0
     if not (fs > 0 and duration > 0 and noise_g >= 0 and bias_g >= 0 and position_error_m >= 0
-            and direction_error_rad >= 0):
-        raise InputError("fs > 0, duration > 0 and non-negative bias, noise and mounting errors are required")
-    n = int(round(duration * fs))
+            and direction_error_rad >= 0 and rest_s >= 0):
+        raise InputError("fs > 0, duration > 0 and non-negative bias, noise, mounting errors and rest are required")
+    vals = [float(v) for v in (*amplitudes_deg, *freqs_hz, *offset_m, linear_amplitude)]
+    if not (len(amplitudes_deg) == len(freqs_hz) == len(offset_m) == 3) or not all(math.isfinite(v) for v in vals) or any(f < 0 for f in freqs_hz):
+        raise InputError("amplitudes (3, deg), frequencies (3, Hz, non-negative), offset (3, m) and the linear "
+                         "amplitude must be finite numbers")
+    n = int(round((duration + rest_s) * fs))
     if n < 3:
         raise InputError("the simulated record needs at least 3 samples; raise fs or duration")
     layout = layout if layout is not None else paper_layout(distance)
     rng = np.random.default_rng(seed)
     t = np.arange(n) / fs
-    mot = euler_motion(t, np.radians(amplitudes_deg), freqs_hz)
+    # During the rest the motion's clock stands at 0: every angle at its start value, zero rate, and
+    # (the sines' phase) zero linear acceleration; the angular acceleration steps on at the start.
+    tm = np.maximum(t - rest_s, 0.0)
+    mot = euler_motion(tm, np.radians(amplitudes_deg), freqs_hz)
+    if rest_s > 0:
+        mot["alpha"][:, t < rest_s] = 0.0
     w, al = mot["omega"], mot["alpha"]
     off = np.asarray(offset_m, float)
     lin_f = np.asarray(linear_freqs_hz, float)
-    a_nav = linear_amplitude * np.sin(2 * math.pi * lin_f[:, None] * t)
+    a_nav = linear_amplitude * np.sin(2 * math.pi * lin_f[:, None] * tm)
     a_nav[2] += G0  # specific force = a - g, g = (0, 0, -G0) with z up
     f_c = np.einsum("tji,jt->it", mot["R"], a_nav)  # R^T (a - g): into the body frame
     wxo = np.cross(w.T, off).T
@@ -189,7 +203,7 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
     info = {
         "paper": paper, "fs_hz": fs, "duration_s": duration, "distance_m": distance,
         "amplitudes_deg": list(map(float, amplitudes_deg)), "freqs_hz": list(map(float, freqs_hz)),
-        "offset_m": off.tolist(), "linear_amplitude_m_s2": float(linear_amplitude),
+        "offset_m": off.tolist(), "linear_amplitude_m_s2": float(linear_amplitude), "rest_s": float(rest_s),
         "bias_g": bias_g, "noise_g": noise_g, "noise_std_m_s2": noise_g * G0,
         "bias_m_s2": dict(zip(layout.names, bias.tolist())),
         "position_error_m": position_error_m, "direction_error_rad": direction_error_rad,
