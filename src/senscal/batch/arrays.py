@@ -7,6 +7,7 @@ at a time.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -14,7 +15,8 @@ from typing import Any
 import numpy as np
 
 from senscal._result import ResultMixin
-from senscal.errors import FileFormatError, InputError
+from senscal.errors import FileFormatError, InputError, SenscalError
+from senscal.io.recording import check_time
 
 __all__ = ["ArrayFit", "SUMMARY_FIELDS", "fit_sine_dask", "fit_stored_array", "fit_hdf5_dataset"]
 
@@ -115,33 +117,88 @@ def _fit_rows(path: str, dataset: str, c0: int, c1: int, t, fs, freq, harmonics)
 
 
 def _store_info(path: str, dataset: str, time_dataset: str | None):
-    """(shape, fs attribute or None, time stamps or None) of a 2-D dataset in HDF5 or Zarr."""
-    if _is_zarr(path):
-        import zarr
+    """(shape, fs attribute or None, time stamps or None) of a 2-D dataset in HDF5 or Zarr.
 
+    Any failure to open or parse the store (corrupt file, a group where a
+    dataset is expected, strings, empty or damaged datasets) is one
+    :class:`FileFormatError` naming the file.
+    """
+    if time_dataset is not None and not str(time_dataset).strip():
+        raise InputError("--time-dataset is empty; give the name of the 1-D time dataset or leave it out")
+    kind = "Zarr store" if _is_zarr(path) else "HDF5 file"
+    try:
+        shape, dtype, fs_attr, t = (_zarr_info if _is_zarr(path) else _hdf5_info)(path, dataset, time_dataset)
+    except SenscalError:
+        raise
+    except MemoryError:
+        raise FileFormatError(f"the time dataset of {path} does not fit in memory") from None
+    except Exception as exc:
+        # h5py/zarr raise OSError, KeyError, RuntimeError, TypeError ... on damaged stores.
+        msg = " ".join(str(exc).split())[:200]
+        raise FileFormatError(f"{path} is not a readable {kind} ({type(exc).__name__}: {msg})") from None
+    if len(shape) != 2:
+        raise InputError(f"dataset '{dataset}' has shape {shape}; expected (n_channels, n_samples)")
+    if 0 in shape:
+        raise InputError(f"dataset '{dataset}' in {path} is empty (shape {shape})")
+    if np.dtype(dtype).kind not in "fiu":
+        raise FileFormatError(f"dataset '{dataset}' in {path} holds {np.dtype(dtype)} values, not real numbers")
+    if fs_attr is not None:
         try:
-            grp = zarr.open_group(path, mode="r")
-        except Exception as exc:  # zarr raises several types for a non-store
-            raise FileFormatError(f"{path} is not a readable Zarr store: {str(exc).splitlines()[0]}") from None
-        names = [k for k, _ in grp.arrays()]
-        if dataset not in names:
-            raise InputError(f"no dataset '{dataset}' in {path}; datasets: {', '.join(names) or 'none'}")
-        arr = grp[dataset]
-        fs_attr = arr.attrs.get("fs", grp.attrs.get("fs"))
-        t = np.asarray(grp[time_dataset][:]) if time_dataset else None
-        return arr.shape, fs_attr, t
+            fs_attr = float(np.asarray(fs_attr).reshape(()))
+        except (TypeError, ValueError):
+            raise FileFormatError(f"the 'fs' attribute of '{dataset}' in {path} is not one number") from None
+        if not (math.isfinite(fs_attr) and fs_attr > 0):
+            raise FileFormatError(f"the 'fs' attribute of '{dataset}' in {path} is {fs_attr}; it must be a "
+                                  "positive number of Hz")
+    if t is not None:
+        t = np.asarray(t)
+        if t.ndim != 1 or t.dtype.kind not in "fiu":
+            raise FileFormatError(f"time dataset '{time_dataset}' in {path} must be 1-D numbers, "
+                                  f"got shape {t.shape} of {t.dtype}")
+        t = t.astype(np.float64)
+        if t.size != shape[1]:
+            raise InputError(f"time dataset '{time_dataset}' has {t.size} samples but '{dataset}' has {shape[1]}")
+        check_time(t, source=path, name=str(time_dataset))
+    return shape, fs_attr, t
+
+
+def _zarr_info(path: str, dataset: str, time_dataset: str | None):
+    import zarr
+
+    try:
+        grp = zarr.open_group(path, mode="r")
+    except Exception as exc:  # zarr raises several types for a non-store
+        raise FileFormatError(f"{path} is not a readable Zarr store: {str(exc).splitlines()[0]}") from None
+    names = [k for k, _ in grp.arrays()]
+    for name, what in ((dataset, "dataset"), (time_dataset, "time dataset")):
+        if name is not None and name not in names:
+            raise InputError(f"no {what} '{name}' in {path}; datasets: {', '.join(names) or 'none'}")
+    arr = grp[dataset]
+    fs_attr = arr.attrs.get("fs", grp.attrs.get("fs"))
+    t = np.asarray(grp[time_dataset][:]) if time_dataset else None
+    return arr.shape, arr.dtype, fs_attr, t
+
+
+def _hdf5_info(path: str, dataset: str, time_dataset: str | None):
     import h5py
 
     try:
-        with h5py.File(path, "r") as fh:
-            if dataset not in fh:
-                names = [k for k in fh if isinstance(fh[k], h5py.Dataset)]
-                raise InputError(f"no dataset '{dataset}' in {path}; datasets: {', '.join(names) or 'none'}")
-            fs_attr = fh[dataset].attrs.get("fs", fh.attrs.get("fs"))
-            t = fh[time_dataset][()] if time_dataset else None
-            return fh[dataset].shape, fs_attr, t
+        fh = h5py.File(path, "r")
     except OSError as exc:
-        raise FileFormatError(f"{path} is not a readable HDF5 file: {exc}") from None
+        raise FileFormatError(f"{path} is not a readable HDF5 file ({' '.join(str(exc).split())[:200]})") from None
+    with fh:
+        for name, what in ((dataset, "dataset"), (time_dataset, "time dataset")):
+            if name is None:
+                continue
+            if name not in fh:
+                names = [k for k in fh if isinstance(fh.get(k), h5py.Dataset)]
+                raise InputError(f"no {what} '{name}' in {path}; datasets: {', '.join(names) or 'none'}")
+            if not isinstance(fh[name], h5py.Dataset):
+                raise InputError(f"'{name}' in {path} is a group, not a dataset; give the {what}'s full path")
+        ds = fh[dataset]
+        fs_attr = ds.attrs.get("fs", fh.attrs.get("fs"))
+        t = fh[time_dataset][()] if time_dataset else None
+        return ds.shape, ds.dtype, fs_attr, t
 
 
 def fit_stored_array(path: str | Path, dataset: str, *, fs: float | None = None, time_dataset: str | None = None,
@@ -177,11 +234,17 @@ def fit_stored_array(path: str | Path, dataset: str, *, fs: float | None = None,
     path = str(path)
     if not Path(path).exists():
         raise FileFormatError(f"file not found: {path}")
+    if fs is not None and not (math.isfinite(fs) and fs > 0):
+        raise InputError(f"--fs must be a positive, finite sample rate in Hz, got {fs!r}")
+    if freq is not None and not (math.isfinite(freq) and freq > 0):
+        raise InputError(f"--freq must be a positive, finite frequency in Hz, got {freq!r}")
+    if isinstance(harmonics, bool) or int(harmonics) != harmonics or harmonics < 1:
+        raise InputError(f"--harmonics must be a whole number >= 1, got {harmonics!r}")
+    if isinstance(chunk_channels, bool) or int(chunk_channels) != chunk_channels or chunk_channels < 1:
+        raise InputError(f"--chunk must be a whole number >= 1, got {chunk_channels!r}")
     shape, fs_attr, t = _store_info(path, dataset, time_dataset)
     if fs is None and t is None and fs_attr is not None:
-        fs = float(fs_attr)
-    if len(shape) != 2:
-        raise InputError(f"dataset '{dataset}' has shape {shape}; expected (n_channels, n_samples)")
+        fs = fs_attr
     if fs is None and t is None:
         raise InputError(f"no sample rate for '{dataset}': give --fs or a time dataset")
     tasks = [dask.delayed(_fit_rows)(path, dataset, c0, min(c0 + chunk_channels, shape[0]), t, fs, freq, harmonics)
@@ -201,7 +264,14 @@ def fit_stored_array(path: str | Path, dataset: str, *, fs: float | None = None,
             if progress:
                 progress(parts[index[fut.key]].shape[0])
     else:
-        parts = list(dask.compute(*tasks))
+        try:
+            parts = list(dask.compute(*tasks))
+        except SenscalError:
+            raise
+        except (OSError, KeyError, RuntimeError, TypeError, ValueError) as exc:
+            # A chunk that is damaged on disk shows up only when its task reads it.
+            raise FileFormatError(f"cannot read dataset '{dataset}' of {path} ({type(exc).__name__}: "
+                                  f"{' '.join(str(exc).split())[:200]})") from None
         if progress:
             progress(shape[0])
     return _to_result(np.concatenate(parts, axis=0), int(shape[1]))

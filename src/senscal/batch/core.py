@@ -284,14 +284,15 @@ def rows_table(summary: BatchSummary):
 
 def write_rows(summary: BatchSummary, path: str | Path) -> Path:
     """Write the results table as Parquet or CSV (by extension)."""
-    from senscal.io.guard import check_output
+    from senscal.io.guard import atomic_output, check_output
 
     path = check_output(path)
-    df = rows_table(summary)
-    if path.suffix.lower() in (".parquet", ".pq"):
-        df.to_parquet(path, index=False)
-    elif path.suffix.lower() == ".csv":
-        df.to_csv(path, index=False)
-    else:
+    if path.suffix.lower() not in (".parquet", ".pq", ".csv"):
         raise InputError(f"--out must end in .parquet or .csv, got {path.name}")
+    df = rows_table(summary)
+    with atomic_output(path, what="results table") as tmp:
+        if path.suffix.lower() in (".parquet", ".pq"):
+            df.to_parquet(tmp, index=False)
+        else:
+            df.to_csv(tmp, index=False)
     return path

@@ -10,7 +10,7 @@ from typing_extensions import Annotated
 
 from senscal.cli.app import app
 from senscal.cli.common import console, err_console, print_json, progress_bar, table
-from senscal.io.guard import check_output, note_input
+from senscal.io.guard import atomic_output, check_output, note_input
 
 
 # Job options that name a file the job writes (--out always belongs to batch itself).
@@ -125,7 +125,12 @@ def fit_array_cmd(
             from dask.distributed import Client, LocalCluster
 
             if scheduler:
-                stack.enter_context(Client(scheduler, timeout="10s"))
+                try:
+                    stack.enter_context(Client(scheduler, timeout="10s"))
+                except (OSError, ValueError, TypeError) as exc:  # TimeoutError is an OSError
+                    raise InputError(f"cannot connect to the Dask scheduler {scheduler!r} "
+                                     f"({type(exc).__name__}: {' '.join(str(exc).split())[:150]}); give an "
+                                     "address like tcp://host:8786") from None
             else:
                 cluster = stack.enter_context(LocalCluster(n_workers=workers, threads_per_worker=1,
                                                            dashboard_address=None, silence_logs=50))
@@ -140,7 +145,8 @@ def fit_array_cmd(
     df["u_phase_deg"] = np.degrees(df["u_phase"])
     note_input(file)
     out = check_output(out)
-    df.to_parquet(out, index=False) if out.suffix.lower() in (".parquet", ".pq") else df.to_csv(out, index=False)
+    with atomic_output(out, what="results table") as tmp:
+        df.to_parquet(tmp, index=False) if out.suffix.lower() in (".parquet", ".pq") else df.to_csv(tmp, index=False)
     summary = {"file": str(file), "dataset": dataset, "n_channels": res.n_channels, "n_samples": res.n_samples,
                "out": str(out), "amplitude_median": float(np.median(res.amplitude)),
                "u_amplitude_median": float(np.median(res.u_amplitude))}

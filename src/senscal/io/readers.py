@@ -16,7 +16,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from senscal.errors import DataError, FileFormatError, InputError, SenscalError
-from senscal.io.guard import check_output, note_input
+from senscal.io.guard import atomic_output, check_output, note_input
 from senscal.io.recording import Recording
 
 __all__ = ["read_recording", "write_recording", "FORMATS"]
@@ -644,62 +644,64 @@ def write_recording(rec: Recording, path: str | Path, *, format: str | None = No
     if time_column in rec.channels:
         raise InputError(f"a data channel is called '{time_column}'; rename it or choose another time_column")
     info = {"units": dict(rec.units), "metadata": {k: v for k, v in rec.metadata.items() if isinstance(v, (str, int, float, bool))}}
-    if kind == "csv":
-        import pandas as pd
+    # Written to a temporary file and renamed: a full disk or a crash never leaves half a recording.
+    with atomic_output(path, what="recording") as tmp:
+        if kind == "csv":
+            import pandas as pd
 
-        # Units ride in the header as "name [unit]", which the reader parses back.
-        df = pd.DataFrame({time_column: rec.time,
-                           **{(f"{n} [{rec.units[n]}]" if units_in_header and rec.units.get(n) else n): rec.channels[n]
-                              for n in rec.names}})
-        df.to_csv(path, index=False, float_format="%.17g")
-    elif kind == "parquet":
-        import pyarrow as pa
-        import pyarrow.parquet as pq
+            # Units ride in the header as "name [unit]", which the reader parses back.
+            df = pd.DataFrame({time_column: rec.time,
+                               **{(f"{n} [{rec.units[n]}]" if units_in_header and rec.units.get(n) else n): rec.channels[n]
+                                  for n in rec.names}})
+            df.to_csv(tmp, index=False, float_format="%.17g")
+        elif kind == "parquet":
+            import pyarrow as pa
+            import pyarrow.parquet as pq
 
-        data = {n: rec.channels[n] for n in rec.names}
-        if rec.t is not None:
-            data = {time_column: rec.t, **data}
-        else:
-            info.update(fs=rec.fs, t0=rec.t0)
-        table = pa.table(data).replace_schema_metadata({b"senscal": json.dumps(info).encode()})
-        pq.write_table(table, path)
-    elif kind == "hdf5":
-        import h5py
-
-        with h5py.File(path, "w") as fh:
+            data = {n: rec.channels[n] for n in rec.names}
             if rec.t is not None:
-                fh.create_dataset(time_column, data=rec.t)
+                data = {time_column: rec.t, **data}
             else:
-                fh.attrs["fs"] = rec.fs
-                fh.attrs["t0"] = rec.t0
-            for n in rec.names:
-                ds = fh.create_dataset(n, data=rec.channels[n])
-                if n in rec.units:
-                    ds.attrs["unit"] = rec.units[n]
-            fh.attrs["metadata"] = json.dumps(info["metadata"])
-    elif kind == "tdms":
-        from nptdms import ChannelObject, TdmsWriter
+                info.update(fs=rec.fs, t0=rec.t0)
+            table = pa.table(data).replace_schema_metadata({b"senscal": json.dumps(info).encode()})
+            pq.write_table(table, tmp)
+        elif kind == "hdf5":
+            import h5py
 
-        objs = []
-        for n in rec.names:
-            props: dict[str, Any] = {}
-            if n in rec.units:
-                props["unit_string"] = rec.units[n]
-            if rec.t is None:
-                props["wf_increment"] = 1.0 / rec.fs
-                props["wf_start_offset"] = rec.t0
-            objs.append(ChannelObject("data", n, np.asarray(rec.channels[n]), properties=props))
-        if rec.t is not None:
-            objs.insert(0, ChannelObject("data", time_column, np.asarray(rec.t)))
-        with TdmsWriter(path) as writer:
-            writer.write_segment(objs)
-    elif kind == "npz":
-        arrays: dict[str, Any] = {n: rec.channels[n] for n in rec.names}
-        if rec.t is not None:
-            arrays[time_column] = rec.t
-        else:
-            arrays["fs"] = np.float64(rec.fs)
-            arrays["t0"] = np.float64(rec.t0)
-        arrays["__senscal__"] = np.array(json.dumps(info))
-        np.savez(path, **arrays)
+            with h5py.File(tmp, "w") as fh:
+                if rec.t is not None:
+                    fh.create_dataset(time_column, data=rec.t)
+                else:
+                    fh.attrs["fs"] = rec.fs
+                    fh.attrs["t0"] = rec.t0
+                for n in rec.names:
+                    ds = fh.create_dataset(n, data=rec.channels[n])
+                    if n in rec.units:
+                        ds.attrs["unit"] = rec.units[n]
+                fh.attrs["metadata"] = json.dumps(info["metadata"])
+        elif kind == "tdms":
+            from nptdms import ChannelObject, TdmsWriter
+
+            objs = []
+            for n in rec.names:
+                props: dict[str, Any] = {}
+                if n in rec.units:
+                    props["unit_string"] = rec.units[n]
+                if rec.t is None:
+                    props["wf_increment"] = 1.0 / rec.fs
+                    props["wf_start_offset"] = rec.t0
+                objs.append(ChannelObject("data", n, np.asarray(rec.channels[n]), properties=props))
+            if rec.t is not None:
+                objs.insert(0, ChannelObject("data", time_column, np.asarray(rec.t)))
+            with TdmsWriter(tmp) as writer:
+                writer.write_segment(objs)
+        elif kind == "npz":
+            arrays: dict[str, Any] = {n: rec.channels[n] for n in rec.names}
+            if rec.t is not None:
+                arrays[time_column] = rec.t
+            else:
+                arrays["fs"] = np.float64(rec.fs)
+                arrays["t0"] = np.float64(rec.t0)
+            arrays["__senscal__"] = np.array(json.dumps(info))
+            np.savez(tmp, **arrays)
     return path
