@@ -19,13 +19,19 @@ from typing import Sequence
 import numpy as np
 
 from senscal._result import ResultMixin
+from senscal.diagnostics import named
 from senscal.errors import DataError, FileFormatError, InputError
 from senscal.sinefit import fit_sine, wrap_phase
-from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget
+from senscal.vibration.budget import (BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget,
+                                     unique_warnings)
 from senscal.vibration.fits import AngleSync, cut_whole_revolutions, fit_against_angle, fit_pair
 
-__all__ = ["ResponsePoint", "FrequencyResponse", "RepeatedPoint", "response_point", "frequency_response",
-           "combine_repeats", "save_response", "load_response"]
+__all__ = ["ResponsePoint", "FrequencyResponse", "RepeatedPoint", "PhaseReference", "response_point",
+           "frequency_response", "phase_reference_run", "apply_phase_reference", "combine_repeats",
+           "save_response", "load_response"]
+
+# Relative tolerance within which two records are at the same frequency.
+_SAME_FREQ = 1e-3
 
 FORMAT = "senscal.vibration.FrequencyResponse"
 FORMAT_VERSION = 1
@@ -63,9 +69,16 @@ class ResponsePoint(ResultMixin):
         Where an angle-synchronised record was cut.
     n_samples : int
         Samples used in the fit.
-    snr_db, thd : float
-        Output fit signal-to-noise ratio and total harmonic distortion of the
-        output (ratio, from a second fit with 3 harmonics; nan when not computed).
+    snr_db : float
+        Output fit signal-to-noise ratio.
+    phase_reference : str
+        How the input phase ``phi_0`` behind ``phase_delay`` was obtained:
+        ``"entered"``, ``"reference run"``, ``"reference channel"``,
+        ``"assumed encoder zero"`` (angle fit without either; warned) or
+        ``"none"`` (no phase delay).
+    warnings : tuple of str
+        Named warnings (``phase-reference-unknown``, and any the sine fit
+        raised).
     """
 
     source: str
@@ -89,6 +102,23 @@ class ResponsePoint(ResultMixin):
     sync: AngleSync | None
     n_samples: int
     snr_db: float
+    phase_reference: str = "none"
+    warnings: tuple[str, ...] = ()
+
+
+def _fit_dof(fit) -> float:
+    """Degrees of freedom behind a fit's uncertainties (effective ones when the fit reports them)."""
+    nu = getattr(fit, "effective_dof", None)
+    return float(fit.dof if nu is None else nu)
+
+
+def _fit_warnings(*fits) -> tuple[str, ...]:
+    out: list[str] = []
+    for f in fits:
+        for w in getattr(f, "warnings", ()) or ():
+            if w not in out:
+                out.append(str(w))
+    return tuple(out)
 
 
 def _check_rel(name: str, value: float) -> float:
@@ -110,9 +140,14 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
 
     * ``input_amplitude`` with ``angle_deg`` (double centrifuge): the record
       is cut to whole turntable revolutions starting at a 360 deg crossing and
-      the output is fitted against the angle; the sensitive axis sees
-      ``a0 cos(angle)``, so the input phase is pi/2 in the sine convention and
-      the phase delay needs no start-up test.
+      the output is fitted against the angle.  The phase delay is the output
+      phase at encoder angle 0 minus the input phase ``phi_0`` there:
+      ``initial_phase`` when entered (``u_input_phase`` in the budget), or
+      from a start-up / lowest-frequency run (:func:`apply_phase_reference`).
+      Without either, ``phi_0 = pi/2`` is assumed (the axis sees
+      ``a0 cos(angle)``: encoder zero exactly along the field), which an
+      encoder zero offset shifts one for one, so the point carries the named
+      warning ``phase-reference-unknown``.
     * ``input_amplitude`` alone: the output is fitted against time; the
       phase delay is ``phase - initial_phase`` when ``initial_phase`` is given.
     * ``reference`` with ``reference_sensitivity`` (back-to-back, ISO
@@ -138,12 +173,14 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
     static_sensitivity : float, optional
         ``S_0`` (output unit per m/s^2) for the normalised sensitivity.
     initial_phase : float, optional
-        Input phase in rad at t = 0 (sine convention) from a start-up test.
+        Input phase ``phi_0`` in rad (sine convention) from a start-up test:
+        at t = 0 for a time fit, at encoder angle 0 with ``angle_deg``
+        (pi/2 when encoder zero lies exactly along the field).
     u_input, u_reference_sensitivity, u_static_sensitivity : float
         Type B relative standard uncertainties (fractions) of the input
         amplitude, the reference sensitivity and ``S_0``.
     u_input_phase : float
-        Type B standard uncertainty of the input phase in rad.
+        Type B standard uncertainty of the entered input phase in rad.
     drift : bool
         Also fit a linear offset drift.
     harmonics : int
@@ -191,6 +228,8 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         phase, u_phase = float(pf.output.phase), pf.u_output_phase
         delay, u_delay_fit = pf.phase_difference, math.sqrt(pf.covariance[2, 2])
         method, n, snr = "back-to-back", pf.output.n_samples, float(pf.output.snr_db)
+        dof = min(_fit_dof(pf.reference), _fit_dof(pf.output))
+        phase_ref, warns = "reference channel", _fit_warnings(pf.reference, pf.output)
     else:
         if input_amplitude is None or not 0 < input_amplitude < math.inf:
             raise InputError("give the known peak input acceleration (> 0, m/s^2) or a reference channel")
@@ -200,8 +239,20 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
             sl = slice(sync.start, sync.stop)
             fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics, drift=drift)
             f, u_f = sync.frequency, sync.u_frequency
-            # The axis sees a0 cos(angle) = a0 sin(angle + pi/2).
-            delay = float(wrap_phase(fit.phase - 0.5 * math.pi))
+            warns = _fit_warnings(fit)
+            if initial_phase is None:
+                # The axis sees a0 cos(angle) = a0 sin(angle + pi/2) only if
+                # encoder zero lies along the field: an assumption, said aloud.
+                delay = float(wrap_phase(fit.phase - 0.5 * math.pi))
+                phase_ref = "assumed encoder zero"
+                warns += (named("phase-reference-unknown", (
+                    "the input phase phi_0 at encoder zero was neither entered nor measured, so the phase delay "
+                    "assumes encoder zero lies exactly along the field; an encoder offset shifts every phase delay "
+                    "by the offset, which its U does not contain; give --phase-reference FILE (start-up or "
+                    "lowest-frequency run) or --initial-phase-deg with --u-initial-phase-deg")),)
+            else:
+                delay = float(wrap_phase(fit.phase - initial_phase))
+                phase_ref = "entered"
             u_delay_fit = float(fit.u_phase)
             method = "known input, angle-synchronised"
         else:
@@ -210,28 +261,30 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
             delay = None if initial_phase is None else float(wrap_phase(fit.phase - initial_phase))
             u_delay_fit = float(fit.u_phase)
             method = "known input"
+            phase_ref, warns = ("none" if initial_phase is None else "entered"), _fit_warnings(fit)
         a_out, u_amp = float(fit.amplitude), float(fit.u_amplitude)
         s = a_out / a_in
         u_fit = u_amp / a_in
         comps_b = [("input amplitude", "B", u_input * s)]
         phase, u_phase = float(fit.phase), float(fit.u_phase)
         n, snr = fit.n_samples, float(fit.snr_db)
+        dof = _fit_dof(fit)
     if not a_out > 0:
         # A dead (constant) output has no phase and no relative uncertainty.
         raise DataError(f"the output channel of {source} carries no sinusoid at {float(f):g} Hz (amplitude 0); "
                         "check --output and the sensor")
-    s_budget = make_budget("sensitivity", s, unit, [("output fit (type A)", "A", u_fit)] + comps_b)
+    s_budget = make_budget("sensitivity", s, unit, [("output fit (type A)", "A", u_fit, dof)] + comps_b)
     n_budget = None
     if static_sensitivity is not None:
         if not 0 < static_sensitivity < math.inf:
             raise InputError(f"static sensitivity S0 must be > 0, got {static_sensitivity!r}")
         r = s / static_sensitivity
         n_budget = make_budget("normalized sensitivity", r, "1",
-                               [(c.source, c.kind, c.standard_uncertainty / static_sensitivity)
+                               [(c.source, c.kind, c.standard_uncertainty / static_sensitivity, c.dof)
                                 for c in s_budget.components] + [("static sensitivity S0", "B", u_static_sensitivity * r)])
     d_budget = None
     if delay is not None:
-        d_budget = make_budget("phase delay", delay, "rad", [("phase fits (type A)", "A", u_delay_fit),
+        d_budget = make_budget("phase delay", delay, "rad", [("phase fits (type A)", "A", u_delay_fit, dof),
                                                              ("input phase", "B", u_input_phase)])
     return ResponsePoint(
         source=source, method=method, frequency=float(f), u_frequency=float(u_f), input_amplitude=a_in,
@@ -241,8 +294,151 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         phase=phase, u_phase=u_phase,
         phase_delay=delay, u_phase_delay=None if d_budget is None else d_budget.combined,
         sensitivity_budget=s_budget, normalized_budget=n_budget, phase_delay_budget=d_budget,
-        sync=sync, n_samples=int(n), snr_db=snr,
+        sync=sync, n_samples=int(n), snr_db=snr, phase_reference=phase_ref, warnings=warns,
     )
+
+
+@dataclass(frozen=True)
+class PhaseReference(ResultMixin):
+    """Output phase of a start-up / lowest-frequency double-centrifuge run.
+
+    Attributes
+    ----------
+    source : str
+        Label (file name).
+    frequency : float
+        Turntable frequency of the run, Hz.
+    phase, u_phase : float
+        Output phase at encoder angle 0 (sine convention) and its standard
+        uncertainty, rad: the input phase ``phi_0`` plus the sensor's own
+        phase at this frequency.
+    dof : float
+        Degrees of freedom of ``u_phase``.
+    """
+
+    source: str
+    frequency: float
+    phase: float
+    u_phase: float
+    dof: float
+
+
+def phase_reference_run(output, t, angle_deg, *, harmonics: int = 1, drift: bool = False,
+                        source: str = "") -> PhaseReference:
+    """Fit a start-up / lowest-frequency run against the turntable angle.
+
+    Parameters
+    ----------
+    output : array_like, shape (N,)
+        Accelerometer output of the run.
+    t : array_like, shape (N,)
+        Time stamps in s.
+    angle_deg : array_like, shape (N,)
+        Turntable angle in degrees (same encoder as the response records).
+    harmonics, drift :
+        As in :func:`response_point`.
+    source : str
+        Label stored with the result.
+
+    Returns
+    -------
+    PhaseReference
+
+    References
+    ----------
+    .. [1] Qin Chaojun (seed 003), METHODS.md section 4: "a start-up test
+       gives the initial phase phi_0; dphi_i = phi_i - phi_0".
+    """
+    y = np.asarray(output, dtype=float)
+    sync = cut_whole_revolutions(angle_deg, t)
+    sl = slice(sync.start, sync.stop)
+    fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics, drift=drift)
+    if not float(fit.amplitude) > 0:
+        raise DataError(f"the phase-reference run {source} carries no sinusoid; check the file and --output")
+    return PhaseReference(source, float(sync.frequency), float(fit.phase), float(fit.u_phase), _fit_dof(fit))
+
+
+def apply_phase_reference(points: Sequence[ResponsePoint], ref: PhaseReference) -> tuple[ResponsePoint, ...]:
+    """Phase delays of angle-synchronised points relative to a reference run (the paper's phi_0).
+
+    The reference run's output phase is ``phi_0 + d(f_ref)``, with ``d`` the
+    sensor's own phase delay.  Below the resonance a sensor's phase is linear
+    in frequency, ``d(f) = -tau f`` (relative error of order
+    ``(f / f_n)^2``), so the lowest point above ``f_ref``, at ``f_1`` with
+    output phase ``phi_1``, gives ``d(f_ref) = c (phi_1 - phi_ref)`` with
+    ``c = f_ref / (f_1 - f_ref)`` and
+
+        ``phi_0 = (1 + c) phi_ref - c phi_1``,  ``dphi_i = phi_i - phi_0``.
+
+    The uncertainty follows from the three independent phase fits (a point
+    whose source is the reference run's file shares its fit).  The
+    reference part is common to all points: it goes into the budget as
+    ``"phi_0 from reference run"`` (type B for the averaging of repeats,
+    which cannot reduce it).
+
+    Parameters
+    ----------
+    points : sequence of ResponsePoint
+        Angle-synchronised points (``sync`` set).
+    ref : PhaseReference
+        From :func:`phase_reference_run` with the same encoder.
+
+    Returns
+    -------
+    tuple of ResponsePoint
+        The points with ``phase_delay``, its budget and ``phase_reference =
+        "reference run"``; a point gets the warning
+        ``phase-reference-uncorrected`` when no point lies above ``f_ref``
+        (then ``c = 0``: delays are relative to the sensor's own delay at
+        ``f_ref``).
+    """
+    import dataclasses
+
+    if any(p.sync is None for p in points):
+        raise InputError("a phase-reference run applies to double-centrifuge records fitted against the turntable angle "
+                         "(--angle)")
+    above = [p for p in points if p.frequency > ref.frequency * (1 + _SAME_FREQ)]
+    warns: tuple[str, ...] = ()
+    if above:
+        p1 = min(above, key=lambda p: p.frequency)
+        c = ref.frequency / (p1.frequency - ref.frequency)
+        # Phases of the same fit share one key, so shared records are not counted twice.
+        key1 = p1.source or id(p1)
+    else:
+        p1, c, key1 = None, 0.0, None
+        warns = (named("phase-reference-uncorrected", (
+            f"no response point lies above the phase-reference run's {ref.frequency:.4g} Hz, so the sensor's own "
+            "delay at that frequency cannot be extrapolated: the phase delays are relative to it; record the "
+            "reference run at the lowest frequency")),)
+    key_ref = ref.source or "reference run"
+    u_of = {key_ref: (ref.u_phase, ref.dof)}
+    if p1 is not None:
+        u_of.setdefault(key1, (p1.u_phase, _dof_of(p1)))
+        # phi_1 relative to phi_ref must not wrap apart
+        d1 = float(wrap_phase(p1.phase - ref.phase))
+    out = []
+    for p in points:
+        key = p.source or id(p)
+        coef = {key: 1.0}
+        coef[key_ref] = coef.get(key_ref, 0.0) - (1.0 + c)
+        if p1 is not None:
+            coef[key1] = coef.get(key1, 0.0) + c
+        u_of.setdefault(key, (p.u_phase, _dof_of(p)))
+        phi0 = ref.phase + (-c * d1 if p1 is not None else 0.0)
+        delay = float(wrap_phase(p.phase - phi0))
+        own = abs(coef.get(key, 0.0)) * u_of[key][0]
+        rest = math.sqrt(sum((cf * u_of[k][0]) ** 2 for k, cf in coef.items() if k != key))
+        budget = make_budget("phase delay", delay, "rad", [("phase fits (type A)", "A", own, u_of[key][1]),
+                                                           ("phi_0 from reference run", "B", rest)])
+        pw = tuple(w for w in p.warnings if not w.startswith("phase-reference-unknown:")) + warns
+        out.append(dataclasses.replace(p, phase_delay=delay, u_phase_delay=budget.combined, phase_delay_budget=budget,
+                                       phase_reference="reference run", warnings=pw))
+    return tuple(out)
+
+
+def _dof_of(p: ResponsePoint) -> float:
+    c = [c for c in p.sensitivity_budget.components if c.kind == "A"]
+    return math.inf if not c or c[0].dof is None else float(c[0].dof)
 
 
 @dataclass(frozen=True)
@@ -256,11 +452,18 @@ class FrequencyResponse(ResultMixin):
         Sensitivity unit.
     static_sensitivity : float or None
         ``S_0`` used for the normalisation.
+    phase_reference : str
+        How the input phase behind the phase delays was obtained, in words
+        (for the certificate).
+    warnings : tuple of str
+        Named warnings of the points, one per name.
     """
 
     points: tuple[ResponsePoint, ...]
     unit: str
     static_sensitivity: float | None
+    phase_reference: str = ""
+    warnings: tuple[str, ...] = ()
 
     @property
     def frequency(self) -> np.ndarray:
@@ -277,12 +480,36 @@ class FrequencyResponse(ResultMixin):
 
 
 def frequency_response(points: Sequence[ResponsePoint], *, unit: str = "V/(m/s^2)",
-                       static_sensitivity: float | None = None) -> FrequencyResponse:
-    """Collect response points into a :class:`FrequencyResponse` (sorted by frequency)."""
+                       static_sensitivity: float | None = None, phase_reference: str | None = None,
+                       ) -> FrequencyResponse:
+    """Collect response points into a :class:`FrequencyResponse` (sorted by frequency).
+
+    Parameters
+    ----------
+    points : sequence of ResponsePoint
+    unit : str
+        Sensitivity unit.
+    static_sensitivity : float, optional
+        ``S_0`` used for the normalisation.
+    phase_reference : str, optional
+        How phi_0 was obtained, in words (default: from the points).
+    """
     if not points:
         raise InputError("give at least one frequency point")
     pts = tuple(sorted(points, key=lambda p: p.frequency))
-    return FrequencyResponse(pts, unit, static_sensitivity)
+    if phase_reference is None:
+        phase_reference = _PHASE_REF_TEXT.get(pts[0].phase_reference, pts[0].phase_reference)
+    return FrequencyResponse(pts, unit, static_sensitivity, phase_reference,
+                             unique_warnings(*(p.warnings for p in pts)))
+
+
+_PHASE_REF_TEXT = {
+    "none": "no input phase: phase delay not determined",
+    "entered": "input phase phi_0 entered (start-up test), its u in the budget",
+    "reference run": "input phase phi_0 from a start-up / lowest-frequency run",
+    "reference channel": "phase of the reference accelerometer",
+    "assumed encoder zero": "NOT DETERMINED: encoder zero assumed along the field (warning phase-reference-unknown)",
+}
 
 
 @dataclass(frozen=True)
@@ -302,6 +529,9 @@ class RepeatedPoint(ResultMixin):
     phase_delay, u_phase_delay : float or None
         rad.
     sensitivity_budget, normalized_budget, phase_delay_budget : UncertaintyBudget or None
+    warnings : tuple of str
+        ``excess-scatter`` when the repeats scatter more than their fits
+        explain (type A then from the spread, Student k), and the points' own.
     """
 
     frequency: float
@@ -317,19 +547,21 @@ class RepeatedPoint(ResultMixin):
     sensitivity_budget: UncertaintyBudget
     normalized_budget: UncertaintyBudget | None
     phase_delay_budget: UncertaintyBudget | None
+    warnings: tuple[str, ...] = ()
 
 
 def _mean_of(budgets: Sequence[UncertaintyBudget], quantity: str, relative: bool):
-    """Combine per-repeat budgets: type A from the spread, type B carried over."""
+    """Combine per-repeat budgets: type A by :func:`mean_with_budget`'s rule, type B carried over."""
     first = budgets[0]
     a_src = [c for c in first.components if c.kind == "A"][0].source
     u_fit = [b.component(a_src).standard_uncertainty for b in budgets]
+    dof = [b.component(a_src).dof for b in budgets]
     vals = [b.value for b in budgets]
     bs = [(c.source, c.standard_uncertainty / abs(first.value) if relative else c.standard_uncertainty)
           for c in first.components if c.kind == "B"]
-    _, std, bud = mean_with_budget(vals, u_fit, bs if relative else [], quantity, first.unit,
-                                   absolute_b=[] if relative else bs)
-    return bud, std
+    m = mean_with_budget(vals, u_fit, bs if relative else [], quantity, first.unit,
+                         absolute_b=[] if relative else bs, fit_dof=dof)
+    return m.budget, m.std, m.warnings
 
 
 def combine_repeats(points: Sequence[ResponsePoint], *, rel_tol: float = 1e-3) -> tuple[RepeatedPoint, ...]:
@@ -345,8 +577,10 @@ def combine_repeats(points: Sequence[ResponsePoint], *, rel_tol: float = 1e-3) -
     -------
     tuple of RepeatedPoint
         One per distinct frequency, sorted by frequency.  Type A of each mean
-        is the larger of ``s / sqrt(n)`` over the repeats and the fits' own
-        uncertainty of the mean (see :func:`~senscal.vibration.budget.mean_with_budget`).
+        is the fits' own uncertainty of the mean when a chi-square test finds
+        the repeats consistent with it, else ``s / sqrt(n)`` with Student k
+        and the warning ``excess-scatter`` (see
+        :func:`~senscal.vibration.budget.mean_with_budget`).
 
     References
     ----------
@@ -360,25 +594,28 @@ def combine_repeats(points: Sequence[ResponsePoint], *, rel_tol: float = 1e-3) -
             groups.append([p])
     out = []
     for g in groups:
-        sb, s_std = _mean_of([p.sensitivity_budget for p in g], "sensitivity", True)
+        sb, s_std, warns = _mean_of([p.sensitivity_budget for p in g], "sensitivity", True)
         nb = None
         if all(p.normalized_budget is not None for p in g):
-            nb, _ = _mean_of([p.normalized_budget for p in g], "normalized sensitivity", True)
+            nb, _, _ = _mean_of([p.normalized_budget for p in g], "normalized sensitivity", True)
         db = None
         if all(p.phase_delay_budget is not None for p in g):
             # average phases around the first one so a +/-pi wrap cannot split the mean
             ref = g[0].phase_delay
             wrapped = [make_budget("phase delay", ref + float(wrap_phase(p.phase_delay - ref)), "rad",
-                                   [(c.source, c.kind, c.standard_uncertainty) for c in p.phase_delay_budget.components])
+                                   [(c.source, c.kind, c.standard_uncertainty, c.dof)
+                                    for c in p.phase_delay_budget.components])
                        for p in g]
-            db, _ = _mean_of(wrapped, "phase delay", False)
+            db, _, dw = _mean_of(wrapped, "phase delay", False)
+            warns += dw
         out.append(RepeatedPoint(
             frequency=float(np.mean([p.frequency for p in g])), n_repeats=len(g), sources=tuple(p.source for p in g),
             sensitivity=sb.value, u_sensitivity=sb.combined, sensitivity_std=s_std,
             normalized_sensitivity=None if nb is None else nb.value,
             u_normalized_sensitivity=None if nb is None else nb.combined,
             phase_delay=None if db is None else db.value, u_phase_delay=None if db is None else db.combined,
-            sensitivity_budget=sb, normalized_budget=nb, phase_delay_budget=db))
+            sensitivity_budget=sb, normalized_budget=nb, phase_delay_budget=db,
+            warnings=unique_warnings(warns, *(p.warnings for p in g))))
     return tuple(out)
 
 
@@ -389,11 +626,11 @@ def save_response(resp: FrequencyResponse, path) -> "Path":
 
     from senscal._result import to_jsonable
 
-    from senscal.io.guard import check_output
+    from senscal.io.guard import check_output, write_text
 
     path = check_output(path, what="response file")
     doc = {"type": FORMAT, "format_version": FORMAT_VERSION, **to_jsonable(resp)}
-    path.write_text(json.dumps(doc, indent=1) + "\n")
+    write_text(path, json.dumps(doc, indent=1) + "\n", what="response file")
     return path
 
 
@@ -402,7 +639,7 @@ def _budget_from(d):
         return None
     comps = tuple(BudgetComponent(**c) for c in d["components"])
     return UncertaintyBudget(d["quantity"], d["value"], d["unit"], comps, d["combined"], d["coverage_factor"],
-                             d["expanded"])
+                             d["expanded"], d.get("effective_dof"))
 
 
 def load_response(path) -> FrequencyResponse:
@@ -414,10 +651,9 @@ def load_response(path) -> FrequencyResponse:
 
     path = Path(path)
     note_input(path)
-    try:
-        doc = json.loads(path.read_text())
-    except (OSError, ValueError) as exc:
-        raise FileFormatError(f"cannot read a frequency response from {path}: {exc}") from None
+    from senscal.io.sidefiles import read_json
+
+    doc = read_json(path, "response file", expect=None)  # the type check below names a wrong type
     if not isinstance(doc, dict) or doc.get("type") != FORMAT:
         raise FileFormatError(f"{path} is not a senscal frequency response (type {doc.get('type') if isinstance(doc, dict) else None!r})")
     if doc.get("format_version", 0) > FORMAT_VERSION:
@@ -429,5 +665,7 @@ def load_response(path) -> FrequencyResponse:
         for k in ("sensitivity_budget", "normalized_budget", "phase_delay_budget"):
             kw[k] = _budget_from(d[k])
         kw["sync"] = None if d["sync"] is None else AngleSync(**d["sync"])
+        kw["warnings"] = tuple(d.get("warnings", ()))
         pts.append(ResponsePoint(**kw))
-    return FrequencyResponse(tuple(pts), doc["unit"], doc["static_sensitivity"])
+    return FrequencyResponse(tuple(pts), doc["unit"], doc["static_sensitivity"], doc.get("phase_reference", ""),
+                             tuple(doc.get("warnings", ())))

@@ -18,7 +18,7 @@ import numpy as np
 from senscal._result import ResultMixin
 from senscal.errors import InputError
 from senscal.sinefit import wrap_phase
-from senscal.vibration.budget import UncertaintyBudget, make_budget, mean_with_budget
+from senscal.vibration.budget import UncertaintyBudget, make_budget, mean_with_budget, unique_warnings
 from senscal.vibration.fits import fit_pair
 
 __all__ = ["VelocityPoint", "VelocityCalibration", "velocity_point", "velocity_calibration"]
@@ -51,6 +51,8 @@ class VelocityPoint(ResultMixin):
         The sensitivity's budget.
     snr_db : float
         Signal-to-noise ratio of the sensor channel fit.
+    warnings : tuple of str
+        Named warnings raised by the sine fits.
     """
 
     source: str
@@ -66,6 +68,7 @@ class VelocityPoint(ResultMixin):
     u_phase: float
     budget: UncertaintyBudget
     snr_db: float
+    warnings: tuple[str, ...] = ()
 
 
 def velocity_point(position, output, t, *, freq: float | None = None, drift: bool = True, harmonics: int = 1,
@@ -119,7 +122,9 @@ def velocity_point(position, output, t, *, freq: float | None = None, drift: boo
     s = a_s / (TWO_PI * f * a_p)
     jac = np.array([-s / a_p, s / a_s if a_s > 0 else 1.0 / (TWO_PI * f * a_p), 0.0, -s / f])
     u_fit = math.sqrt(max(float(jac @ pf.covariance @ jac), 0.0))
-    budget = make_budget("sensitivity", s, unit, [("sine fits", "A", u_fit),
+    dof = float(min(getattr(pf.reference, "effective_dof", None) or pf.reference.dof,
+                    getattr(pf.output, "effective_dof", None) or pf.output.dof))
+    budget = make_budget("sensitivity", s, unit, [("sine fits", "A", u_fit, dof),
                                                   ("position reference", "B", u_position * s)])
     return VelocityPoint(
         source=source, frequency=f, u_frequency=pf.u_frequency,
@@ -128,6 +133,7 @@ def velocity_point(position, output, t, *, freq: float | None = None, drift: boo
         sensitivity=s, u_sensitivity=budget.combined,
         phase=float(wrap_phase(pf.phase_difference - 0.5 * math.pi)), u_phase=math.sqrt(pf.covariance[2, 2]),
         budget=budget, snr_db=float(pf.output.snr_db),
+        warnings=unique_warnings(*(getattr(f, "warnings", ()) or () for f in (pf.reference, pf.output))),
     )
 
 
@@ -145,10 +151,19 @@ class VelocityCalibration(ResultMixin):
     u_sensitivity : float
         Combined standard uncertainty of the mean (see ``budget``).
     budget : UncertaintyBudget
-        Type A: the larger of the spread over points (``s / sqrt(n)``) and the
-        fits' own uncertainty of the mean (they measure the same noise, so
-        they are not added); type B: position reference.
+        Type A: the fits' own uncertainty of the mean when a chi-square test
+        finds the points consistent with it, else the spread over points
+        ``s / sqrt(n)`` with ``n - 1`` degrees of freedom and Student k
+        (:func:`~senscal.vibration.budget.mean_with_budget`); type B:
+        position reference.
     unit : str
+    birge_ratio, chi2_p : float
+        Scatter of the point sensitivities relative to their fit
+        uncertainties, and the chi-square test's p value.
+    warnings : tuple of str
+        ``excess-scatter`` (the sensitivity varies between points more than
+        the fits explain: a frequency dependence or a change between records)
+        and the points' fit warnings.
     """
 
     points: tuple[VelocityPoint, ...]
@@ -157,6 +172,9 @@ class VelocityCalibration(ResultMixin):
     u_sensitivity: float
     budget: UncertaintyBudget
     unit: str
+    birge_ratio: float = float("nan")
+    chi2_p: float = float("nan")
+    warnings: tuple[str, ...] = ()
 
 
 def velocity_calibration(points: Sequence[VelocityPoint], *, u_position: float = 0.0,
@@ -179,7 +197,10 @@ def velocity_calibration(points: Sequence[VelocityPoint], *, u_position: float =
     """
     if not points:
         raise InputError("give at least one velocity calibration point")
-    u_a = [p.budget.component("sine fits").standard_uncertainty for p in points]
-    mean, std, budget = mean_with_budget([p.sensitivity for p in points], u_a, [("position reference", u_position)],
-                                         "mean sensitivity", unit)
-    return VelocityCalibration(tuple(points), mean, std, budget.combined, budget, unit)
+    comps = [p.budget.component("sine fits") for p in points]
+    m = mean_with_budget([p.sensitivity for p in points], [c.standard_uncertainty for c in comps],
+                         [("position reference", u_position)], "mean sensitivity", unit,
+                         fit_dof=[c.dof for c in comps])
+    warns = unique_warnings(m.warnings, *(p.warnings for p in points))
+    return VelocityCalibration(tuple(points), m.mean, m.std, m.budget.combined, m.budget, unit, m.birge_ratio,
+                               m.chi2_p, warns)
