@@ -684,7 +684,7 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
     -----
     Coloured noise: the covariance becomes ``G^-1 (A^T Sigma A) G^-1`` with
     ``Sigma`` the autocovariance of an autoregressive model of the residual
-    (order by AIC), see :mod:`senscal.sinefit.noise`; for white noise it is
+    (order by BIC), see :mod:`senscal.sinefit.noise`; for white noise it is
     ``sigma^2 G^-1``, the Cramer-Rao bound.  The whiteness test of the
     compiled path comes from sums taken in its single pass.
 

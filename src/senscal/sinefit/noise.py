@@ -9,7 +9,7 @@ near 0 Hz, not the total variance.  This module
    (the Durbin-Watson statistic in another form: ``r1 sqrt(N)`` is standard
    normal for white noise), cheap enough to run inside the fit's single pass;
 2. when the test fires, models the residual as an autoregressive (AR)
-   process (Yule-Walker, order by AIC) and propagates its spectrum through
+   process (Yule-Walker, order by BIC) and propagates its spectrum through
    the design matrix exactly: ``cov = G^-1 (A^T Sigma A) G^-1`` with
    ``A^T Sigma A = sum_m S(nu_m) F_m F_m^H / M`` on a zero-padded DFT grid;
 3. gives the effective degrees of freedom of the resulting uncertainty
@@ -23,7 +23,8 @@ References
    (1992) 953-966 (AR pre-whitening of the sandwich covariance).
 .. [2] P. J. Brockwell and R. A. Davis, *Time Series: Theory and Methods*,
    2nd ed., Springer 1991, 8.1-8.2 (Yule-Walker, asymptotic covariance) and
-   9.3 (AIC order selection).
+   9.3 (order selection; BIC is the consistent criterion, so a false alarm
+   on white noise gets order 0 or 1, not a spurious high order).
 """
 
 from __future__ import annotations
@@ -83,8 +84,8 @@ def _autocov(r: np.ndarray, maxlag: int) -> np.ndarray:
     return np.fft.irfft(x.real**2 + x.imag**2, m)[: maxlag + 1] / n
 
 
-def _levinson_aic(acov: np.ndarray, n: int) -> tuple[np.ndarray, float]:
-    """Yule-Walker AR coefficients of the order with the smallest AIC.
+def _levinson_bic(acov: np.ndarray, n: int) -> tuple[np.ndarray, float]:
+    """Yule-Walker AR coefficients of the order with the smallest BIC (``N log s2 + k log N``).
 
     Returns (phi, innovation variance); phi has the order's length.
     """
@@ -98,9 +99,9 @@ def _levinson_aic(acov: np.ndarray, n: int) -> tuple[np.ndarray, float]:
         err = err * (1.0 - refl * refl)
         if not err > 0:
             break
-        aic = n * math.log(err) + 2 * k
-        if aic < best[0]:
-            best = (aic, phi.copy(), err)
+        bic = n * math.log(err) + k * math.log(n)
+        if bic < best[0]:
+            best = (bic, phi.copy(), err)
     return best[1], best[2]
 
 
@@ -134,7 +135,7 @@ def coloured_covariance(resid: np.ndarray, design: np.ndarray, ginv: np.ndarray,
     acov = _autocov(resid, pmax)
     if not acov[0] > 0:
         return ColouredNoise(np.zeros_like(ginv), float(n - n_params), 0)
-    phi, s2e = _levinson_aic(acov, n)
+    phi, s2e = _levinson_bic(acov, n)
     s2e *= n / max(n - n_params, 1)
     order = phi.size
     m = 1 << int(math.ceil(math.log2(2 * n)))
