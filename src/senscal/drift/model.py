@@ -392,13 +392,17 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
     """
     import yaml
 
+    from senscal.io.sidefiles import read_text
+
     path = Path(path)
     try:
-        doc = yaml.safe_load(path.read_text())
+        doc = yaml.safe_load(read_text(path, "model file"))  # one line for non-UTF-8 bytes
     except FileNotFoundError:
         raise FileFormatError(f"model file {path} does not exist") from None
     except yaml.YAMLError as exc:
         raise FileFormatError(f"model file {path} is not valid YAML ({str(exc).splitlines()[0]})") from None
+    except (RecursionError, ValueError, TypeError, OverflowError) as exc:  # deep nesting, odd scalars
+        raise FileFormatError(f"model file {path} cannot be read as a drift model ({type(exc).__name__})") from None
     except OSError as exc:
         raise FileFormatError(f"cannot read model file {path}: {exc.strerror or exc}") from None
     if not isinstance(doc, dict) or "channels" not in doc:

@@ -324,7 +324,9 @@ def smoother_gains(F, Pf, Pp):
     """RTS gains C_t = P_t F_{t+1}^T Pp_{t+1}^{-1}, t = 0..T-2 (time-major).
 
     Pp is symmetric positive definite: C^T = Pp^{-1} (F P) by a Cholesky
-    solve on preallocated buffers (LU fallback if rounding broke definiteness).
+    solve on preallocated buffers.  Otherwise (rounding broke definiteness,
+    or a state is known exactly, e.g. held at a given value with zero prior
+    and process variance) the pseudo-inverse: such a state's gain is zero.
     """
     T, n, _ = Pf.shape
     C = np.zeros((T, n, n))
@@ -339,7 +341,7 @@ def smoother_gains(F, Pf, Pp):
         Pt = Pf[t]
         _mm(Ft1, Pt, FP)
         if not _chol(A, idx, n, L):
-            C[t] = np.linalg.solve(A, FP).T
+            C[t] = (np.linalg.pinv(A) @ FP).T
             continue
         for c in range(n):
             for i in range(n):
