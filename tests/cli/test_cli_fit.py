@@ -121,3 +121,90 @@ def test_usage_errors_exit_2_without_traceback(cli, args):
 def test_demo_unknown_job(cli, tmp_path):
     r = cli("demo", "--out", tmp_path, "--only", "nope")
     assert r.code == 2 and "no demo job 'nope'" in r.err and "sinefit" in r.err
+
+
+# --- issue 13: non-signal columns, coloured noise, phase far from t = 0 ---------------------------------------
+
+def _scope_like(tmp_path, with_signal=True):
+    rng = np.random.default_rng(6)
+    n = 2000
+    t = np.arange(n) / 1000.0
+    df = pd.DataFrame({"Sample": np.arange(n), "t": t})
+    if with_signal:
+        df["CH1"] = 0.9 * np.sin(2 * math.pi * 10.0 * t + 0.3) + rng.normal(0, 0.01, n)
+        df["flat"] = 1.5
+    path = tmp_path / "scope.csv"
+    df.to_csv(path, index=False)
+    return path
+
+
+def test_fit_skips_counter_and_constant_columns_and_names_them(cli, tmp_path):
+    path = _scope_like(tmp_path)
+    r = cli("fit", path, "--json")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    assert list(doc["channels"]) == ["CH1"]
+    assert set(doc["not_fitted"]) == {"Sample", "flat"}
+    assert "sample counter" in doc["not_fitted"]["Sample"] and "constant" in doc["not_fitted"]["flat"]
+    assert "channel-not-fitted: channel 'Sample' was not fitted" in r.err
+    assert "channel-not-fitted: channel 'flat'" in r.err
+    assert "Traceback" not in r.err
+    # The same with a known frequency (the batched path).
+    r = cli("fit", path, "--freq", "10", "--json")
+    assert r.code == 0 and list(json.loads(r.out)["channels"]) == ["CH1"]
+    # --strict: the result is printed, then exit 3 naming the first warning.
+    r = cli("fit", path, "--strict")
+    assert r.code == 3 and "CH1" in r.out and "channel-not-fitted" in r.err
+
+
+def test_fit_error_only_when_nothing_can_be_fitted(cli, tmp_path):
+    path = _scope_like(tmp_path, with_signal=False)
+    r = cli("fit", path)
+    assert r.code == 2
+    assert "'Sample'" in r.err and "sample counter" in r.err
+    assert len(r.err.strip().splitlines()) == 1 and "Traceback" not in r.err
+
+
+def test_fit_coloured_noise_reported_and_strict(cli, tmp_path):
+    r = cli("simulate", "sine", "--out", tmp_path, "--seed", "2", "--channels", "2", "--noise-rho", "0.9")
+    assert r.code == 0, r.err
+    truth = json.loads((tmp_path / "sine_truth.json").read_text())
+    assert truth["noise_rho"] == 0.9
+    r = cli("fit", tmp_path / "sine.csv", "--json")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    for name, d in doc["channels"].items():
+        assert d["noise_model"] == "coloured" and d["residual_lag1"] > 0.8
+        assert 10 < d["dof_effective"] < d["n_samples"]
+        assert abs(d["amplitude"] - truth["channels"][name]["amplitude"]) < 4 * d["u_amplitude"]
+    assert any(w.startswith("coloured-noise: channel 'ch1'") for w in doc["warnings"])
+    assert "coloured-noise" in r.err
+    r = cli("fit", tmp_path / "sine.csv", "--strict")
+    assert r.code == 3 and "coloured noise" in r.out
+    r = cli("fit", tmp_path / "sine.csv", "--noise-model", "white", "--json")
+    assert r.code == 0 and all(d["noise_model"] == "white" for d in json.loads(r.out)["channels"].values())
+    assert "assume white noise" in r.err
+    r = cli("fit", tmp_path / "sine.csv", "--noise-model", "pink")
+    assert r.code == 2 and "--noise-model" in r.err
+
+
+def test_simulate_noise_rho_out_of_range(cli, tmp_path):
+    r = cli("simulate", "sine", "--out", tmp_path, "--noise-rho", "1")
+    assert r.code == 2 and "--noise-rho" in r.err and "Traceback" not in r.err
+
+
+def test_fit_phase_far_from_origin_shows_centre_phase(cli, tmp_path):
+    rng = np.random.default_rng(9)
+    n = 2000
+    t = 1e5 + np.arange(n) / 500.0
+    y = 2.0 * np.sin(2 * math.pi * 13.37 * t + 0.2) + rng.normal(0, 0.05, n)
+    path = tmp_path / "far.csv"
+    pd.DataFrame({"t": t, "x": y}).to_csv(path, index=False, float_format="%.17g")
+    r = cli("fit", path)
+    assert r.code == 0, r.err
+    assert "phase centre" in r.out and "record centre" in r.out
+    assert "phase-origin-far: channel 'x'" in r.err
+    doc = json.loads(cli("fit", path, "--json").out)
+    d = doc["channels"]["x"]
+    assert d["t_phase_centre_s"] == pytest.approx(1e5 + (n - 1) / 1000.0)
+    assert d["u_phase_deg"] > math.degrees(1.0) > 100 * d["u_phase_centre_deg"]
