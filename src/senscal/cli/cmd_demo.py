@@ -44,4 +44,4 @@ def demo_cmd(
 
     with progress_bar("demo jobs", total) as advance:
         _, index = run_demo(out, seed=seed, only=only, on_done=done)
-    console.print(f"\n[bold]Report:[/bold] {index.resolve()}  (open it in a browser)")
+    console.print(f"\nReport: {index.resolve()}  (open it in a browser)")

@@ -120,6 +120,9 @@ def record_cmd(
         url = reg.url
     if json_out:
         print_json(rec.to_dict())
+    elif rec.already_recorded:
+        console.print(f"already recorded as {rec.uid[:8]} in {url} (same date, value, certificate and note); "
+                      "nothing added")
     else:
         console.print(f"recorded {quantity} = {value:.6g} ± {2 * q.uncertainty:.2g} {unit} (k=2) for {serial} "
                       f"on {rec.performed_at.isoformat()} as {rec.uid[:8]} in {url}")
@@ -208,7 +211,7 @@ def due_cmd(
     console.print(table(f"{serial} {quantity}: drift from {rep.fit.n_records} records  (U: k=2)",
                         ["", "value", "U"], rows))
     if rep.due is not None and rep.due.overdue:
-        err_console.print(f"[bold red]{serial} is overdue[/]: at the last calibration the deviation plus "
+        err_console.print(f"{serial} is overdue: at the last calibration the deviation plus "
                           f"{k:g} standard uncertainties already reaches the tolerance")
 
 
@@ -227,6 +230,33 @@ def due_document(rep, tol: float) -> dict:
         "overdue": rep.due.overdue,
         "deviation_at_due": rep.due.deviation_at_due, "u_deviation_at_due": rep.due.u_deviation_at_due,
     }
+
+
+@registry_app.command("verify")
+def verify_cmd(db: DbOpt = None, json_out: JsonOpt = False) -> None:
+    """Recompute the hash chain over every record; exit 3 naming the first broken record.
+
+    Detects records changed, deleted or inserted with direct database access
+    (the triggers refuse such edits through SQL, but whoever can drop them
+    can edit). Prints the chain head: keep it elsewhere to detect a history
+    rebuilt from scratch.
+    """
+    from senscal.diagnostics import named
+    from senscal.errors import DiagnosticError
+
+    with _open(db) as reg:
+        rep = reg.verify()
+        url = reg.url
+    if json_out:
+        print_json({"database": url, "intact": rep.intact, "n_records": rep.n_records, "head": rep.head,
+                    "first_broken": rep.first_broken, "problems": list(rep.problems)})
+    elif rep.intact:
+        console.print(f"{url}: {rep.n_records} records, hash chain intact; head {rep.head or '-'}")
+    if not rep.intact:
+        more = f" (and {len(rep.problems) - 1} more finding{'s' if len(rep.problems) > 2 else ''})" \
+            if len(rep.problems) > 1 else ""
+        raise DiagnosticError(named("registry-tampered", f"{url}: {rep.problems[0]}{more}; restore the "
+                                    "database from a backup or an export and compare"))
 
 
 @registry_app.command("export")
@@ -250,12 +280,9 @@ def import_cmd(
     json_out: JsonOpt = False,
 ) -> None:
     """Add the sensors and records of an export file (records already present are skipped)."""
-    try:
-        doc = json.loads(Path(file).read_text())
-    except OSError as exc:
-        raise FileFormatError(f"cannot read {file}: {exc.strerror}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise FileFormatError(f"{file} is not valid JSON: {exc}") from None
+    from senscal.io.sidefiles import read_json
+
+    doc = read_json(file, "registry export")  # one line for unreadable, non-UTF-8, invalid or too deep JSON
     with _open(db) as reg:
         added = reg.import_(doc)
         url = reg.url

@@ -50,7 +50,7 @@ def angle_unit_of(rec, name: str, given: str | None) -> str:
 
 def _warn(warnings) -> None:
     for w in warnings:
-        err_console.print(f"[yellow]warning:[/yellow] {w}")
+        err_console.print(f"warning: {w}")  # plain text: w may quote user strings
 
 
 def _strict(warnings, strict: bool) -> None:

@@ -158,7 +158,7 @@ def calibrate_cmd(
     console.print(f"|H| - F after:  mean {a['mean']:.4g}, std {a['std']:.4g}, max {a['max_abs']:.4g} "
                   f"({a['std_percent']:.3g} % std)")
     for g in res.unidentifiable:
-        console.print(f"[bold]unidentifiable[/bold]: {g['reason']}")
+        console.print(f"unidentifiable: {g['reason']}")
     for c in res.model_choice:
         console.print(f"rejected {c}")
     for w in res.warnings:

@@ -13,6 +13,7 @@ import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
+from rich.text import Text
 from typing_extensions import Annotated
 
 from senscal._result import to_jsonable
@@ -21,8 +22,12 @@ from senscal.io import Recording, check_output, read_recording
 
 T = TypeVar("T")
 
-console = Console(highlight=False)
-err_console = Console(stderr=True, highlight=False)
+# Markup and emoji codes off: file names, serials, units and notes are user
+# strings, and '[/' in one crashed the output (after a registry write had
+# committed) while '[link=...]' made a hyperlink.  The few deliberate styles
+# pass markup=True and escape whatever user text they carry.
+console = Console(highlight=False, markup=False, emoji=False)
+err_console = Console(stderr=True, highlight=False, markup=False, emoji=False)
 
 # Options every command that reads recordings shares (same words everywhere).
 TimeColumnOpt = Annotated[str, typer.Option("--time-column", help="Name of the time column (seconds).")]
@@ -88,11 +93,12 @@ def write_json(obj: Any, path: Path | str) -> Path:
 
 def table(title: str, columns: Sequence[str], rows: Iterable[Sequence[Any]]) -> Table:
     """A Rich table with right-aligned numeric columns."""
-    tab = Table(title=title, title_justify="left")
+    # Text objects are never parsed as markup, whichever console renders the table.
+    tab = Table(title=Text(str(title)), title_justify="left")
     for i, c in enumerate(columns):
-        tab.add_column(c, justify="left" if i == 0 else "right")
+        tab.add_column(Text(str(c)), justify="left" if i == 0 else "right")
     for r in rows:
-        tab.add_row(*[fmt(v) for v in r])
+        tab.add_row(*[Text(fmt(v)) for v in r])
     return tab
 
 
@@ -112,7 +118,7 @@ def fmt(v: Any, digits: int = 6) -> str:
 @contextmanager
 def progress_bar(description: str, total: int | None, *, disable: bool = False) -> Iterator[Any]:
     """A Rich progress bar on stderr (so ``--json`` stdout stays clean)."""
-    prog = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+    prog = Progress(TextColumn("{task.description}", markup=False), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                     console=err_console, transient=True, disable=disable or not err_console.is_terminal)
     with prog:
         task = prog.add_task(description, total=total)
@@ -144,7 +150,7 @@ def emit_warnings(warnings: Iterable[str], strict: bool = False) -> None:
 
     warnings = [str(w) for w in warnings]
     for w in warnings:
-        err_console.print(f"[yellow]warning:[/yellow] {escape(w)}", soft_wrap=True)
+        err_console.print(f"[yellow]warning:[/yellow] {escape(w)}", soft_wrap=True, markup=True)
     if strict and warnings:
         more = f" (and {len(warnings) - 1} more)" if len(warnings) > 1 else ""
         raise DiagnosticError(f"--strict: {warnings[0]}{more}")

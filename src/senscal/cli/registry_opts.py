@@ -129,6 +129,10 @@ def save_if_requested(doc: Mapping[str, Any], *, save: bool, sensor: str | None,
         rec = reg.record(sensor, qs, performed_at=when, job=job, method=method, conditions=conditions,
                          result=doc, certificate=certificate, input_files=input_files, operator=operator,
                          note=note, create_kind=create_sensor)
-        err_console.print(f"saved calibration {rec.uid[:8]} of sensor {sensor} ({len(qs)} quantities) "
-                          f"to {reg.url}")
+        if rec.already_recorded:
+            err_console.print(f"already saved as calibration {rec.uid[:8]} of sensor {sensor} in {reg.url} "
+                              "(same input files and result); nothing added")
+        else:
+            err_console.print(f"saved calibration {rec.uid[:8]} of sensor {sensor} ({len(qs)} quantities) "
+                              f"to {reg.url}")
     return rec

@@ -25,11 +25,12 @@ from senscal.errors import InputError
 from senscal.io.guard import note_input
 
 __all__ = ["default_url", "parse_url", "mask_url", "create_registry_engine", "upgrade", "metadata",
-           "sensors", "calibrations", "quantities", "UTC"]
+           "sensors", "calibrations", "quantities", "registry_chain", "UTC"]
 
 UTC = timezone.utc
 MIGRATIONS = Path(__file__).with_name("migrations")
 _PG_LOCK_KEY = 0x5E25CA1  # advisory lock that serialises concurrent schema upgrades
+PG_APPEND_LOCK_KEY = 0x5E25CA2  # advisory lock that serialises appends to the hash chain
 
 
 def default_url() -> str:
@@ -223,6 +224,8 @@ calibrations = sa.Table(
     sa.Column("operator", sa.String(200)),
     sa.Column("note", sa.Text),
     sa.Column("supersedes", sa.String(36), sa.ForeignKey("calibrations.uid")),
+    # sha256(previous record's chain_hash || canonical content): see senscal.registry.chain.
+    sa.Column("chain_hash", sa.String(64)),
 )
 
 quantities = sa.Table(
@@ -234,6 +237,14 @@ quantities = sa.Table(
     sa.Column("uncertainty", sa.Double, nullable=False),
     sa.Column("unit", sa.String(50), nullable=False),
     sa.Column("k", sa.Double, nullable=False),
+)
+
+# One row (id = 1): number of records and the newest chain hash.
+registry_chain = sa.Table(
+    "registry_chain", metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("n_records", sa.Integer, nullable=False),
+    sa.Column("head", sa.String(64), nullable=False),
 )
 
 

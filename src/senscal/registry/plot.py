@@ -15,6 +15,11 @@ from senscal.report.plots import new_figure, save_figure
 __all__ = ["plot_history"]
 
 
+def _literal(text: str) -> str:
+    """User text shown as typed: a '$' would start matplotlib mathtext (and a lone one crashes it)."""
+    return str(text).replace("$", r"\$")
+
+
 def plot_history(points: Sequence[HistoryPoint], path: str | Path, *, report: DriftReport | None = None,
                  title: str | None = None) -> Path:
     """Save a history plot (one panel per quantity) to ``path``.
@@ -35,12 +40,12 @@ def plot_history(points: Sequence[HistoryPoint], path: str | Path, *, report: Dr
                 ax.errorbar([datetime.fromisoformat(p.date) for p in group], [p.value for p in group],
                             yerr=[2.0 * p.uncertainty for p in group], ms=4, capsize=3, **style)
         unit = pts[0].unit
-        ax.set_ylabel(f"{name} ({unit})" if unit else name)
+        ax.set_ylabel(_literal(f"{name} ({unit})" if unit else name))
         if report is not None and report.quantity == name:
             _draw_drift(ax, report)
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
-    axes[0, 0].set_title(title or f"Calibration history of {points[0].quantity if len(names) == 1 else 'sensor'}")
+    axes[0, 0].set_title(_literal(title or f"Calibration history of {points[0].quantity if len(names) == 1 else 'sensor'}"))
     axes[-1, 0].set_xlabel("calibration date")
     return save_figure(fig, path)
 
@@ -53,7 +58,7 @@ def _draw_drift(ax, report: DriftReport) -> None:
     value, u = report.fit.predict(t)
     dates = [report.epoch + timedelta(days=float(x) * DAYS_PER_YEAR) for x in t]
     ax.plot(dates, value, "-", lw=1.2,
-            label=f"drift {report.drift_per_year:.3g} ± {2 * report.u_drift_per_year:.2g} {report.unit}/yr (k=2)")
+            label=_literal(f"drift {report.drift_per_year:.3g} ± {2 * report.u_drift_per_year:.2g} {report.unit}/yr (k=2)"))
     ax.fill_between(dates, value - 2 * u, value + 2 * u, alpha=0.2, label="line ±2u")
     if report.tolerance is not None:
         for sign in (-1, 1):

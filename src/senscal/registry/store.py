@@ -7,7 +7,7 @@ import getpass
 import hashlib
 import math
 import uuid
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
@@ -19,13 +19,14 @@ from sqlalchemy.exc import DBAPIError, IntegrityError, InterfaceError, Operation
 from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
 from senscal.registry import db
-from senscal.registry.db import UTC, calibrations, quantities, sensors
+from senscal.registry.chain import GENESIS, ChainReport, canonical_content, link
+from senscal.registry.db import UTC, calibrations, quantities, registry_chain, sensors
 from senscal.registry.drift import DAYS_PER_YEAR, DriftFit, DueDate, due_time, fit_drift
 
 __all__ = [
     "Registry", "open_registry", "Sensor", "Quantity", "Calibration", "HistoryPoint", "DriftReport",
     "UnknownSensorError", "DuplicateSensorError", "UnknownQuantityError", "parse_date", "sha256_file",
-    "EXPORT_FORMAT",
+    "EXPORT_FORMAT", "ChainReport",
 ]
 
 EXPORT_FORMAT = "senscal-registry"
@@ -142,6 +143,9 @@ class Calibration(ResultMixin):
         uid of the record this one corrects.
     superseded_by : str or None
         uid of the record that corrects this one (derived, not stored).
+    already_recorded : bool
+        True when :meth:`Registry.record` found this record already stored
+        (same evidence) and added nothing (derived, not stored).
     """
 
     uid: str
@@ -160,6 +164,7 @@ class Calibration(ResultMixin):
     note: str | None
     supersedes: str | None
     superseded_by: str | None = None
+    already_recorded: bool = False
 
     def quantity(self, name: str) -> Quantity | None:
         return next((q for q in self.quantities if q.name == name), None)
@@ -500,6 +505,12 @@ class Registry:
                 self._insert_sensor(conn, serial, _clean(create_kind, "kind"), None, None, None, None)
             sid = self._sensor_id(conn, serial)
             values["supersedes"] = self._resolve_uid(conn, supersedes, sid, serial) if supersedes else None
+            self._lock_chain(conn)
+            # A retry after an output failure (or the same evidence saved twice) must not add a
+            # second record: it would count as an independent calibration in the drift fit.
+            same = self._same_evidence(conn, sid, values, qs)
+            if same is not None:
+                return replace(self._calibrations(conn, calibrations.c.id == same)[0], already_recorded=True)
             self._insert_calibration(conn, sid, values, qs)
         # Built from what was stored (no second round trip); microseconds as the database keeps them.
         return Calibration(
@@ -510,12 +521,57 @@ class Registry:
             input_files=files, senscal_version=values["senscal_version"], operator=operator, note=note,
             supersedes=values["supersedes"])
 
+    @staticmethod
+    def _lock_chain(conn) -> None:
+        """Serialise appends to the hash chain (SQLite's BEGIN IMMEDIATE already does)."""
+        if conn.dialect.name == "postgresql":
+            conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": db.PG_APPEND_LOCK_KEY})
+
+    def _same_evidence(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity]) -> int | None:
+        """id of a stored record of this sensor that carries the same evidence, else None.
+
+        With input files, the same evidence is the same job and method on the
+        same file contents (SHA-256) giving the same quantities, whatever the
+        date. Without (certificates entered by hand), it is the same date,
+        quantities, certificate, note and superseded record.
+        """
+        c = calibrations.c
+        files = sorted(f["sha256"] for f in values["input_files"])
+        stmt = sa.select(c.id, c.input_files).where(c.sensor_id == sensor_id, c.job == values["job"])
+        stmt = stmt.where(c.method.is_(None) if values["method"] is None else c.method == values["method"])
+        if not files:
+            for col in ("performed_at", "certificate", "note", "supersedes"):
+                v = values[col]
+                stmt = stmt.where(getattr(c, col).is_(None) if v is None else getattr(c, col) == v)
+        ids = [r.id for r in conn.execute(stmt)
+               if sorted(f.get("sha256") for f in (r.input_files or ()) if isinstance(f, Mapping)) == files]
+        if not ids:
+            return None
+        want = sorted((q.name, float(q.value), float(q.uncertainty), q.unit, float(q.k)) for q in qs)
+        have: dict[int, list] = {}
+        for q in conn.execute(sa.select(quantities).where(quantities.c.calibration_id.in_(ids))).mappings():
+            have.setdefault(q["calibration_id"], []).append((q["name"], q["value"], q["uncertainty"], q["unit"], q["k"]))
+        return next((i for i in ids if sorted(have.get(i, ())) == want), None)
+
     def _insert_calibration(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity]) -> None:
+        """Append one record and its quantities, extending the hash chain (caller holds the chain lock)."""
+        owner = conn.execute(sa.select(sensors.c.serial, sensors.c.kind).where(sensors.c.id == sensor_id)).one()
+        head = conn.execute(sa.select(registry_chain.c.n_records, registry_chain.c.head)
+                            .where(registry_chain.c.id == 1)).first()
+        n, prev = (head.n_records, head.head) if head is not None else (0, GENESIS)
+        chain_hash = link(prev, canonical_content(
+            values, owner.serial, owner.kind, [(q.name, q.value, q.uncertainty, q.unit, q.k) for q in qs]))
         # Parameters passed to execute (not .values()) so the compiled statement is reused from the cache.
-        cid = conn.execute(_INSERT_CALIBRATION, dict(values, sensor_id=sensor_id)).inserted_primary_key[0]
+        cid = conn.execute(_INSERT_CALIBRATION, dict(values, sensor_id=sensor_id,
+                                                     chain_hash=chain_hash)).inserted_primary_key[0]
         conn.execute(_INSERT_QUANTITY, [
             dict(calibration_id=cid, name=q.name, value=float(q.value), uncertainty=float(q.uncertainty),
                  unit=q.unit, k=float(q.k)) for q in qs])
+        if head is None:
+            conn.execute(registry_chain.insert().values(id=1, n_records=1, head=chain_hash))
+        else:
+            conn.execute(registry_chain.update().where(registry_chain.c.id == 1)
+                         .values(n_records=n + 1, head=chain_hash))
 
     def _sensor_id(self, conn, serial: str) -> int:
         sid = conn.execute(sa.select(sensors.c.id).where(sensors.c.serial == serial)).scalar()
@@ -676,6 +732,58 @@ class Registry:
             reference_source="nominal" if nominal is not None else "first record",
             tolerance=tol_abs, due=due, due_date=due_date)
 
+    # integrity -----------------------------------------------------------------
+
+    @_db_errors
+    def verify(self) -> ChainReport:
+        """Recompute the hash chain over every record (see :mod:`senscal.registry.chain`).
+
+        Detects records changed, deleted or inserted behind senscal's back
+        (triggers dropped, a copy of the file edited), quantities replaced,
+        sensors deleted or renamed, and the newest records deleted without the
+        head row being rewritten. Reads every record once.
+
+        Returns
+        -------
+        ChainReport
+        """
+        c = calibrations.c
+        with db.read_connection(self.engine) as conn:
+            rows = conn.execute(sa.select(calibrations, sensors.c.serial, sensors.c.kind)
+                                .outerjoin(sensors, sensors.c.id == c.sensor_id).order_by(c.id)).mappings().all()
+            qs: dict[int, list] = {}
+            for q in conn.execute(sa.select(quantities).order_by(quantities.c.id)).mappings():
+                qs.setdefault(q["calibration_id"], []).append((q["name"], q["value"], q["uncertainty"], q["unit"],
+                                                               q["k"]))
+            head = conn.execute(sa.select(registry_chain.c.n_records, registry_chain.c.head)
+                                .where(registry_chain.c.id == 1)).first()
+        problems: list[str] = []
+        first = None
+        prev = GENESIS
+        for r in rows:
+            # Recompute from the stored hash of the predecessor, so one edit names one record.
+            expected = link(prev, canonical_content(r, r["serial"], r["kind"], qs.get(r["id"], ())))
+            if r["chain_hash"] != expected:
+                if first is None:
+                    first = r["uid"]
+                why = ("its sensor row is missing" if r["serial"] is None else
+                       "it has no quantities" if r["id"] not in qs else
+                       "its content, its sensor or the record before it was changed, deleted or inserted")
+                problems.append(f"record {r['uid']} (sensor {r['serial']!r}, performed "
+                                f"{_iso(r['performed_at'])}) does not match its hash: {why}")
+            prev = r["chain_hash"] or expected
+        orphans = sorted(set(qs) - {r["id"] for r in rows})
+        if orphans:
+            problems.append(f"{len(orphans)} calibration record(s) were deleted: their quantities remain "
+                            f"(calibration ids {', '.join(map(str, orphans[:5]))}{', ...' if len(orphans) > 5 else ''})")
+        n_head, h_head = (head.n_records, head.head) if head is not None else (0, GENESIS)
+        if n_head != len(rows) or (rows and h_head != rows[-1]["chain_hash"]):
+            problems.append(f"the chain head says {n_head} records ending in {h_head[:12]}, the table holds "
+                            f"{len(rows)} ending in {(rows[-1]['chain_hash'] or '-')[:12] if rows else '-'}: "
+                            "records were deleted or added behind senscal's back")
+        return ChainReport(intact=not problems, n_records=len(rows), head=prev if rows else None,
+                           first_broken=first, problems=tuple(problems))
+
     # export / import ---------------------------------------------------------
 
     @_db_errors
@@ -689,6 +797,7 @@ class Registry:
                 rd = r.to_dict()
                 rd.pop("serial")
                 rd.pop("superseded_by")
+                rd.pop("already_recorded")
                 d["calibrations"].append(rd)
             out_sensors.append(d)
         return {"format": EXPORT_FORMAT, "version": EXPORT_VERSION, "schema": db.head_revision(),
@@ -714,6 +823,7 @@ class Registry:
         added = {"sensors": 0, "calibrations": 0, "skipped": 0}
         try:
             with self.engine.begin() as conn:
+                self._lock_chain(conn)
                 for s in doc.get("sensors", []):
                     self._import_sensor(conn, s, added)
         except (KeyError, TypeError, ValueError) as exc:
