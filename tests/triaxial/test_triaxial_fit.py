@@ -31,7 +31,10 @@ def test_full_model_recovers_every_parameter(sphere, field):
     rec, truth = sphere
     res = calibrate(rec.data(), field=field)
     assert res.model == "full" and res.method == "ml"
-    assert not res.unidentifiable and not res.model_choice
+    assert not res.unidentifiable
+    # Chosen by held-out error: every simpler model is significantly worse on these data.
+    assert {e["model"] for e in res.model_evidence} == {"full", "diagonal", "offsets", "planar"}
+    assert all(c.split(":")[0] in ("diagonal", "offsets", "planar") for c in res.model_choice)
     for name, p in res.parameters.items():
         tv = _truth_value(truth, name)
         if field is None and name in ("Kx", "Ky", "field"):

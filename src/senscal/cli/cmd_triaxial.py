@@ -50,6 +50,8 @@ def parameter_table(params: dict[str, dict[str, Any]]) -> dict[str, dict[str, An
 
 def calibrate_document(res, *, file: Path, channels: list[str], static=None) -> dict[str, Any]:
     """The JSON document of ``senscal triaxial calibrate`` (CLI contract)."""
+    from senscal.triaxial.heading import summary as heading_summary
+
     doc = {
         "file": str(file), "channels": channels, "model": res.model, "method": res.method,
         "field": {"value": res.field,
@@ -63,6 +65,8 @@ def calibrate_document(res, *, file: Path, channels: list[str], static=None) -> 
         "saturated": {"count": len(res.saturated)}, "plausibility": list(res.plausibility),
         "warnings": list(res.warnings), "lms_vs_least_squares": res.lms_vs_least_squares,
         "n_samples": res.n_samples, "n_used": res.n_used,
+        "model_evidence": list(res.model_evidence),
+        "heading": heading_summary(res.heading) if res.heading is not None else None,
         "calibration": res.calibration.to_dict(),
     }
     if static is not None:

@@ -14,7 +14,7 @@ from senscal.triaxial.models import sensor_matrix
 
 __all__ = ["simulate_magnetometer", "MOTIONS"]
 
-MOTIONS = ("sphere", "planar", "tumble")
+MOTIONS = ("sphere", "hemisphere", "band", "planar", "tumble")
 
 
 def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field: float | None = None,
@@ -23,14 +23,17 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
                           offsets: tuple[float, float, float] | None = None, noise: float | None = None,
                           inclination_deg: float = 60.0, tilt_deg: float = 0.0, fs: float | None = None,
                           hold_s: float = 3.0, move_s: float = 1.5, clip: float | None = None,
-                          n_outliers: int = 0, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
+                          n_outliers: int = 0, band_deg: float = 15.0, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
     """Readings ``H_hat = K S R^T H + B + noise`` of a sensor turned in a constant field.
 
     Parameters
     ----------
     motion : {"sphere", "planar", "tumble"}
         ``sphere``: ``n`` (default 500) orientations uniform over all
-        directions; ``planar``: the seed's protocol, ``n`` (default 15)
+        directions; ``hemisphere``: uniform over the directions with a
+        positive Z component (a sensor that is never turned upside down);
+        ``band``: uniform over the directions within ``band_deg`` of the XY
+        plane (a vehicle that only rolls and pitches a little); ``planar``: the seed's protocol, ``n`` (default 15)
         headings of one horizontal turn (level sensor, field inclined by
         ``inclination_deg``; ``tilt_deg`` adds random tilt of that standard
         deviation); ``tumble``: an accelerometer-style session of ``n``
@@ -48,6 +51,8 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
         B in sensor units; default (300, -200, 150) nT scaled to ``field``.
     noise : float, optional
         White noise standard deviation per axis; default 20 nT scaled to ``field``.
+    band_deg : float
+        Half-width of the ``band`` motion, deg.
     clip : float, optional
         Saturate every axis at +/- this value (sensor units).
     n_outliers : int
@@ -76,10 +81,21 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
         raise InputError(f"the number of outliers must not be negative, got {n_outliers}")
     m = sensor_matrix(*gains, math.radians(alpha_deg), math.radians(beta_deg), math.radians(gamma_deg))
     intervals: list[list[float]] = []
-    if motion == "sphere":
+    if motion in ("sphere", "hemisphere", "band"):
         n = 500 if n is None else n
-        v = rng.normal(size=(3, n))
-        h = f * v / np.linalg.norm(v, axis=0)
+        if motion == "band" and not 0 < band_deg <= 90:
+            raise InputError(f"the band half-width must be in (0, 90] deg, got {band_deg!r}")
+        # Uniform on the sphere (or a zone of it): z uniform (Archimedes), azimuth uniform.
+        zmax = {"sphere": (-1.0, 1.0), "hemisphere": (0.0, 1.0),
+                "band": (-math.sin(math.radians(band_deg)), math.sin(math.radians(band_deg)))}[motion]
+        if motion == "sphere":
+            v = rng.normal(size=(3, n))
+            h = f * v / np.linalg.norm(v, axis=0)
+        else:
+            z = rng.uniform(*zmax, size=n)
+            az = rng.uniform(0.0, 2 * math.pi, size=n)
+            rxy = np.sqrt(1.0 - z * z)
+            h = f * np.vstack([rxy * np.cos(az), rxy * np.sin(az), z])
         rate = 10.0 if fs is None else fs
         t = np.arange(n) / rate
     elif motion == "planar":

@@ -15,12 +15,16 @@ from typing import Any, Sequence
 import numpy as np
 
 from senscal._result import ResultMixin
+from senscal.diagnostics import named
 from senscal.errors import DegenerateGeometryError, DiagnosticError, InputError, TooFewSamplesError
 from senscal.triaxial import diagnostics as dg
 from senscal.triaxial.estimators import (
-    PAIR_ANGLE, ModelFit, _design, _linear_problem, fit_algebraic, fit_linear, fit_lms, fit_ml, param_names,
+    PAIR_ANGLE, ModelFit, _calibration, _design, _linear_problem, fit_algebraic, fit_linear, fit_lms, fit_ml, param_names,
+    residuals,
 )
+from senscal.triaxial.heading import heading_report
 from senscal.triaxial.models import MODELS, TriaxialCalibration
+from senscal.triaxial.selection import N_BLOCKS, Candidate, choose, held_out_residuals, safe
 
 __all__ = ["TriaxialResult", "calibrate", "METHODS", "nominal_raw"]
 
@@ -64,6 +68,14 @@ class TriaxialResult(ResultMixin):
         For ``method="lms"``: LMS minus least squares per weight, in units of
         the least-squares standard uncertainty.
     n_samples, n_used : int
+    model_evidence : tuple of dict
+        Automatic choice: per candidate model, its parameters, how many the
+        Fisher information determines, its unidentifiable groups and its
+        held-out error over 5 contiguous time blocks (see
+        :mod:`senscal.triaxial.selection`).
+    heading : dict or None
+        For a turn about one axis (or with an accelerometer): heading error
+        before and after calibration (see :mod:`senscal.triaxial.heading`).
     """
 
     model: str
@@ -88,6 +100,8 @@ class TriaxialResult(ResultMixin):
     lms_vs_least_squares: dict[str, Any] | None
     n_samples: int
     n_used: int
+    model_evidence: tuple[dict[str, Any], ...] = ()
+    heading: dict[str, Any] | None = None
 
     def value(self, name: str) -> float:
         """A parameter's value (NaN if unidentifiable)."""
@@ -274,8 +288,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
 
     sat_mask, sat_axes = dg.saturated_samples(h)
     if sat_mask.any():
-        warnings.append(f"{int(sat_mask.sum())} samples with a saturated axis "
-                        f"({', '.join('XYZ'[int(k)] for k in sat_axes)}) were excluded")
+        warnings.append(named("saturated", f"{int(sat_mask.sum())} samples with a saturated axis "
+                        f"({', '.join('XYZ'[int(k)] for k in sat_axes)}) were excluded"))
     idx = np.flatnonzero(~sat_mask)
     hu = h[:, idx]
     if hu.shape[1] < 5:
@@ -298,16 +312,22 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     i, j = plane
     r_plane = float(np.median(np.hypot(hu[i] - b0[i], hu[j] - b0[j])))
     cov = dg.sphere_coverage(hu - b0[:, None])
-    sigma0 = _noise_floor(hu, b0, r0, plane if is_planar else None)
-    plan = {**plan, "planar": bool(is_planar), "threshold": planar_thickness}
+    sigma_fit = _noise_floor(hu, b0, r0, plane if is_planar else None)
+    q_step = dg.quantisation_step(hu)
+    # A quantised reading cannot scatter less than a uniform error of one step
+    # (variance step^2 / 12); a free quadric can fit below that, so the floor
+    # is the larger of the two.
+    sigma_q = q_step / math.sqrt(12.0) if q_step is not None else 0.0
+    sigma0 = max(sigma_fit, sigma_q)
+    plan = {**plan, "planar": bool(is_planar), "thickness_threshold": planar_thickness}
 
     xs = (hu - b0[:, None]) / r0
 
-    def analyse(mdl):
+    def analyse(mdl, sigma=None):
         pl_ = plane if mdl == "planar" else None
         names = param_names(mdl, field is not None, pl_)
         d = _model_design(mdl, xs, names, pl_)
-        info = dg.identifiability(d, names, dg.physical_scales(names, 1.0), sigma0 / r0)
+        info = dg.identifiability(d, names, dg.physical_scales(names, 1.0), (sigma or sigma0) / r0)
         info["n_ok"] = hu.shape[1] > len(names)
         return names, _nominal_theta(mdl, k0, b0, f0, field, plane, r_plane), info
 
@@ -315,6 +335,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     conditioning = {m: {"condition": a[2]["condition"], "rank": a[2]["rank"], "n_params": a[2]["n_params"]}
                     for m, a in analyses.items()}
     conditioning["noise_floor"] = sigma0
+    conditioning["noise_floor_fit"] = sigma_fit
+    conditioning["quantisation_step"] = q_step
     # The estimators' own matrices: the seed's linearised design (LMS / linear)
     # and the algebraic ellipsoid design, columns scaled to unit norm.
     def linear_analysis(mdl):
@@ -329,6 +351,47 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
 
     # -- which model? ----------------------------------------------------------
     choice: list[str] = []
+    candidates: list = []
+    fits_all: dict[str, ModelFit] = {}
+
+    def weak_of(mdl: str) -> set:
+        return {p for g in analyses[mdl][2]["groups"] for p in g["parameters"]}
+
+    def fit_model(hh: np.ndarray, mdl: str, warm: np.ndarray | None = None) -> ModelFit:
+        """Maximum-likelihood (or ellipsoid) fit of an exact model, directions the data cannot see pinned.
+
+        ``warm``: start there (the all-data fit, for the cross-validation folds).
+        """
+        pl_ = plane if mdl == "planar" else None
+        weak_ = weak_of(mdl)
+        if warm is not None and method != "ellipsoid":
+            start = None
+        else:
+            try:
+                start = fit_algebraic(hh, mdl, field=field, plane=pl_, unit=unit, channels=channels)
+            except DegenerateGeometryError:
+                if method == "ellipsoid":
+                    raise
+                start = None
+        if method == "ellipsoid":
+            return start
+        prior = None
+        theta0 = start.values if start is not None else analyses[mdl][1]
+        if weak_:
+            # Directions the data cannot see: pin them weakly at the nominal
+            # point (a noise unit per plausible range) so the fit converges;
+            # they are reported as unknown.
+            names_ = analyses[mdl][0]
+            sc = dg.physical_scales(names_, f0 if mdl != "planar" else r_plane, k0 if mdl != "planar" else 1.0)
+            wt = np.array([1.0 / s_ if n in weak_ else 0.0 for n, s_ in zip(names_, sc)])
+            prior = (analyses[mdl][1], wt)
+            theta0 = analyses[mdl][1]
+        if warm is not None:
+            theta0 = warm
+        return fit_ml(hh, mdl, field=field, plane=pl_, start=theta0, unit=unit, channels=channels, prior=prior,
+                      tol=1e-12 if warm is None else 1e-7, with_covariance=warm is None,
+                      max_nfev=None if warm is None else 20 * (len(analyses[mdl][0]) + 1))
+
     if model is not None:
         chosen = model
         if linear_method and chosen == "planar":
@@ -340,12 +403,11 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         if not analyses[chosen][2]["n_ok"]:
             raise TooFewSamplesError(f"the {chosen} model has {len(analyses[chosen][0])} parameters and needs "
                                      f"more readings than that, got {hu.shape[1]}")
-    else:
-        order = ["full", "diagonal"] + (["planar", "offsets"] if is_planar else ["offsets", "planar"])
-        if linear_method:
-            order = [m for m in order if m != "planar"]
+    elif linear_method:
+        # The linearised methods have no planar form and no pinning: the
+        # richest of their models the data determine.
         chosen = None
-        for m in order:
+        for m in ("full", "diagonal", "offsets"):
             names, _, info = analyses[m]
             if not info["n_ok"]:
                 choice.append(f"{m}: {len(names)} parameters need more than {hu.shape[1]} readings")
@@ -353,11 +415,71 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
             if info["groups"]:
                 choice.append(f"{m}: " + "; ".join(g["reason"] for g in info["groups"]))
                 continue
-            if m == "planar" and plan["normal_alignment"] < 0.95:
-                choice.append("planar: the rotation plane is not close to a pair of sensor axes")
-                continue
             chosen = m
             break
+        if chosen is None:
+            raise DegenerateGeometryError("the orientations do not determine even the simplest model ("
+                                          + " | ".join(choice) + "); turn the sensor through more orientations")
+    else:
+        resid: dict[str, np.ndarray] = {}
+        n_train = hu.shape[1] - int(math.ceil(hu.shape[1] / N_BLOCKS))
+        for m in ("full", "diagonal", "offsets", "planar"):
+            names, _, info = analyses[m]
+            groups = tuple(dict(g) for g in info["groups"])
+            n_id = len(names) - len(weak_of(m))
+            err = None
+            if not info["n_ok"]:
+                err = f"{len(names)} parameters need more than {hu.shape[1]} readings"
+            elif n_train <= len(names):
+                err = (f"{len(names)} parameters need more than the {n_train} readings of each "
+                       f"{N_BLOCKS}-block cross-validation fit")
+            elif m == "planar" and plan["normal_alignment"] < 0.95:
+                err = "the rotation plane is not close to a pair of sensor axes"
+            elif n_id == 0:
+                err = "no parameter is determined by these orientations"
+            rms = pct = None
+            per: tuple[float, ...] = ()
+            if err is None:
+                pl_ = plane if m == "planar" else None
+                whole, err = safe(fit_model, hu, m)
+                out = None
+                if whole is not None:
+                    # A centre farther from the cloud's own centre than its
+                    # radius means the readings do not surround it: the fit
+                    # has slid along a direction the data cannot see (e.g. a
+                    # huge sphere whose cap mimics an ellipse in one plane).
+                    ax_ = list(pl_) if pl_ is not None else [0, 1, 2]
+                    rad_ = r_plane if pl_ is not None else r0
+                    shift = float(np.linalg.norm(whole.calibration.offsets[ax_] - b0[ax_]))
+                    if shift > rad_:
+                        err = (f"its fitted centre lies {shift / rad_:.3g} cloud radii from the readings' centre: "
+                               "the readings do not surround it")
+                        whole = None
+                if whole is not None:
+                    fits_all[m] = whole
+                    out, err = safe(held_out_residuals, hu, lambda hh, m=m, w=whole.values: fit_model(hh, m, w),
+                                    lambda f_, ht, m=m, pl_=pl_: residuals(m, f_.values, ht, field, pl_))
+                if out is not None:
+                    if np.all(np.isfinite(out[0])):
+                        resid[m], per = out
+                    else:
+                        err = "its held-out prediction is not finite (the fit is degenerate on some blocks)"
+            candidates.append(Candidate(model=m, n_params=len(names), n_identifiable=n_id, unidentifiable=groups,
+                                        held_out_rms=None, held_out_percent=None, block_rms=per, error=err))
+        # Gross errors would dominate every model's held-out error: judge on
+        # the readings the best model does not call outliers.
+        keep = np.ones(hu.shape[1], bool)
+        if resid and outlier_sigma is not None:
+            best_m = min(resid, key=lambda k: float(np.mean(resid[k] ** 2)))
+            keep[dg.robust_outliers(resid[best_m], outlier_sigma)] = False
+        cands2 = []
+        for c in candidates:
+            if c.model in resid:
+                rr = resid[c.model][keep]
+                rms = float(np.sqrt(np.mean(rr ** 2)))
+                c = Candidate(**{**c.__dict__, "held_out_rms": rms, "held_out_percent": 100.0 * rms / r0})
+            cands2.append(c)
+        chosen, candidates, choice = choose(cands2, {k: v[keep] for k, v in resid.items()})
         if chosen is None:
             raise DegenerateGeometryError("the orientations do not determine even the simplest model ("
                                           + " | ".join(choice) + "); turn the sensor through more orientations")
@@ -371,27 +493,9 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         if method == "lms":
             ls = fit_linear(hh, field=field, model=chosen, unit=unit, channels=channels)
             return fit_lms(hh, field=field, model=chosen, lr=lr, epochs=epochs, unit=unit, channels=channels), ls
-        try:
-            alg = fit_algebraic(hh, chosen, field=field, plane=pl, unit=unit, channels=channels)
-            start = alg.values
-        except DegenerateGeometryError:
-            if method == "ellipsoid":
-                raise
-            alg, start = None, analyses[chosen][1]
-        if method == "ellipsoid":
-            return alg, None
-        prior = None
-        if weak:
-            # Forced model with directions the data cannot see: pin them weakly
-            # at the nominal point (a noise unit per plausible range) so the fit
-            # converges; they are reported as unknown below.
-            names_ = analyses[chosen][0]
-            sc = dg.physical_scales(names_, f0 if chosen != "planar" else r_plane, k0 if chosen != "planar" else 1.0)
-            wt = np.array([1.0 / s_ if n in weak else 0.0 for n, s_ in zip(names_, sc)])
-            prior = (analyses[chosen][1], wt)
-            start = analyses[chosen][1]
-        return fit_ml(hh, chosen, field=field, plane=pl, start=start, unit=unit, channels=channels,
-                      prior=prior), None
+        if hh is hu and chosen in fits_all:
+            return fits_all[chosen], None
+        return fit_model(hh, chosen), None
 
     def norms(cal: TriaxialCalibration, hh: np.ndarray) -> np.ndarray:
         c = cal.apply(hh)
@@ -406,8 +510,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         n_par = len(fit.names)
         if outl.size and hu.shape[1] - outl.size > n_par:
             keep = np.setdiff1d(np.arange(hu.shape[1]), outl)
-            warnings.append(f"{outl.size} outlier readings (more than {outlier_sigma:g} robust sigma off the "
-                            "field magnitude) were excluded and the fit repeated")
+            warnings.append(named("outliers", f"{outl.size} outlier readings (more than {outlier_sigma:g} robust sigma off the "
+                            "field magnitude) were excluded and the fit repeated"))
             hu2 = hu[:, keep]
             fit, ls = run_fit(hu2)
         else:
@@ -417,6 +521,46 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         hu2 = hu
 
     # -- after fitting ---------------------------------------------------------
+    # Identifiability again, at the data's own error level: the chosen fit's
+    # residual scatter (not below the noise floor), inflated for serial
+    # correlation.  Correlated residuals carry less information than as many
+    # independent ones: for AR(1) with lag-1 correlation rho the variance of
+    # a mean grows by (1 + rho) / (1 - rho).  A wobbling hand-held turn is
+    # then seen for what it is: a one-axis turn whose wobble does not pin
+    # down the out-of-plane parameters.
+    evidence = {"sigma_noise_floor": sigma0}
+    if not linear_method:
+        r_fin = residuals(chosen, fit.values, hu2, field, pl)
+        rho = float(np.corrcoef(r_fin[:-1], r_fin[1:])[0, 1]) if r_fin.size > 3 and np.std(r_fin) > 0 else 0.0
+        rho = min(max(rho, 0.0), 0.99) if math.isfinite(rho) else 0.0
+        sigma_eff = max(sigma0, fit.noise) * math.sqrt((1 + rho) / (1 - rho))
+        evidence.update({"sigma_residual": float(fit.noise), "residual_lag1_correlation": rho,
+                         "sigma_effective": sigma_eff})
+        analyses_eff = {m: analyse(m, sigma_eff) for m in MODELS}
+        unidentifiable = list(analyses_eff["full"][2]["groups"])
+        if model is not None and chosen != "full":
+            unidentifiable += [dict(g, model=chosen) for g in analyses_eff[chosen][2]["groups"]]
+        weak = weak | {p for g in analyses_eff[chosen][2]["groups"] for p in g["parameters"]}
+        candidates = [Candidate(**{**c.__dict__, "unidentifiable": tuple(analyses_eff[c.model][2]["groups"]),
+                                   "n_identifiable": len(analyses_eff[c.model][0]) - len(
+                                       {p for g in analyses_eff[c.model][2]["groups"] for p in g["parameters"]})})
+                      for c in candidates]
+        full_groups = analyses_eff["full"][2]["groups"]
+    else:
+        full_groups = analyses["full"][2]["groups"]
+    # One-axis turn, by the Fisher information: an angle between the normal
+    # axis and an in-plane axis cannot be told from that in-plane axis's
+    # offset (the seed's alpha ~ Bx, beta ~ By for a level turn).
+    k_n = plan["normal_axis"]
+    one_axis = []
+    for g in full_groups:
+        for (a_, b_), ang in PAIR_ANGLE.items():
+            if k_n in (a_, b_) and ang in g["parameters"]:
+                other = b_ if a_ == k_n else a_
+                if f"B{'xyz'[other]}" in g["parameters"]:
+                    one_axis.append(f"{ang} ~ B{'xyz'[other]}")
+    is_turn = bool(one_axis) and plan["normal_alignment"] >= 0.95
+    plan = {**plan, "planar": is_turn, "evidence": {**evidence, "confounded_by_one_axis_turn": one_axis}}
     units = _param_units(fit.names, unit, field is not None and chosen != "planar")
     u_all = fit.uncertainties
     params = {}
@@ -456,14 +600,14 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         lms_cmp = {"difference_in_u": d, "max_abs_difference_in_u": worst, "epochs": epochs, "lr": lr,
                    "least_squares": {n: float(v) for n, v in zip(ls.names, ls.values)}}
         if worst > 1:
-            warnings.append(f"LMS after {epochs} epochs is up to {worst:.3g} standard uncertainties from the "
-                            "least-squares solution: it has not converged; use --method linear or more --epochs")
+            warnings.append(named("lms-not-converged", f"LMS after {epochs} epochs is up to {worst:.3g} standard uncertainties from the "
+                            "least-squares solution: it has not converged; use --method linear or more --epochs"))
 
     us = f" {unit}" if unit else ""
     if fit.noise > 1.5 * sigma0 and fit.n_used > 2 * len(fit.names):
-        warnings.append(f"the {chosen} model leaves a residual of {fit.noise:.4g}{us} per sample against a noise "
-                        f"floor of {sigma0:.4g}{us}: errors it does not model are not negligible, and its "
-                        "uncertainties understate the real error")
+        warnings.append(named("unmodelled-error", f"the {chosen} model leaves a residual of {fit.noise:.4g}{us} per "
+                              f"sample against a noise floor of {sigma0:.4g}{us}: errors it does not model are not negligible, and its "
+                        "uncertainties understate the real error"))
     coverage_problem = None
     if model in ("diagonal", "offsets", "planar"):
         if analyses[model][2]["groups"]:
@@ -476,15 +620,27 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
             coverage_problem = (f"the directions hit {cov['fraction']:.0%} of the sphere cells, below "
                                 f"{min_coverage:.0%}")
     if coverage_problem:
-        warnings.append(f"insufficient coverage: {coverage_problem}")
+        warnings.append(named("insufficient-coverage", f"insufficient coverage: {coverage_problem}"))
     if plaus:
-        warnings.append("implausible parameters: " + "; ".join(plaus))
+        warnings.append(named("implausible-parameters", "implausible parameters: " + "; ".join(plaus)))
     if strict and (coverage_problem or plaus):
         what = "; ".join(([f"insufficient coverage: {coverage_problem}"] if coverage_problem else [])
                          + ([f"implausible parameters: {'; '.join(plaus)}"] if plaus else []))
         raise DiagnosticError(f"--strict: {what}; record more orientations or drop --strict to accept the "
                               f"{chosen} model")
+    if linear_method and is_turn:
+        warnings.append(named("planar-data-linearised", (
+            f"these readings are a turn about one axis, and --method {method} has no planar form: it fell back to "
+            f"the {chosen} model, which cannot represent the in-plane gain ratio and non-orthogonality the turn "
+            "does determine (the seed's 8-weight neuron is not identifiable here either); use the default "
+            "--method auto, or --model planar, for the in-plane model and its heading error")))
     kept = np.setdiff1d(np.arange(hu.shape[1]), outl)
+    heading = None
+    if is_turn and not linear_method and fit.covariance is not None:
+        def corrected(th):
+            return _calibration(chosen, fit.method, th, field, pl, unit, channels).apply(hu2)
+
+        heading = heading_report(hu2, corrected, fit.values, fit.covariance, fit.noise, axes=tuple(plan["plane_axes"]))
     return TriaxialResult(
         model=chosen, method=fit.method, calibration=fit.calibration, parameters=params,
         unidentifiable=tuple(unidentifiable), model_choice=tuple(choice), field=float(fit.field),
@@ -493,4 +649,5 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         outliers=tuple(int(idx[k]) for k in outl), saturated=tuple(int(k) for k in np.flatnonzero(sat_mask)),
         plausibility=tuple(plaus), warnings=tuple(warnings), lms_vs_least_squares=lms_cmp,
         n_samples=int(n_total), n_used=int(kept.size),
+        model_evidence=tuple(c.to_dict() for c in candidates), heading=heading,
     )

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 from scipy.sparse.csgraph import connected_components
 
-__all__ = ["saturated_samples", "nominal_center", "sphere_coverage", "planarity", "identifiability",
+__all__ = ["quantisation_step", "saturated_samples", "nominal_center", "sphere_coverage", "planarity", "identifiability",
            "norm_error_stats", "robust_outliers", "physical_scales", "plausibility"]
 
 
@@ -242,3 +242,31 @@ def plausibility(params: dict[str, float], field: float, *, max_angle_deg: float
                 issues.append(f"offset B{ax} = {b:.4g} exceeds {max_offset:g} of the axis response to the field "
                               f"({full:.4g})")
     return issues
+
+
+def quantisation_step(h: np.ndarray, min_levels: int = 8) -> float | None:
+    """The converter's step size, if the readings are visibly quantised.
+
+    An axis is quantised when its distinct values are (to 1 % of the step)
+    integer multiples of the smallest gap between them; floating-point data
+    with real noise have gaps of every size.  Axes with fewer than
+    ``min_levels`` distinct values say too little and are skipped.
+
+    Returns
+    -------
+    float or None
+        RMS of the axes' steps (sensor units), None when no axis is quantised.
+    """
+    steps = []
+    for x in np.asarray(h, float):
+        u = np.unique(x)
+        if u.size < min_levels:
+            continue
+        d = np.diff(u)
+        q = float(d.min())
+        if not q > 0:
+            continue
+        k = d / q
+        if np.all(np.abs(k - np.round(k)) < 0.01) and float(np.median(k)) < 1000:
+            steps.append(q)
+    return float(np.sqrt(np.mean(np.square(steps)))) if steps else None

@@ -317,7 +317,8 @@ def fit_algebraic(h: np.ndarray, model: str = "full", *, field: float | None = N
 
 def fit_ml(h: np.ndarray, model: str = "full", *, field: float | None = None,
            plane: tuple[int, int] | None = None, start: np.ndarray | None = None, unit: str = "",
-           channels=("x", "y", "z"), prior: tuple[np.ndarray, np.ndarray] | None = None) -> ModelFit:
+           channels=("x", "y", "z"), prior: tuple[np.ndarray, np.ndarray] | None = None,
+           tol: float = 1e-12, with_covariance: bool = True, max_nfev: int | None = None) -> ModelFit:
     """Maximum-likelihood fit on the field magnitude (Gauss-Newton / Levenberg-Marquardt).
 
     Parameters
@@ -333,6 +334,15 @@ def fit_ml(h: np.ndarray, model: str = "full", *, field: float | None = None,
         (weight 0 = free).  Used to pin directions the data cannot determine
         so that the rest of the fit converges; those parameters must then not
         be reported as measured.
+    tol : float
+        Relative tolerance of the optimiser (looser for warm-started
+        cross-validation fits, whose held-out residuals need far fewer digits).
+    with_covariance : bool
+        False skips the covariance (None), for fits used only to predict.
+    max_nfev : int, optional
+        Cap on residual evaluations; when given, reaching it is accepted (a
+        prediction-only fit started at the answer does not need to finish
+        crawling along a flat, pinned direction).
 
     Returns
     -------
@@ -356,15 +366,15 @@ def fit_ml(h: np.ndarray, model: str = "full", *, field: float | None = None,
         def fun(th):
             return np.concatenate([residuals(model, th, h, field, plane), wt * (th - c0)])
 
-    sol = optimize.least_squares(fun, theta0, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                                 max_nfev=200 * (len(names) + 1))
-    if not sol.success or not np.all(np.isfinite(sol.x)):
+    sol = optimize.least_squares(fun, theta0, method="lm", x_scale="jac", xtol=tol, ftol=tol, gtol=tol,
+                                 max_nfev=max_nfev or 200 * (len(names) + 1))
+    if not (sol.success or (max_nfev and sol.status == 0)) or not np.all(np.isfinite(sol.x)):
         raise ConvergenceError(f"maximum-likelihood fit of the {model} model did not converge ({sol.message}); "
                                "try --method ellipsoid or a simpler --model")
     theta = sol.x
     r = fun(theta)[: h.shape[1]]
     dof = r.size - len(names)
-    cov = _covariance(_jacobian(fun, theta), float(r @ r), dof)
+    cov = _covariance(_jacobian(fun, theta), float(r @ r), dof) if with_covariance else None
     _, _, f = unpack(model, theta, field, plane)
     cal = _calibration(model, "ml", theta, field, plane, unit, channels)
     return ModelFit(model=model, method="ml", names=names, values=theta, covariance=cov, calibration=cal,

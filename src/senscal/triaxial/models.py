@@ -167,13 +167,13 @@ class TriaxialCalibration(ResultMixin):
 
     def save(self, path: str | Path, extra: Mapping[str, Any] | None = None) -> Path:
         """Write as JSON (``extra`` adds fields such as the parameter report)."""
-        from senscal.io.guard import check_output
+        from senscal.io.guard import check_output, write_text
 
         path = check_output(path, what="parameter file")
         doc = self.to_dict()
         if extra:
             doc = {**to_jsonable(dict(extra)), **doc}
-        path.write_text(json.dumps(doc, indent=2) + "\n")
+        write_text(path, json.dumps(doc, indent=2) + "\n", what="parameter file")
         return path
 
 
@@ -183,13 +183,11 @@ def load_calibration(path: str | Path) -> TriaxialCalibration:
 
     path = Path(path)
     note_input(path)
-    try:
-        doc = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise FileFormatError(f"parameter file not found: {path}") from None
-    except (OSError, ValueError) as exc:
-        raise FileFormatError(f"{path} is not a JSON parameter file ({exc}); give the file written by "
-                              "'senscal triaxial calibrate --out'") from None
+    if not path.exists():
+        raise FileFormatError(f"parameter file not found: {path}")
+    from senscal.io.sidefiles import read_json
+
+    doc = read_json(path, "parameter file", expect=None)  # the format check below names a wrong type
     if isinstance(doc, dict) and "calibration" in doc and isinstance(doc["calibration"], dict):
         doc = doc["calibration"]
     if not isinstance(doc, dict) or doc.get("format") != FORMAT:
