@@ -37,7 +37,7 @@ def test_redundant_preset_csv_json_plot(cli, sim, tmp_path):
     out, png = tmp_path / "out.csv", tmp_path / "drift.png"
     before = (sim / "drift.csv").read_bytes()
     r = cli("drift", sim / "drift.csv", "--preset", "redundant", "--channels", "ref,drift,thermal", "--trusted", "ref",
-            "--covariate", "temperature", "--out", out, "--plot", png, "--json")
+            "--covariate", "temperature", "--out", out, "--plot", png, "--json", "--no-compare")
     assert r.code == 0, r.err
     assert (sim / "drift.csv").read_bytes() == before  # input untouched
     doc = json.loads(r.out)
@@ -57,7 +57,7 @@ def test_redundant_preset_csv_json_plot(cli, sim, tmp_path):
 
 def test_human_output_shows_expanded_uncertainty(cli, sim):
     r = cli("drift", sim / "drift.csv", "--preset", "covariate", "--channels", "thermal", "--covariate", "temperature",
-            "--smooth")
+            "--smooth", "--no-compare")
     assert r.code == 0, r.err
     assert "k=2" in r.out and "thermal_temperature_coefficient" in r.out and "smoother" in r.out
 
@@ -109,3 +109,36 @@ def test_bad_yaml_is_a_file_format_error(cli, sim, tmp_path):
     y.write_text("channels: [ref]\nfoo: 1\n")
     r = cli("drift", sim / "drift.csv", "--preset", "model", "--model", y)
     assert r.code == 2 and "unknown keys" in r.err
+
+
+def test_simulate_layouts_and_strict_exit_3(cli, tmp_path):
+    r = cli("simulate", "drift", "--out", tmp_path, "--layout", "pair", "--dt", "1", "--samples", "500",
+            "--signal-tau", "200", "--bias", "ramp", "--ramp-start-s", "150", "--ramp-slope", "0.006", "--seed", "2")
+    assert r.code == 0, r.err
+    rec = read_recording(tmp_path / "drift.csv")
+    assert rec.names == ["s1", "s2"] and rec.n_samples == 500
+    r = cli("drift", tmp_path / "drift.csv", "--preset", "redundant", "--trusted", "s1", "--json")
+    assert r.code == 0 and "better-model" in r.err  # random-walk bias on a ramp: the ramp model wins
+    assert cli("drift", tmp_path / "drift.csv", "--preset", "redundant", "--trusted", "s1", "--strict").code == 3
+    r = cli("drift", tmp_path / "drift.csv", "--preset", "redundant", "--trusted", "s1", "--bias-dynamics", "ramp",
+            "--json", "--strict")
+    assert r.code == 0, r.err
+    assert "s2_bias_slope" in json.loads(r.out)["channels"]["s2"]["terms"]
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--layout", "nope"], "--layout"),
+    (["--layout", "pair", "--bias", "sine"], "--bias"),
+    (["--layout", "pair", "--samples", "3"], "--samples"),
+    (["--layout", "pair", "--signal-tau", "-1"], "--signal-tau"),
+])
+def test_simulate_bad_options_exit_2(cli, tmp_path, args, words):
+    r = cli("simulate", "drift", "--out", tmp_path, *args)
+    assert r.code == 2 and words in r.err and len(r.err.strip().splitlines()) == 1
+
+
+def test_drift_bad_bias_dynamics_and_known_with_trusted(cli, sim):
+    r = cli("drift", sim / "drift.csv", "--preset", "redundant", "--trusted", "ref", "--bias-dynamics", "sine")
+    assert r.code == 2 and "--bias-dynamics" in r.err
+    r = cli("drift", sim / "drift.csv", "--preset", "known", "--trusted", "ref")
+    assert r.code == 2 and "--trusted" in r.err

@@ -1,0 +1,31 @@
+"""Monte-Carlo coverage of the drift job (issue 14, drift items 1-5).
+
+Seed counts: each record needs its own maximum-likelihood search (0.1-1.6 s
+of CPU per record), so CI runs 20-60 seeds per scenario and the benchmark
+(``SENSCAL_MC=full``, ``benchmarks/bench_coverage.py drift``) 200.  The
+scenarios that compare models (three or more extra searches per record) and
+the warn-only ones get the fewest: a warning that must fire in >= 95 % of
+seeds fails on 20 seeds as soon as two miss.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from senscal.validation import check_coverage, mc_seeds
+from senscal.validation.drift import SCENARIOS
+
+CI_SEEDS = {"white": 40, "gm-signal+ramp": 40, "ramp-rw-model": 20, "known": 60, "covariate": 60,
+            "reference-defaulted": 20, "wrong-tau": 20}
+
+
+def test_every_scenario_has_a_ci_seed_count():
+    assert set(CI_SEEDS) == set(SCENARIOS)
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_coverage(name):
+    run = SCENARIOS[name]
+    rows = run(mc_seeds(run.full_seeds, CI_SEEDS[name]), 1000)
+    assert rows and all(r.job == "drift" for r in rows)
+    check_coverage(rows)
