@@ -61,7 +61,12 @@ def test_offset_drift_is_needed_for_an_unbiased_sensitivity():
     good = velocity_point(r["position"], r["velocity"], r.time)
     bad = velocity_point(r["position"], r["velocity"], r.time, drift=False)
     assert abs(good.sensitivity - truth["sensitivity"]) < 2 * good.u_sensitivity
-    assert abs(bad.sensitivity - truth["sensitivity"]) > 4 * bad.u_sensitivity
+    # without the drift term the estimate is biased beyond its u, or the fit names the non-white residual
+    from senscal.diagnostics import has_warning
+
+    assert (abs(bad.sensitivity - truth["sensitivity"]) > 4 * bad.u_sensitivity
+            or has_warning(bad.warnings, "coloured-noise"))
+    assert not has_warning(good.warnings, "coloured-noise")
 
 
 def test_type_b_position_component_and_scaling():

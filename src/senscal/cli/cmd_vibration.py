@@ -14,8 +14,9 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted,
                                        save_if_requested)
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, parse_floats, parse_relative,
-                                print_json, table, track)
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, err_console,
+                                load, parse_floats, parse_relative, print_json, table, track)
+from senscal.cli.common import TimeUnitOpt, time_checked
 from senscal.errors import InputError
 
 FilesArg = Annotated[List[Path], typer.Argument(help="Recording files, one per frequency point / input level.")]
@@ -99,6 +100,11 @@ def _k2(u):
     return None if u is None else 2.0 * u
 
 
+def _expanded(budget):
+    """Expanded uncertainty of a budget (its own k), None without one."""
+    return None if budget is None else budget.expanded
+
+
 def _u2(u) -> str:
     """An uncertainty for a table: 2 significant digits (GUM 7.2.6)."""
     return "-" if u is None else f"{u:.2g}"
@@ -123,11 +129,11 @@ def velocity_cmd(
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift (default on).")] = True,
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics of the motion fitted with the fundamental.")] = 1,
     output_unit: UnitOpt = None,
-    time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
+    time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None, operator: OperatorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Velocity-sensor sensitivity S = A_s / (w A_p) against a position reference, per file and mean."""
     from senscal.vibration import velocity_calibration, velocity_point
@@ -137,20 +143,22 @@ def velocity_cmd(
     freqs = _freqs(freq, len(files))
     points, unit = [], None
     for path, f in zip(track(files, "fitting"), freqs):
-        rec = load(path, time_column=time_column, fs=fs, names=names, channels=[position, velocity])
+        rec = load(path, time_column=time_column, fs=fs, names=names, channels=[position, velocity], time_unit=time_unit)
         unit = unit or _unit(rec, velocity, output_unit) + "/(m/s)"
-        points.append(velocity_point(rec[position], rec[velocity], rec.time, freq=f, drift=drift, harmonics=harmonics,
-                                     u_position=ub,
-                                     source=str(path), unit=unit))
+        points.append(time_checked(rec, "velocity", velocity_point(
+            rec[position], rec[velocity], rec.time, freq=f, drift=drift, harmonics=harmonics, u_position=ub,
+            source=str(path), unit=unit), channel=position, known_hz=f))
     cal = velocity_calibration(points, u_position=ub, unit=unit)
     doc = {
         "points": [{"file": p.source, "frequency_hz": p.frequency, "u_frequency_hz": p.u_frequency,
-                    "sensitivity": p.sensitivity, "u_sensitivity": p.u_sensitivity, "U_sensitivity": 2 * p.u_sensitivity,
+                    "sensitivity": p.sensitivity, "u_sensitivity": p.u_sensitivity, "U_sensitivity": p.budget.expanded,
                     "phase_deg": math.degrees(p.phase), "u_phase_deg": math.degrees(p.u_phase),
                     "position_amplitude_m": p.position_amplitude, "output_amplitude": p.output_amplitude,
                     "snr_db": p.snr_db, "budget": p.budget} for p in cal.points],
         "sensitivity": cal.sensitivity, "sensitivity_std": cal.sensitivity_std, "u_sensitivity": cal.u_sensitivity,
-        "U_sensitivity": 2 * cal.u_sensitivity, "coverage_factor": 2.0, "unit": unit, "budget": cal.budget,
+        "U_sensitivity": cal.budget.expanded, "coverage_factor": cal.budget.coverage_factor,
+        "effective_dof": cal.budget.effective_dof, "birge_ratio": cal.birge_ratio, "chi2_p": cal.chi2_p,
+        "unit": unit, "budget": cal.budget, "warnings": list(cal.warnings),
     }
     if report is not None:
         from senscal.report.certificate import write_certificate
@@ -173,15 +181,16 @@ def velocity_cmd(
         _save_plot(velocity_figure(cal), plot)
     if json_out:
         print_json(doc)
-        return
-    rows = [[Path(p.source).stem, p.frequency, p.sensitivity, _u2(2 * p.u_sensitivity), math.degrees(p.phase),
-             _u2(2 * math.degrees(p.u_phase)), f"{p.snr_db:.1f}"] for p in cal.points]
-    console.print(table(f"Velocity-sensor sensitivity ({unit}; U = expanded, k=2)",
-                        ["file", "f (Hz)", "S", "U S", "phase vs v (deg)", "U phase", "SNR dB"], rows))
-    console.print(f"mean S = {cal.sensitivity:.6g} {unit}, U = {2 * cal.u_sensitivity:.2g} (k=2), "
-                  f"std over points = {cal.sensitivity_std:.2g}")
-    if report is not None:
-        console.print(f"certificate written to {report}")
+    else:
+        rows = [[Path(p.source).stem, p.frequency, p.sensitivity, _u2(p.budget.expanded), math.degrees(p.phase),
+                 _u2(2 * math.degrees(p.u_phase)), f"{p.snr_db:.1f}"] for p in cal.points]
+        console.print(table(f"Velocity-sensor sensitivity ({unit}; U = expanded, k=2)",
+                            ["file", "f (Hz)", "S", "U S", "phase vs v (deg)", "U phase", "SNR dB"], rows))
+        console.print(f"mean S = {cal.sensitivity:.6g} {unit}, U = {cal.budget.expanded:.2g} "
+                      f"(k={cal.budget.coverage_factor:.3g}), std over points = {cal.sensitivity_std:.2g}")
+        if report is not None:
+            console.print(f"certificate written to {report}")
+    emit_warnings(cal.warnings, strict)
 
 
 # ---------------------------------------------------------------------------
@@ -190,22 +199,23 @@ def velocity_cmd(
 
 def _response_points(files, freqs, *, output, input_amplitudes, reference, reference_sensitivity, angle, static_sensitivity,
                      initial_phase_deg, u_input, u_reference, u_static, drift, harmonics, time_column, fs, names,
-                     output_unit):
+                     output_unit, u_initial_phase_deg=0.0, time_unit=None):
     from senscal.vibration import response_point
 
     _distinct(files)
     chans = [output] + ([reference] if reference else []) + ([angle] if angle else [])
     points, unit = [], None
     for path, f, a in zip(track(files, "fitting"), freqs, input_amplitudes):
-        rec = load(path, time_column=time_column, fs=fs, names=names, channels=chans)
+        rec = load(path, time_column=time_column, fs=fs, names=names, channels=chans, time_unit=time_unit)
         unit = unit or _unit(rec, output, output_unit) + "/(m/s^2)"
-        points.append(response_point(
+        points.append(time_checked(rec, "response", response_point(
             rec[output], rec.time, input_amplitude=a, reference=rec[reference] if reference else None,
             reference_sensitivity=reference_sensitivity, angle_deg=rec[angle] if angle else None, freq=f,
             static_sensitivity=static_sensitivity,
             initial_phase=None if initial_phase_deg is None else math.radians(initial_phase_deg),
+            u_input_phase=math.radians(u_initial_phase_deg),
             u_input=u_input, u_reference_sensitivity=u_reference, u_static_sensitivity=u_static, drift=drift,
-            harmonics=harmonics, source=str(path), unit=unit))
+            harmonics=harmonics, source=str(path), unit=unit), channel=output, known_hz=f))
     return points, unit
 
 
@@ -227,7 +237,9 @@ def response_cmd(
     reference_sensitivity: Annotated[Optional[float], typer.Option("--reference-sensitivity", help="Reference sensitivity, its unit per m/s^2.")] = None,
     angle: Annotated[Optional[str], typer.Option("--angle", help="Turntable angle channel (deg): cut to whole revolutions, input phase from it.")] = None,
     static_sensitivity: Annotated[Optional[float], typer.Option("--static-sensitivity", help="Static sensitivity S0 for S_i/S0.")] = None,
-    initial_phase_deg: Annotated[Optional[float], typer.Option("--initial-phase-deg", help="Input phase at t=0 (deg) from a start-up test.")] = None,
+    initial_phase_deg: Annotated[Optional[float], typer.Option("--initial-phase-deg", help="Input phase phi_0 (deg, sine convention) from a start-up test: at t=0, or at encoder angle 0 with --angle (90 when encoder zero lies along the field).")] = None,
+    u_initial_phase_deg: Annotated[float, typer.Option("--u-initial-phase-deg", help="Standard uncertainty of --initial-phase-deg, deg (type B in the phase-delay budget).")] = 0.0,
+    phase_reference: Annotated[Optional[Path], typer.Option("--phase-reference", help="Start-up / lowest-frequency double-centrifuge run (same channels) that gives phi_0 (needs --angle).")] = None,
     freq: FreqOpt = None,
     u_input: Annotated[Optional[str], typer.Option("--u-input", help="Type B standard uncertainty of the input amplitude, e.g. 0.2%.")] = None,
     u_reference: Annotated[Optional[str], typer.Option("--u-reference", help="Type B standard uncertainty of the reference sensitivity, e.g. 0.5%.")] = None,
@@ -235,53 +247,93 @@ def response_cmd(
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift.")] = False,
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
     output_unit: UnitOpt = None,
-    time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
+    time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
     save_response_to: Annotated[Optional[Path], typer.Option("--save-response", help="Save the response (JSON with type and version) for later use.")] = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None, operator: OperatorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Accelerometer frequency response: sensitivity, S_i/S0, phase delay with GUM budgets."""
     from senscal.vibration import combine_repeats, frequency_response
 
     _check_input(input_amplitude, reference, reference_sensitivity, angle)
-    if initial_phase_deg is not None and (angle is not None or reference is not None):
-        raise InputError("--initial-phase-deg is for time fits of a known input; with --angle or --reference the input phase is measured")
+    if initial_phase_deg is not None and reference is not None:
+        raise InputError("--initial-phase-deg is for a known input; with --reference the input phase is the reference channel's")
+    if initial_phase_deg is not None and not math.isfinite(initial_phase_deg):
+        raise InputError(f"--initial-phase-deg must be a finite number of degrees, got {initial_phase_deg!r}")
+    if not (math.isfinite(u_initial_phase_deg) and 0 <= u_initial_phase_deg < 180):
+        raise InputError(f"--u-initial-phase-deg must be a standard uncertainty in [0, 180) deg, got {u_initial_phase_deg!r}")
+    if u_initial_phase_deg > 0 and initial_phase_deg is None:
+        raise InputError("--u-initial-phase-deg is the uncertainty of --initial-phase-deg: give that too")
+    if phase_reference is not None:
+        if angle is None:
+            raise InputError("--phase-reference is a double-centrifuge run fitted against the turntable angle: give --angle")
+        if initial_phase_deg is not None:
+            raise InputError("give either --initial-phase-deg (phi_0 entered) or --phase-reference FILE (phi_0 measured), not both")
     points, unit = _response_points(
         files, _freqs(freq, len(files)), output=output, input_amplitudes=[input_amplitude] * len(files),
         reference=reference, reference_sensitivity=reference_sensitivity, angle=angle,
         static_sensitivity=static_sensitivity, initial_phase_deg=initial_phase_deg,
         u_input=_rel(u_input, "--u-input"), u_reference=_rel(u_reference, "--u-reference"),
         u_static=_rel(u_static, "--u-static-sensitivity"), drift=drift, harmonics=harmonics, time_column=time_column, fs=fs, names=names,
-        output_unit=output_unit)
-    resp = frequency_response(points, unit=unit, static_sensitivity=static_sensitivity)
+        output_unit=output_unit, u_initial_phase_deg=u_initial_phase_deg, time_unit=time_unit)
+    phase_ref_text = None
+    if phase_reference is not None:
+        from senscal.vibration import apply_phase_reference, phase_reference_run
+
+        rec = load(phase_reference, time_column=time_column, fs=fs, names=names, channels=[output, angle],
+                   time_unit=time_unit)
+        # The reference may be one of the response records (the lowest-frequency run): same label, one fit.
+        same = [str(f) for f in files if os.path.realpath(f) == os.path.realpath(phase_reference)]
+        ref = phase_reference_run(rec[output], rec.time, rec[angle], harmonics=harmonics, drift=drift,
+                                  source=same[0] if same else str(phase_reference))
+        points = list(apply_phase_reference(points, ref))
+        phase_ref_text = (f"phi_0 = {math.degrees(ref.phase):.4f} deg at encoder zero from the {ref.frequency:.4g} Hz "
+                          f"run {phase_reference} (its own delay extrapolated linearly in frequency)")
+    elif initial_phase_deg is not None:
+        phase_ref_text = (f"phi_0 = {initial_phase_deg:g} deg entered (u = {u_initial_phase_deg:g} deg)"
+                          + (" at encoder zero" if angle else " at t = 0"))
+    resp = frequency_response(points, unit=unit, static_sensitivity=static_sensitivity, phase_reference=phase_ref_text)
     doc = {
         "points": [{"file": p.source, "frequency_hz": p.frequency, "u_frequency_hz": p.u_frequency,
                     "input_amplitude": p.input_amplitude, "output_amplitude": p.output_amplitude,
                     "u_output_amplitude": p.u_output_amplitude,
-                    "sensitivity": p.sensitivity, "u_sensitivity": p.u_sensitivity, "U_sensitivity": 2 * p.u_sensitivity,
+                    "sensitivity": p.sensitivity, "u_sensitivity": p.u_sensitivity,
+                    "U_sensitivity": p.sensitivity_budget.expanded,
                     "normalized_sensitivity": p.normalized_sensitivity, "u_normalized_sensitivity": p.u_normalized_sensitivity,
-                    "U_normalized_sensitivity": _k2(p.u_normalized_sensitivity),
+                    "U_normalized_sensitivity": _expanded(p.normalized_budget),
                     "phase_deg": math.degrees(p.phase), "u_phase_deg": math.degrees(p.u_phase),
                     "phase_delay_deg": _deg(p.phase_delay), "u_phase_delay_deg": _deg(p.u_phase_delay),
-                    "U_phase_delay_deg": _deg(_k2(p.u_phase_delay)),
+                    "U_phase_delay_deg": _deg(_expanded(p.phase_delay_budget)), "phase_reference": p.phase_reference,
+                    "warnings": list(p.warnings),
                     "revolutions": p.sync.revolutions if p.sync else None, "n_samples": p.n_samples,
                     "snr_db": p.snr_db, "method": p.method,
                     "sensitivity_budget": p.sensitivity_budget, "normalized_budget": p.normalized_budget,
                     "phase_delay_budget": p.phase_delay_budget} for p in resp.points],
-        "unit": unit, "static_sensitivity": static_sensitivity, "coverage_factor": 2.0,
-        "method": resp.points[0].method,
+        "unit": unit, "static_sensitivity": static_sensitivity,
+        "coverage_factor": max(b.coverage_factor for p in resp.points
+                               for b in (p.sensitivity_budget, p.normalized_budget, p.phase_delay_budget) if b is not None),
+        "method": resp.points[0].method, "phase_reference": resp.phase_reference,
     }
+    warns = list(resp.warnings)
     reps = combine_repeats(resp.points)
     if len(reps) < len(resp.points):
         doc["repeats"] = [{"frequency_hz": g.frequency, "n_repeats": g.n_repeats, "files": list(g.sources),
                            "sensitivity": g.sensitivity, "u_sensitivity": g.u_sensitivity,
+                           "U_sensitivity": g.sensitivity_budget.expanded,
                            "sensitivity_std": g.sensitivity_std, "normalized_sensitivity": g.normalized_sensitivity,
                            "u_normalized_sensitivity": g.u_normalized_sensitivity,
+                           "U_normalized_sensitivity": _expanded(g.normalized_budget),
                            "phase_delay_deg": _deg(g.phase_delay), "u_phase_delay_deg": _deg(g.u_phase_delay),
+                           "U_phase_delay_deg": _deg(_expanded(g.phase_delay_budget)),
+                           "coverage_factor": g.sensitivity_budget.coverage_factor,
                            "sensitivity_budget": g.sensitivity_budget, "normalized_budget": g.normalized_budget,
-                           "phase_delay_budget": g.phase_delay_budget} for g in reps]
+                           "phase_delay_budget": g.phase_delay_budget, "warnings": list(g.warnings)} for g in reps]
+        from senscal.vibration.budget import unique_warnings
+
+        warns = list(unique_warnings(warns, *(g.warnings for g in reps)))
+    doc["warnings"] = warns
     if report is not None:
         from senscal.report.certificate import write_certificate
 
@@ -295,12 +347,15 @@ def response_cmd(
             cond["static sensitivity S0"] = f"{static_sensitivity:g} {unit} (u = {100 * _rel(u_static, '--u-static-sensitivity'):g} %)"
         if angle:
             cond["turntable angle synchronisation"] = "records cut to whole revolutions from a 360 deg crossing"
+        cond["input phase phi_0"] = resp.phase_reference
         cond.update(_conditions(condition))
         meth = ("Double-centrifuge / known sinusoidal input; least-squares sine fit of the output "
                 "(against the turntable angle when synchronised; Qin, seed 003)" if input_amplitude is not None
                 else "Back-to-back comparison with a reference accelerometer (ISO 16063-21); sine fits at one shared frequency")
         write_certificate(report, "response", resp, sensor_id=sensor_id, model=model, unit=unit, method=meth,
-                          conditions=cond, files=[str(f) for f in files])
+                          conditions=cond, files=[str(f) for f in files]
+                          + ([f"{phase_reference} (phase reference)"] if phase_reference is not None else []),
+                          warnings=warns)
         doc["report"] = str(report)
     if save_response_to is not None:
         from senscal.vibration import save_response
@@ -315,19 +370,23 @@ def response_cmd(
         _save_plot(response_figure(resp), plot)
     if json_out:
         print_json(doc)
-        return
-    rows = [[p["frequency_hz"], p["sensitivity"], _u2(p["U_sensitivity"]), p["normalized_sensitivity"],
-             _u2(p["U_normalized_sensitivity"]), p["phase_delay_deg"], _u2(p["U_phase_delay_deg"])] for p in doc["points"]]
-    console.print(table(f"Frequency response ({unit}; U = expanded, k=2)",
-                        ["f (Hz)", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)"], rows))
-    if "repeats" in doc:
-        rows = [[g["frequency_hz"], g["n_repeats"], g["sensitivity"], _u2(_k2(g["u_sensitivity"])),
-                 g["normalized_sensitivity"], _u2(_k2(g["u_normalized_sensitivity"])), g["phase_delay_deg"],
-                 _u2(_k2(g["u_phase_delay_deg"]))] for g in doc["repeats"]]
-        console.print(table("Repeats combined (type A from their spread; U = expanded, k=2)",
-                            ["f (Hz)", "n", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)"], rows))
-    if report is not None:
-        console.print(f"certificate written to {report}")
+    else:
+        rows = [[p["frequency_hz"], p["sensitivity"], _u2(p["U_sensitivity"]), p["normalized_sensitivity"],
+                 _u2(p["U_normalized_sensitivity"]), p["phase_delay_deg"], _u2(p["U_phase_delay_deg"])]
+                for p in doc["points"]]
+        console.print(table(f"Frequency response ({unit}; U = expanded, k=2)",
+                            ["f (Hz)", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)"], rows))
+        console.print(f"phase reference: {resp.phase_reference}")
+        if "repeats" in doc:
+            rows = [[g["frequency_hz"], g["n_repeats"], g["sensitivity"], _u2(g["U_sensitivity"]),
+                     g["normalized_sensitivity"], _u2(g["U_normalized_sensitivity"]), g["phase_delay_deg"],
+                     _u2(g["U_phase_delay_deg"]), f"{g['coverage_factor']:.3g}"] for g in doc["repeats"]]
+            console.print(table("Repeats combined (U = expanded with the k shown: 2, or Student's t when type A "
+                                "comes from the spread of few repeats)",
+                                ["f (Hz)", "n", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)", "k"], rows))
+        if report is not None:
+            console.print(f"certificate written to {report}")
+    emit_warnings(warns, strict)
 
 
 # ---------------------------------------------------------------------------
@@ -343,12 +402,13 @@ def linearity_cmd(
     angle: Annotated[Optional[str], typer.Option("--angle", help="Turntable angle channel (deg): fit against the angle.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift.")] = False,
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
+    u_input: Annotated[Optional[str], typer.Option("--u-input", help="Standard uncertainty of each input level, random from level to level (e.g. main-arm speed set anew), e.g. 0.05%.")] = None,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None, operator: OperatorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Amplitude linearity at a fixed frequency: best straight line, deviations, linearity in % of full scale."""
     from senscal.vibration import amplitude_linearity
@@ -362,16 +422,24 @@ def linearity_cmd(
         files, [freq] * len(files), output=output, input_amplitudes=amps, reference=None, reference_sensitivity=None,
         angle=angle, static_sensitivity=None, initial_phase_deg=None, u_input=0.0, u_reference=0.0, u_static=0.0,
         drift=drift, harmonics=harmonics, time_column=time_column, fs=fs, names=names, output_unit=output_unit)
+    u_in = _rel(u_input, "--u-input")
     lin = amplitude_linearity(amps, [p.output_amplitude for p in points], [p.u_output_amplitude for p in points],
-                              [p.source for p in points])
+                              [p.source for p in points], u_input=u_in)
+    warns = list(lin.warnings) + [w for w in dict.fromkeys(w for p in points for w in p.warnings)
+                                  if not w.startswith("phase-reference-unknown:")]
     out_unit = unit.split("/(m/s^2)")[0]
     doc = {"points": [{"file": p.source, "input_amplitude": p.input_amplitude, "output_amplitude": p.output_amplitude,
                        "u_output_amplitude": p.u_output_amplitude, "deviation": p.deviation,
                        "deviation_percent": p.deviation_percent, "frequency_hz": rp.frequency}
                       for p, rp in zip(lin.points, points)],
-           "slope": lin.slope, "u_slope": lin.u_slope, "intercept": lin.intercept, "u_intercept": lin.u_intercept,
+           "slope": lin.slope, "u_slope": lin.u_slope, "U_slope": lin.coverage_factor * lin.u_slope,
+           "intercept": lin.intercept, "u_intercept": lin.u_intercept,
+           "U_intercept": lin.coverage_factor * lin.u_intercept, "coverage_factor": lin.coverage_factor,
+           "dof": lin.dof, "birge_ratio": lin.birge_ratio, "chi2_p": lin.chi2_p,
            "linearity_percent": lin.linearity_percent, "u_linearity_percent": lin.u_linearity_percent,
-           "full_scale_output": lin.full_scale_output, "unit": unit, "output_unit": out_unit, "coverage_factor": 2.0}
+           "U_linearity_percent": 2 * lin.u_linearity_percent, "linearity_resolved": lin.linearity_resolved,
+           "linearity_bound_percent": lin.linearity_bound_percent,
+           "full_scale_output": lin.full_scale_output, "unit": unit, "output_unit": out_unit, "warnings": warns}
     if report is not None:
         from senscal.report.certificate import write_certificate
 
@@ -382,7 +450,9 @@ def linearity_cmd(
                           conditions={"input levels": len(files),
                                       "frequency (Hz)": f"{sum(p.frequency for p in points) / len(points):.4g}",
                                       "input range (m/s^2)": f"{min(amps):g} .. {max(amps):g}",
-                                      "angle synchronisation": "yes" if angle else "no", **_conditions(condition)})
+                                      "input level u (random per level)": f"{100 * u_in:g} %",
+                                      "angle synchronisation": "yes" if angle else "no", **_conditions(condition)},
+                          warnings=warns)
         doc["report"] = str(report)
     save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
                       job="linearity", method="amplitude linearity, best straight line (Qin, seed 003)",
@@ -395,16 +465,23 @@ def linearity_cmd(
         _save_plot(linearity_figure(lin, f"({out_unit})"), plot)
     if json_out:
         print_json(doc)
-        return
-    rows = [[Path(p.source).stem, p.input_amplitude, p.output_amplitude, _u2(2 * p.u_output_amplitude),
-             f"{p.deviation:.3g}", f"{p.deviation_percent:.3g}"] for p in lin.points]
-    console.print(table("Amplitude linearity (U = expanded, k=2)",
-                        ["file", "input (m/s^2)", "output", "U output", "deviation", "dev (% FS)"], rows))
-    console.print(f"slope = {lin.slope:.6g} {unit} (U = {2 * lin.u_slope:.2g}), intercept = {lin.intercept:.4g} "
-                  f"(U = {2 * lin.u_intercept:.2g}), linearity = {lin.linearity_percent:.3g} % of full scale "
-                  f"{lin.full_scale_output:.6g}")
-    if report is not None:
-        console.print(f"certificate written to {report}")
+    else:
+        rows = [[Path(p.source).stem, p.input_amplitude, p.output_amplitude, _u2(2 * p.u_output_amplitude),
+                 f"{p.deviation:.3g}", f"{p.deviation_percent:.3g}"] for p in lin.points]
+        console.print(table("Amplitude linearity (U = expanded, k=2)",
+                            ["file", "input (m/s^2)", "output", "U output", "deviation", "dev (% FS)"], rows))
+        k = lin.coverage_factor
+        console.print(f"slope = {lin.slope:.6g} {unit} (U = {k * lin.u_slope:.2g}, k={k:.3g}), intercept = "
+                      f"{lin.intercept:.4g} (U = {k * lin.u_intercept:.2g}, k={k:.3g})")
+        if lin.linearity_resolved is False:
+            console.print(f"linearity below {lin.linearity_bound_percent:.2g} % of full scale {lin.full_scale_output:.6g} "
+                          f"(not resolved: largest deviation {lin.linearity_percent:.2g} % is within the noise)")
+        else:
+            console.print(f"linearity = {lin.linearity_percent:.3g} % of full scale {lin.full_scale_output:.6g} "
+                          f"(U = {2 * lin.u_linearity_percent:.2g} %, k=2, Monte Carlo)")
+        if report is not None:
+            console.print(f"certificate written to {report}")
+    emit_warnings(warns, strict)
 
 
 # ---------------------------------------------------------------------------
@@ -440,12 +517,14 @@ def simulate_hydraulic_cmd(
     sensitivity: Annotated[float, typer.Option("--sensitivity", help="Velocity-sensor sensitivity, V/(m/s).")] = 0.1368,
     noise: Annotated[float, typer.Option("--noise", help="Velocity-sensor noise, V.")] = 3e-4,
     distortion: Annotated[float, typer.Option("--distortion", help="Third harmonic of the motion, relative.")] = 0.0,
+    sensitivity_scatter: Annotated[float, typer.Option("--sensitivity-scatter", help="Departure: relative standard deviation of the sensitivity from record to record.")] = 0.0,
 ) -> None:
     """Hydraulic rig: position reference and velocity sensor, one CSV per frequency, truth JSON."""
     from senscal.simulate.vibration import simulate_hydraulic
 
     recs, truth = simulate_hydraulic(frequencies=_opt_floats(freqs, "--freqs"), sensitivity=sensitivity,
-                                     velocity_noise=noise, distortion=distortion, seed=seed)
+                                     velocity_noise=noise, distortion=distortion,
+                                     sensitivity_scatter=sensitivity_scatter, seed=seed)
     paths = write_simulation(recs, truth, out, "hydraulic")
     console.print(f"wrote {len(paths)} recordings and hydraulic_truth.json to {out}")
 
@@ -460,16 +539,33 @@ def simulate_centrifuge_cmd(
     damping: Annotated[float, typer.Option("--damping", help="Damping ratio.")] = 0.6,
     noise: Annotated[float, typer.Option("--noise", help="Output noise, V.")] = 2e-3,
     cubic: Annotated[float, typer.Option("--cubic", help="Cubic nonlinearity, 1/(m/s^2)^2.")] = 0.0,
+    encoder_zero_deg: Annotated[float, typer.Option("--encoder-zero-deg", help="Departure: encoder zero this many degrees off the field direction (phi_0 = 90 + offset).")] = 0.0,
+    sensitivity_scatter: Annotated[float, typer.Option("--sensitivity-scatter", help="Departure: relative standard deviation of S0 from record to record (remounting).")] = 0.0,
+    input_scatter: Annotated[float, typer.Option("--input-scatter", help="Departure: relative standard deviation of the actual a0 about the nominal, per record.")] = 0.0,
+    phase_reference_freq: Annotated[Optional[float], typer.Option("--phase-reference-freq", help="Also write a start-up run at this turntable frequency (Hz) as phaseref.csv, for --phase-reference.")] = None,
 ) -> None:
     """Double centrifuge: angle (deg) and accelerometer output (V), one CSV per point, truth JSON."""
     from senscal.simulate.vibration import simulate_centrifuge
 
+    common = dict(static_sensitivity=static_sensitivity, natural_frequency=natural_frequency, damping=damping,
+                  noise=noise, cubic=cubic, encoder_zero_deg=encoder_zero_deg)
     recs, truth = simulate_centrifuge(frequencies=parse_floats(freqs, "--freqs"),
                                       accelerations=parse_floats(accelerations, "--accelerations"),
-                                      static_sensitivity=static_sensitivity, natural_frequency=natural_frequency,
-                                      damping=damping, noise=noise, cubic=cubic, seed=seed)
+                                      sensitivity_scatter=sensitivity_scatter, input_scatter=input_scatter,
+                                      seed=seed, **common)
+    extra = ""
+    if phase_reference_freq is not None:
+        from senscal.io import write_recording
+
+        accs = parse_floats(accelerations, "--accelerations")
+        # its own random stream: the response records stay those of --seed
+        ref, rt = simulate_centrifuge(frequencies=[phase_reference_freq], accelerations=accs[:1],
+                                      seed=None if seed is None else seed + 1_000_003, **common)
+        write_recording(ref[0], Path(out) / "phaseref.csv")
+        truth["phase_reference_run"] = {"file": "phaseref.csv", **rt["points"][0]}
+        extra = " and phaseref.csv"
     paths = write_simulation(recs, truth, out, "centrifuge")
-    console.print(f"wrote {len(paths)} recordings and centrifuge_truth.json to {out}")
+    console.print(f"wrote {len(paths)} recordings{extra} and centrifuge_truth.json to {out}")
 
 
 @simulate_app.command("shaker")

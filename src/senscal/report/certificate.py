@@ -58,7 +58,11 @@ table.kv td{text-align:left}table.kv td:first-child{font-weight:600;background:#
 <table><tr>{% for c in columns %}<th>{{ c }}</th>{% endfor %}</tr>
 {% for row in rows %}<tr>{% for v in row %}<td>{{ v }}</td>{% endfor %}</tr>{% endfor %}</table>
 <p>U is the expanded uncertainty with coverage factor k = 2 (about 95 % coverage for a normal
-distribution), evaluated following the GUM (JCGM 100:2008) from the standard uncertainties below.</p>
+distribution), evaluated following the GUM (JCGM 100:2008) from the standard uncertainties below;
+where the effective degrees of freedom are few, k is Student's t for the same 95.45 % (shown in the budget).</p>
+{% if warnings %}<h2>Warnings</h2>
+<p>The data depart from the method's model as follows; the uncertainties above do not cover these departures.</p>
+<ul>{% for w in warnings %}<li>{{ w }}</li>{% endfor %}</ul>{% endif %}
 {% if budgets %}<h2>Uncertainty budget (standard uncertainties, k = 1)</h2>{% endif %}
 {% for bcols, brows in budgets %}<table><tr>{% for c in bcols %}<th>{{ c }}</th>{% endfor %}</tr>
 {% for row in brows %}<tr>{% for v in row %}<td>{{ v }}</td>{% endfor %}</tr>{% endfor %}</table>{% endfor %}
@@ -162,9 +166,10 @@ def _budget_table(budgets: Sequence[Any], labels: Sequence[str]) -> tuple[list[s
     if not budgets:
         return [], []
     sources = [f"{c.source} [{c.kind}]" for c in budgets[0].components]
-    cols = ["point", "quantity", "value"] + sources + ["u_c", f"U (k={_g(budgets[0].coverage_factor)})", "unit"]
+    # k per row: 2 for many degrees of freedom, Student's t where they are few
+    cols = ["point", "quantity", "value"] + sources + ["u_c", "k", "U", "unit"]
     rows = [[lab, b.quantity, _g(b.value)] + [_u(c.standard_uncertainty) for c in b.components]
-            + [_u(b.combined), _u(b.expanded), b.unit] for lab, b in zip(labels, budgets)]
+            + [_u(b.combined), _g(b.coverage_factor, 3), _u(b.expanded), b.unit] for lab, b in zip(labels, budgets)]
     return cols, rows
 
 
@@ -172,7 +177,7 @@ def _in_degrees(b):
     from senscal.vibration.budget import make_budget
 
     return make_budget(b.quantity, math.degrees(b.value), "deg",
-                       [(c.source, c.kind, math.degrees(c.standard_uncertainty)) for c in b.components],
+                       [(c.source, c.kind, math.degrees(c.standard_uncertainty), c.dof) for c in b.components],
                        b.coverage_factor)
 
 
@@ -197,7 +202,8 @@ def _tables(kind: str, result: Any, unit: str):
         budgets = [_budget_table(bud, labels)]
         if has_ph:
             budgets.append(_budget_table([_in_degrees(p.phase_delay_budget) for p in pts], labels))
-        summary = []
+        summary = ([("Input phase phi_0", result.phase_reference)] if getattr(result, "phase_reference", "")
+                   and has_ph else [])
         figs = [response_figure(result)]
     elif kind == "velocity":
         cols = ["frequency (Hz)", f"sensitivity ({unit})", "U", "phase vs velocity (deg)", "U (deg)"]
@@ -205,18 +211,26 @@ def _tables(kind: str, result: Any, unit: str):
                  _u(2 * math.degrees(p.u_phase))] for p in result.points]
         budgets = [_budget_table([p.budget for p in result.points], [f"{p.frequency:g} Hz" for p in result.points]),
                    _budget_table([result.budget], ["mean"])]
-        summary = [("Mean sensitivity", f"{_g(result.sensitivity)} {unit}, U = {_u(2 * result.u_sensitivity)} {unit} "
-                    f"(k=2); standard deviation over {len(result.points)} points {_u(result.sensitivity_std)} {unit}")]
+        summary = [("Mean sensitivity", f"{_g(result.sensitivity)} {unit}, U = {_u(result.budget.expanded)} {unit} "
+                    f"(k={_g(result.budget.coverage_factor, 3)}); standard deviation over {len(result.points)} points "
+                    f"{_u(result.sensitivity_std)} {unit}")]
         figs = [velocity_figure(result)]
     elif kind == "linearity":
         cols = ["input amplitude (m/s^2)", "output amplitude", "U", "deviation", "deviation (% FS)"]
         rows = [[_g(p.input_amplitude), _g(p.output_amplitude), _u(2 * p.u_output_amplitude), _g(p.deviation, 3),
                  _g(p.deviation_percent, 3)] for p in result.points]
         budgets = []
-        summary = [("Amplitude linearity", f"{_g(result.linearity_percent, 3)} % of full-scale output "
-                    f"({_g(result.full_scale_output)})"),
-                   ("Sensitivity (slope)", f"{_g(result.slope)} {unit}, U = {_u(2 * result.u_slope)} (k=2)"),
-                   ("Intercept", f"{_g(result.intercept)}, U = {_u(2 * result.u_intercept)} (k=2)")]
+        k = getattr(result, "coverage_factor", 2.0)
+        if getattr(result, "linearity_resolved", None) is False:
+            lin_text = (f"below {_g(result.linearity_bound_percent, 2)} % of full-scale output "
+                        f"({_g(result.full_scale_output)}): not resolved, the largest deviation "
+                        f"{_g(result.linearity_percent, 2)} % is within the noise")
+        else:
+            lin_text = (f"{_g(result.linearity_percent, 3)} % of full-scale output ({_g(result.full_scale_output)}), "
+                        f"U = {_u(2 * result.u_linearity_percent)} % (k=2, Monte Carlo, JCGM 101)")
+        summary = [("Amplitude linearity", lin_text),
+                   ("Sensitivity (slope)", f"{_g(result.slope)} {unit}, U = {_u(k * result.u_slope)} (k={_g(k, 3)})"),
+                   ("Intercept", f"{_g(result.intercept)}, U = {_u(k * result.u_intercept)} (k={_g(k, 3)})")]
         figs = [linearity_figure(result)]
     else:
         from senscal.errors import InputError
@@ -231,7 +245,8 @@ _TITLES = {"response": "Accelerometer frequency response", "velocity": "Velocity
 
 def certificate_html(kind: str, result: Any, *, sensor_id: str = "not stated", model: str = "not stated",
                      method: str = "", conditions: Mapping[str, Any] | None = None, unit: str = "",
-                     files: Sequence[str] = (), date: _dt.datetime | None = None) -> str:
+                     files: Sequence[str] = (), date: _dt.datetime | None = None,
+                     warnings: Sequence[str] | None = None) -> str:
     """Render a certificate as one self-contained HTML string.
 
     Parameters
@@ -253,6 +268,9 @@ def certificate_html(kind: str, result: Any, *, sensor_id: str = "not stated", m
         Records used.
     date : datetime, optional
         Date of issue (default: now, UTC).
+    warnings : sequence of str, optional
+        Named warnings to print on the certificate (default: the result's
+        own ``warnings``).
     """
     from senscal import __version__
 
@@ -267,13 +285,14 @@ def certificate_html(kind: str, result: Any, *, sensor_id: str = "not stated", m
         conditions=[(k, v if isinstance(v, str) else _g(v)) for k, v in (conditions or {}).items()],
         summary=summary, columns=cols, rows=rows, budgets=[b for b in budgets if b[0]],
         plots=[svg_inline(f) for f in figs], files=", ".join(files) or "-",
+        warnings=list(getattr(result, "warnings", ()) if warnings is None else warnings),
     )
 
 
 def write_certificate(path: str | Path, kind: str, result: Any, **kw: Any) -> Path:
     """Write :func:`certificate_html` to ``path`` (folders created) and return the path."""
-    from senscal.io.guard import check_output
+    from senscal.io.guard import check_output, write_text
 
     path = check_output(path, what="report")
-    path.write_text(certificate_html(kind, result, **kw), encoding="utf-8")
+    write_text(path, certificate_html(kind, result, **kw), what="report")
     return path

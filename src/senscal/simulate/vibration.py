@@ -52,7 +52,8 @@ def _check_freqs(freqs: Sequence[float], fs: float, what: str) -> list[float]:
 def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float = 1000.0, periods: float = 8.3,
                        min_duration: float = 4.0, position_amplitude: float = 0.02, sensitivity: float = 0.1368,
                        delay: float = 5e-4, position_noise: float = 2e-6, velocity_noise: float = 3e-4,
-                       offset: float = 0.01, drift: float = 1e-3, distortion: float = 0.0, seed: int | None = None,
+                       offset: float = 0.01, drift: float = 1e-3, distortion: float = 0.0,
+                       sensitivity_scatter: float = 0.0, seed: int | None = None,
                        ) -> tuple[list[Recording], dict[str, Any]]:
     """Servo cylinder moving sinusoidally; position sensor and velocity sensor.
 
@@ -85,6 +86,11 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
         Velocity-sensor offset (V) and its drift (V/s).
     distortion : float
         Third-harmonic amplitude of the motion relative to the fundamental.
+    sensitivity_scatter : float
+        Departure (off by default): relative standard deviation of the
+        sensor's sensitivity from record to record (remounting, temperature),
+        which no single record can show.  ``truth["sensitivity"]`` stays the
+        mean; each point's truth is its own record's sensitivity.
     seed : int, optional
 
     Returns
@@ -99,6 +105,8 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
     freqs = _check_freqs(frequencies if frequencies is not None else [k / 2.0 for k in range(2, 12)], fs, "hydraulic")
     if not (position_noise >= 0 and velocity_noise >= 0):
         raise InputError("noise levels must be non-negative")
+    if not 0 <= sensitivity_scatter < 0.5:
+        raise InputError(f"sensitivity scatter must be a relative standard deviation in [0, 0.5), got {sensitivity_scatter!r}")
     recs, points = [], []
     for f in freqs:
         n = int(round(max(periods / f, min_duration) * fs))
@@ -112,14 +120,16 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
         td = t - delay
         vel_true_delayed = w * position_amplitude * np.cos(w * td + phi) + 3 * w * a3 * np.cos(3 * w * td + phi3)
         off = offset * rng.uniform(0.5, 1.5)
-        vel = sensitivity * vel_true_delayed + off + drift * t + rng.normal(0.0, velocity_noise, n)
+        # Drawn only when asked, so the default simulation keeps its random stream.
+        s_rec = sensitivity * (1.0 + sensitivity_scatter * rng.standard_normal()) if sensitivity_scatter else sensitivity
+        vel = s_rec * vel_true_delayed + off + drift * t + rng.normal(0.0, velocity_noise, n)
         recs.append(Recording(channels={"position": pos, "velocity": vel}, t=t,
                               units={"position": "m", "velocity": "V"},
                               metadata={"simulator": "hydraulic", "frequency_hz": f}))
-        points.append({"frequency_hz": f, "sensitivity": sensitivity, "phase_deg": -360.0 * f * delay})
+        points.append({"frequency_hz": f, "sensitivity": s_rec, "phase_deg": -360.0 * f * delay})
     truth = {"sensitivity": sensitivity, "unit": "V/(m/s)", "delay_s": delay, "position_amplitude_m": position_amplitude,
              "position_noise_m": position_noise, "velocity_noise_v": velocity_noise, "distortion": distortion,
-             "points": points}
+             "sensitivity_scatter": sensitivity_scatter, "points": points}
     return recs, truth
 
 
@@ -127,7 +137,8 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
                         fs: float = 100.0, arm_radius: float = 1.0, static_sensitivity: float = 0.05,
                         natural_frequency: float = 40.0, damping: float = 0.6, bias: float = 0.02,
                         noise: float = 2e-3, quadratic: float = 0.0, cubic: float = 0.0, angle_noise_deg: float = 0.0,
-                        revolutions: float = 3.4, min_duration: float = 20.0, seed: int | None = None,
+                        revolutions: float = 3.4, min_duration: float = 20.0, encoder_zero_deg: float = 0.0,
+                        sensitivity_scatter: float = 0.0, input_scatter: float = 0.0, seed: int | None = None,
                         ) -> tuple[list[Recording], dict[str, Any]]:
     """Double centrifuge: constant centripetal field turned by a secondary turntable.
 
@@ -165,6 +176,19 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
         Angle-encoder noise standard deviation, degrees.
     revolutions, min_duration : float
         Each record lasts ``max(revolutions / f, min_duration)`` s.
+    encoder_zero_deg : float
+        Departure (off by default): the encoder reads ``theta - offset``, so
+        encoder zero lies ``offset`` degrees from the field direction and
+        the input phase at encoder zero is ``phi_0 = 90 + offset`` deg
+        (``truth["initial_phase_deg"]``).
+    sensitivity_scatter : float
+        Departure: relative standard deviation of ``S0`` from record to record
+        (remounting between repeats); each point's truth is its own record's.
+    input_scatter : float
+        Departure: relative standard deviation of the actual peak acceleration
+        about the nominal ``a0`` from record to record (main-arm speed set
+        anew); the recordings' metadata and the truth keep the nominal ``a0``,
+        the truth's sensitivity is the sensor's own.
     seed : int, optional
 
     Returns
@@ -186,6 +210,11 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
         raise InputError("natural frequency and damping must be positive")
     if not (noise >= 0 and angle_noise_deg >= 0):
         raise InputError("noise levels must be non-negative")
+    if not math.isfinite(encoder_zero_deg):
+        raise InputError(f"encoder zero offset must be a finite number of degrees, got {encoder_zero_deg!r}")
+    for name, v in (("sensitivity scatter", sensitivity_scatter), ("input scatter", input_scatter)):
+        if not 0 <= v < 0.5:
+            raise InputError(f"{name} must be a relative standard deviation in [0, 0.5), got {v!r}")
     recs, points = [], []
     for a0 in accs:
         for f in freqs:
@@ -194,21 +223,28 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
             theta0 = rng.uniform(20.0, 340.0)
             theta = theta0 + 360.0 * f * t
             h = complex(second_order_response(f, natural_frequency, damping))
+            # Departures are drawn only when asked, so default simulations keep their random stream.
+            s0 = static_sensitivity * (1.0 + sensitivity_scatter * rng.standard_normal()) if sensitivity_scatter \
+                else static_sensitivity
+            a_true = a0 * (1.0 + input_scatter * rng.standard_normal()) if input_scatter else a0
             # Steady-state proof-mass response to a0 cos(theta).
-            x = a0 * abs(h) * np.cos(np.radians(theta) + np.angle(h))
-            out = static_sensitivity * (x + quadratic * x**2 + cubic * x**3) + bias + rng.normal(0.0, noise, n)
-            angle = np.mod(theta + rng.normal(0.0, angle_noise_deg, n) if angle_noise_deg > 0 else theta, 360.0)
+            x = a_true * abs(h) * np.cos(np.radians(theta) + np.angle(h))
+            out = s0 * (x + quadratic * x**2 + cubic * x**3) + bias + rng.normal(0.0, noise, n)
+            theta_enc = theta - encoder_zero_deg if encoder_zero_deg else theta
+            angle = np.mod(theta_enc + rng.normal(0.0, angle_noise_deg, n) if angle_noise_deg > 0 else theta_enc, 360.0)
             recs.append(Recording(channels={"angle": angle, "output": out}, t=t, units={"angle": "deg", "output": "V"},
                                   metadata={"simulator": "centrifuge", "frequency_hz": f, "acceleration": a0}))
-            amp_x = a0 * abs(h)
-            fund = static_sensitivity * (amp_x + 0.75 * cubic * amp_x**3)
-            points.append({"frequency_hz": f, "acceleration": a0, "sensitivity": fund / a0,
-                           "normalized_sensitivity": fund / a0 / static_sensitivity,
-                           "phase_delay_deg": math.degrees(np.angle(h)),
-                           "main_speed_rad_s": math.sqrt(a0 / arm_radius)})
+            amp_x = a_true * abs(h)
+            fund = s0 * (amp_x + 0.75 * cubic * amp_x**3)
+            points.append({"frequency_hz": f, "acceleration": a0, "acceleration_true": a_true,
+                           "sensitivity": fund / a_true, "normalized_sensitivity": fund / a_true / static_sensitivity,
+                           "output_amplitude": fund, "phase_delay_deg": math.degrees(np.angle(h)),
+                           "main_speed_rad_s": math.sqrt(a_true / arm_radius)})
     truth = {"static_sensitivity": static_sensitivity, "unit": "V/(m/s^2)", "natural_frequency_hz": natural_frequency,
              "damping": damping, "bias": bias, "noise_std": noise, "quadratic": quadratic, "cubic": cubic,
-             "arm_radius_m": arm_radius, "points": points}
+             "arm_radius_m": arm_radius, "encoder_zero_deg": encoder_zero_deg,
+             "initial_phase_deg": 90.0 + encoder_zero_deg, "sensitivity_scatter": sensitivity_scatter,
+             "input_scatter": input_scatter, "points": points}
     return recs, truth
 
 

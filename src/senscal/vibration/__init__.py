@@ -11,18 +11,22 @@ References
 .. [3] ISO 16063-21:2003, calibration by comparison to a reference transducer.
 """
 
-from senscal.vibration.budget import BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget
+from senscal.vibration.budget import (BudgetComponent, MeanBudget, UncertaintyBudget, coverage_factor, make_budget,
+                                     mean_with_budget, welch_satterthwaite)
 from senscal.vibration.fits import AngleSync, PairFit, cut_whole_revolutions, fit_against_angle, fit_pair
 from senscal.vibration.linearity import AmplitudeLinearity, LinearityPoint, amplitude_linearity
-from senscal.vibration.response import (FrequencyResponse, RepeatedPoint, ResponsePoint, combine_repeats,
-                                        frequency_response, load_response, response_point, save_response)
+from senscal.vibration.response import (FrequencyResponse, PhaseReference, RepeatedPoint, ResponsePoint,
+                                        apply_phase_reference, combine_repeats, frequency_response, load_response,
+                                        phase_reference_run, response_point, save_response)
 from senscal.vibration.velocity import VelocityCalibration, VelocityPoint, velocity_calibration, velocity_point
 
 __all__ = [
-    "BudgetComponent", "UncertaintyBudget", "make_budget", "mean_with_budget",
+    "BudgetComponent", "MeanBudget", "UncertaintyBudget", "coverage_factor", "make_budget", "mean_with_budget",
+    "welch_satterthwaite",
     "AngleSync", "PairFit", "cut_whole_revolutions", "fit_against_angle", "fit_pair",
     "AmplitudeLinearity", "LinearityPoint", "amplitude_linearity",
-    "FrequencyResponse", "RepeatedPoint", "ResponsePoint", "combine_repeats", "frequency_response", "response_point",
+    "FrequencyResponse", "PhaseReference", "RepeatedPoint", "ResponsePoint", "apply_phase_reference",
+    "combine_repeats", "frequency_response", "phase_reference_run", "response_point",
     "save_response", "load_response",
     "VelocityCalibration", "VelocityPoint", "velocity_calibration", "velocity_point",
 ]

@@ -108,7 +108,7 @@ class ResponsePoint(ResultMixin):
 
 def _fit_dof(fit) -> float:
     """Degrees of freedom behind a fit's uncertainties (effective ones when the fit reports them)."""
-    nu = getattr(fit, "effective_dof", None)
+    nu = getattr(fit, "dof_effective", None)
     return float(fit.dof if nu is None else nu)
 
 

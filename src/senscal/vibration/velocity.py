@@ -122,8 +122,8 @@ def velocity_point(position, output, t, *, freq: float | None = None, drift: boo
     s = a_s / (TWO_PI * f * a_p)
     jac = np.array([-s / a_p, s / a_s if a_s > 0 else 1.0 / (TWO_PI * f * a_p), 0.0, -s / f])
     u_fit = math.sqrt(max(float(jac @ pf.covariance @ jac), 0.0))
-    dof = float(min(getattr(pf.reference, "effective_dof", None) or pf.reference.dof,
-                    getattr(pf.output, "effective_dof", None) or pf.output.dof))
+    dof = float(min(getattr(pf.reference, "dof_effective", None) or pf.reference.dof,
+                    getattr(pf.output, "dof_effective", None) or pf.output.dof))
     budget = make_budget("sensitivity", s, unit, [("sine fits", "A", u_fit, dof),
                                                   ("position reference", "B", u_position * s)])
     return VelocityPoint(
