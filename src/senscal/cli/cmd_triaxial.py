@@ -146,6 +146,12 @@ def calibrate_cmd(
             raw[k] = 0.0
             corr[k] = 0.0
         plot_calibration(raw, corr, f, plot, unit=unit, title=f"{file.name}: {res.model} model, {res.method}")
+        if res.heading is not None:
+            from senscal.triaxial.plots import plot_heading
+
+            hp = plot_heading(res.heading, plot.with_name(f"{plot.stem}_heading{plot.suffix}"),
+                              title=f"{file.name}: heading error before / after")
+            err_console.print(f"wrote {hp}")
     if json_out:
         print_json(doc)
         return
@@ -165,6 +171,10 @@ def calibrate_cmd(
         console.print(f"unidentifiable: {g['reason']}")
     for c in res.model_choice:
         console.print(f"rejected {c}")
+    if res.heading is not None:
+        hb, ha = res.heading["deviation_before_deg"], res.heading["U_after_deg"]
+        console.print(f"turn about one axis: heading error before {hb['rms']:.3g} deg rms ({hb['max_abs']:.3g} max); "
+                      f"after, U(k=2) {ha['rms']:.3g} deg rms ({ha['max_abs']:.3g} max)")
     for w in res.warnings:
         err_console.print(f"warning: {w}")
 

@@ -9,7 +9,7 @@ import numpy as np
 from senscal.report.plots import new_figure, save_figure
 from senscal.triaxial.calibrate import nominal_raw
 
-__all__ = ["plot_calibration"]
+__all__ = ["plot_calibration", "plot_heading"]
 
 
 def plot_calibration(h_raw: np.ndarray, h_corrected: np.ndarray, field: float, path: str | Path, *,
@@ -54,4 +54,37 @@ def plot_calibration(h_raw: np.ndarray, h_corrected: np.ndarray, field: float, p
     axn.legend(loc="upper right")
     if title:
         fig.suptitle(title)
+    return save_figure(fig, path)
+
+
+def plot_heading(report: dict, path: str | Path, *, title: str = "") -> Path:
+    """Heading deviation before calibration and its k=2 uncertainty after, against calibrated heading.
+
+    Parameters
+    ----------
+    report : dict
+        :func:`senscal.triaxial.heading.heading_report` output (with per-reading arrays).
+    path : str or Path
+        Output image.
+
+    Returns
+    -------
+    Path
+    """
+    psi = np.asarray(report["heading_deg"])
+    dev = np.asarray(report["deviation_before_deg"]["per_reading"])
+    order = np.argsort(psi)
+    fig, ax = new_figure(1, 1, width=7.5, height=4.0)
+    ax.plot(psi[order], dev[order], ".", ms=2, label="before: raw heading minus calibrated")
+    if "U_after_deg" in report:
+        u = np.asarray(report["U_after_deg"]["per_reading"])
+        ax.fill_between(psi[order], -u[order], u[order], color="C1", alpha=0.4,
+                        label="after: calibrated heading, U (k=2)")
+    ax.axhline(0.0, color="k", lw=0.5)
+    ax.set_xlabel("calibrated heading (deg)")
+    ax.set_ylabel("heading error (deg)")
+    ax.set_xlim(0, 360)
+    ax.legend(loc="best", fontsize=8)
+    if title:
+        ax.set_title(title)
     return save_figure(fig, path)
