@@ -19,6 +19,7 @@ References
 from __future__ import annotations
 
 import csv
+import io
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -26,7 +27,8 @@ import numpy as np
 
 from senscal._result import ResultMixin
 from senscal.errors import DegenerateGeometryError, FileFormatError, InputError
-from senscal.io.guard import check_output, note_input
+from senscal.io.guard import check_output, write_text
+from senscal.io.sidefiles import read_text
 
 __all__ = ["Layout", "KinematicSolution", "paper_layout", "read_layout", "solve_kinematics",
            "UNKNOWNS", "MAX_CONDITION"]
@@ -149,9 +151,9 @@ def read_layout(path: str | Path) -> Layout:
     path = Path(path)
     if not path.is_file():
         raise FileFormatError(f"layout file {path} does not exist")
-    note_input(path)
-    with path.open(newline="") as fh:
-        rows = [r for r in csv.reader(line for line in fh if line.strip() and not line.lstrip().startswith("#"))]
+    text = read_text(path, "layout file")  # one-line errors for unreadable / non-UTF-8 files
+    rows = [r for r in csv.reader(line for line in io.StringIO(text, newline="")
+                                  if line.strip() and not line.lstrip().startswith("#"))]
     if not rows:
         raise FileFormatError(f"layout file {path} is empty; give a header name,x,y,z,nx,ny,nz and one row per channel")
     header = [h.strip().lower() for h in rows[0]]
@@ -176,11 +178,12 @@ def read_layout(path: str | Path) -> Layout:
 def write_layout(layout: Layout, path: str | Path) -> Path:
     """Write a layout table readable by :func:`read_layout`."""
     path = check_output(path, what="layout file")
-    with path.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(_LAYOUT_COLUMNS)
-        for name, p, n in zip(layout.names, layout.positions, layout.directions):
-            w.writerow([name, *(f"{v:.17g}" for v in p), *(f"{v:.17g}" for v in n)])
+    buf = io.StringIO(newline="")
+    w = csv.writer(buf)
+    w.writerow(_LAYOUT_COLUMNS)
+    for name, p, n in zip(layout.names, layout.positions, layout.directions):
+        w.writerow([name, *(f"{v:.17g}" for v in p), *(f"{v:.17g}" for v in n)])
+    write_text(path, buf.getvalue(), what="layout file")
     return path
 
 

@@ -24,11 +24,12 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, width: float = 8.0, height: fl
 
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     """Save a figure (format from the extension: .png, .svg, .pdf)."""
-    from senscal.io.guard import check_output
+    from senscal.io.guard import atomic_output, check_output
 
     formats = tuple("." + k for k in fig.canvas.get_supported_filetypes())
     path = check_output(path, suffixes=formats, what="plot")
-    fig.savefig(path, dpi=dpi)
+    with atomic_output(path, what="plot") as tmp:  # no half-written image on a full disk
+        fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower())
     return path
 
 

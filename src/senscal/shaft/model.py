@@ -206,10 +206,10 @@ class GravityModel(ResultMixin):
 
     def save(self, path: str | Path) -> Path:
         """Write the model as JSON (folders created)."""
-        from senscal.io.guard import check_output
+        from senscal.io.guard import check_output, write_text
 
         path = check_output(path, what="model file")
-        path.write_text(json.dumps(self.to_dict(), indent=2) + "\n")
+        write_text(path, json.dumps(self.to_dict(), indent=2) + "\n", what="model file")
         return path
 
     @classmethod
@@ -232,7 +232,9 @@ class GravityModel(ResultMixin):
         for k in ("amplitude", "phase", "offset", "u_amplitude", "u_phase", "u_offset", "sensitivity", "g"):
             if not isinstance(kw[k], (int, float)) or not math.isfinite(kw[k]):
                 raise FileFormatError(f"{source} has a non-numeric '{k}' ({kw[k]!r}); recalibrate to rewrite it")
-        kw["covariance"] = np.asarray(kw["covariance"], dtype=float).reshape(3, 3)
+        from senscal.io.sidefiles import array_field
+
+        kw["covariance"] = array_field(kw["covariance"], (3, 3), f"'covariance' in {source}")
         kw["warnings"] = tuple(kw.get("warnings") or ())
         return cls(**kw)
 
@@ -243,13 +245,11 @@ def load_model(path: str | Path) -> GravityModel:
 
     path = Path(path)
     note_input(path)
-    try:
-        d = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise FileFormatError(f"model file {path} does not exist; run 'senscal shaft calibrate ... --out {path}'") from None
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise FileFormatError(f"cannot read model file {path} as JSON ({exc.__class__.__name__}); "
-                              "give the file written by 'senscal shaft calibrate --out'") from None
+    if not path.exists():
+        raise FileFormatError(f"model file {path} does not exist; run 'senscal shaft calibrate ... --out {path}'")
+    from senscal.io.sidefiles import read_json
+
+    d = read_json(path, "model file", expect=None)  # from_dict names a wrong top-level type
     return GravityModel.from_dict(d, source=f"model file {path}")
 
 
