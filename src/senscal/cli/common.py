@@ -86,8 +86,10 @@ def print_json(obj: Any) -> None:
 
 def write_json(obj: Any, path: Path | str) -> Path:
     """Write ``obj`` as JSON to ``path`` (folders created)."""
+    from senscal.io.guard import write_text
+
     path = check_output(path)
-    path.write_text(json.dumps(to_jsonable(obj), indent=2) + "\n")
+    write_text(path, json.dumps(to_jsonable(obj), indent=2) + "\n")  # atomic: no half-written JSON
     return path
 
 
