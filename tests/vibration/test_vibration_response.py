@@ -160,8 +160,20 @@ def test_repeats_are_combined_with_type_a_from_their_spread():
     from senscal.diagnostics import has_warning
 
     assert not has_warning(g.warnings, "excess-scatter")
-    ua = g.normalized_budget.component("type A (fits)").standard_uncertainty
-    assert ua == pytest.approx(math.sqrt(sum(u * u for u in u_fits)) / 4, rel=1e-12)
+    ua = g.normalized_budget.component("type A (spread of repeats)").standard_uncertainty
+    vals = [p.normalized_sensitivity for p in pts[:4]]
+    assert ua == pytest.approx(np.std(vals, ddof=1) / 2, rel=1e-12)
+    # k from the Welch-Satterthwaite dof of type A (3 dof) and the exact type B input component
+    from senscal.vibration import coverage_factor, mean_with_budget, welch_satterthwaite
+
+    comps = g.normalized_budget.components
+    nu = welch_satterthwaite([c.standard_uncertainty for c in comps], [c.dof for c in comps])
+    assert g.normalized_budget.coverage_factor == pytest.approx(coverage_factor(nu), rel=1e-12)
+    # without type B the spread's 3 dof give Student's t for 95.45 % (GUM table G.2: 3.31)
+    m = mean_with_budget(vals, u_fits, [], "normalized sensitivity", "1")
+    assert m.budget.coverage_factor == pytest.approx(3.307, abs=1e-3)
+    # the spread and the fits agree on white noise to within a chi-square's scatter
+    assert 0.1 < ua / (math.sqrt(sum(u * u for u in u_fits)) / 4) < 2.5
     # the type B input component does not average down
     assert g.normalized_budget.component("input amplitude").standard_uncertainty == pytest.approx(
         0.001 * g.normalized_sensitivity, rel=1e-9)

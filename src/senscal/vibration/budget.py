@@ -207,10 +207,10 @@ class MeanBudget(ResultMixin):
     std : float
         Experimental standard deviation of the values (0 for one value).
     budget : UncertaintyBudget
-        Type A from the rule below, type B carried over.
+        Type A by the rule of :func:`mean_with_budget`, type B carried over.
     estimator : str
-        ``"fits"`` (type A from the fits' own uncertainties) or ``"spread"``
-        (``s / sqrt(n)`` with ``n - 1`` degrees of freedom).
+        ``"spread"`` (``s / sqrt(n)`` with ``n - 1`` degrees of freedom) or,
+        for one value, ``"fits"`` (its fit uncertainty).
     birge_ratio : float
         ``sqrt(chi2 / (n - 1))`` of the values about their weighted mean
         with the fits' uncertainties (1 on average when those are right;
@@ -239,24 +239,24 @@ def mean_with_budget(values: Sequence[float], u_fit: Sequence[float], relative_b
                      fit_dof: Sequence[float | None] | None = None) -> MeanBudget:
     """Mean of repeated results (repeats, or points of a flat response) with a GUM budget.
 
-    One estimator of type A, chosen by a stated rule.  The fits' own
-    uncertainties ``u_i`` and the scatter of the values measure the same
-    random error when nothing else varies between records, so they are never
-    combined or compared by taking the larger (that inflated u by 10-18 %).
-    Instead a chi-square test asks whether the ``u_i`` explain the scatter:
+    One estimator of type A, by a stated rule: for two or more values it is
+    the experimental standard deviation of the mean ``s / sqrt(n)`` with
+    ``n - 1`` degrees of freedom, expanded with Student's ``t_{95.45}(n-1)``
+    (GUM 4.2.3, G.3).  Its coverage is exact whatever varies between records
+    (noise only, or also remounting, temperature, input level), which the
+    fits' own uncertainties cannot see; the old rule (the larger of ``s /
+    sqrt(n)`` and the fits' ``sqrt(sum u_i^2) / n``) took the maximum of two
+    estimates of the same spread and came out 10-18 % too large, and
+    choosing between them by a test undercovers when a between-record
+    variation is too small to be detected but not too small to matter.  With
+    one value, type A is that value's fit uncertainty.
 
-    * ``chi2 = sum((v_i - v_w)^2 / u_i^2)`` about the weighted mean ``v_w``,
-      ``n - 1`` degrees of freedom, ``p = P(chi2_{n-1} >= chi2)``;
-    * ``p >= CONSISTENCY_ALPHA`` (0.01): type A is ``sqrt(sum u_i^2) / n``
-      with the fits' degrees of freedom (many: k = 2);
-    * ``p < CONSISTENCY_ALPHA``: something varies between records that the
-      fits do not see (mounting, temperature, input level): type A is the
-      experimental standard deviation of the mean ``s / sqrt(n)`` (GUM
-      4.2.3) with ``n - 1`` degrees of freedom, so ``k`` is Student's, and a
-      named warning ``excess-scatter`` says so.
-
-    Without usable ``u_i`` (any zero) type A is ``s / sqrt(n)``.  Type B
-    components are common to all repeats, so averaging does not reduce them.
+    The fits' uncertainties still serve as a diagnostic: a chi-square test of
+    the values about their weighted mean (``n - 1`` dof) raises the named
+    warning ``excess-scatter`` when ``p < CONSISTENCY_ALPHA`` (0.01): the
+    records differ by more than their noise, so something varies between
+    them that a single record does not show.  Type B components are common
+    to all values, so averaging does not reduce them.
 
     Parameters
     ----------
@@ -270,7 +270,7 @@ def mean_with_budget(values: Sequence[float], u_fit: Sequence[float], relative_b
     absolute_b : sequence of (source, u)
         Type B components in ``unit``.
     fit_dof : sequence of float or None, optional
-        Degrees of freedom of each ``u_i`` (default: infinite).
+        Degrees of freedom of each ``u_i`` (default: infinite); used for one value.
 
     Returns
     -------
@@ -279,7 +279,7 @@ def mean_with_budget(values: Sequence[float], u_fit: Sequence[float], relative_b
 
     References
     ----------
-    .. [1] JCGM 100:2008 (GUM) 4.2.3, G.4 (Welch-Satterthwaite), G.3 (t factor).
+    .. [1] JCGM 100:2008 (GUM) 4.2.3 (type A of a mean), G.3 (t factor).
     .. [2] R. T. Birge, Phys. Rev. 40, 207 (1932): the ratio of external to
        internal consistency.
     """
@@ -295,12 +295,11 @@ def mean_with_budget(values: Sequence[float], u_fit: Sequence[float], relative_b
     dofs = list(fit_dof) if fit_dof is not None else [None] * n
     mean = float(v.mean())
     std = float(v.std(ddof=1)) if n > 1 else 0.0
-    u_from_fits = float(np.sqrt(np.sum(np.square(u)))) / n
-    nu_fits = welch_satterthwaite(u / n, dofs)
     birge, p, warnings = math.nan, math.nan, ()
-    estimator = "fits"
-    u_a, nu_a = u_from_fits, nu_fits
-    if n > 1:
+    if n == 1:
+        estimator, u_a, nu_a = "fits", float(u[0]), (math.inf if dofs[0] is None else float(dofs[0]))
+    else:
+        estimator, u_a, nu_a = "spread", std / math.sqrt(n), float(n - 1)
         if np.all(u > 0):
             from scipy.stats import chi2 as chi2_dist
 
@@ -308,16 +307,14 @@ def mean_with_budget(values: Sequence[float], u_fit: Sequence[float], relative_b
             vw = float(np.sum(w * v) / np.sum(w))
             c2 = float(np.sum(w * (v - vw) ** 2))
             birge, p = math.sqrt(c2 / (n - 1)), float(chi2_dist.sf(c2, n - 1))
-        if not p >= CONSISTENCY_ALPHA:
-            # nan p (no usable u_i) also lands here: the spread is all there is.
-            estimator, u_a, nu_a = "spread", std / math.sqrt(n), float(n - 1)
-            if math.isfinite(p):
+            if p < CONSISTENCY_ALPHA:
                 warnings = (named("excess-scatter", (
                     f"the {n} values of {quantity} scatter {birge:.3g} times more than their fit uncertainties "
                     f"explain (chi2 p = {p:.2g}): something varies between records that one record cannot show "
-                    f"(mounting, temperature, input level); type A is the spread s/sqrt(n) with {n - 1} degrees "
-                    f"of freedom (k = {coverage_factor(n - 1):.3g}); find the cause or add repeats")),)
-    comps = [("type A (fits)" if estimator == "fits" else "type A (spread of repeats)", "A", u_a,
+                    f"(mounting, temperature, input level); type A is their spread s/sqrt(n), which contains it, "
+                    f"with k = {coverage_factor(n - 1):.3g} ({n - 1} dof); find the cause, or add repeats for a "
+                    "smaller k")),)
+    comps = [("type A (fit)" if estimator == "fits" else "type A (spread of repeats)", "A", u_a,
               None if not math.isfinite(nu_a) else nu_a)]
     comps += [(src, "B", rel * abs(mean)) for src, rel in relative_b]
     comps += [(src, "B", ub) for src, ub in absolute_b]
