@@ -12,7 +12,7 @@ import pytest
 from senscal.validation import check_coverage, mc_seeds
 from senscal.validation.gfimu import SCENARIOS
 
-CI_SEEDS = {"paper-white": 60, "three-axis-white": 100, "paper-rest": 60, "paper-plain": 20,
+CI_SEEDS = {"paper-white": 60, "three-axis-white": 100, "three-axis-smooth": 60, "paper-rest": 60, "paper-plain": 20,
             "paper-mounting": 20, "three-axis-mounting": 20}
 
 

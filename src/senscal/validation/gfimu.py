@@ -17,6 +17,8 @@ paper-white
 three-axis-white
     Roll/pitch/yaw 10/15/30 deg at 1.3/0.7/2 Hz with 2 m/s^2 linear
     vibration, 1 kHz, 10 s, same sensor errors.
+three-axis-smooth
+    The same with the offline RTS smoother (``smooth=True``).
 paper-rest
     The paper's motion after a 2 s rest, 2 kHz, ``rest=(0, 2)``: the rate
     band and the nine constant errors measured on the rest segment.
@@ -57,7 +59,7 @@ def _offset_truth(layout, bias: np.ndarray) -> np.ndarray:
 
 
 def _bias_white(n_seeds: int, seed0: int, case: str, sim: dict, *, rest=None, plain: bool = False,
-                expect: str = "cover", warn_names=(), note: str = "") -> list[CoverageRow]:
+                smooth: bool = False, expect: str = "cover", warn_names=(), note: str = "") -> list[CoverageRow]:
     """White noise and constant biases on one motion: the ideal readings are simulated once.
 
     Per seed the biases (random sign, ``bias_g``) and the white noise are
@@ -76,7 +78,7 @@ def _bias_white(n_seeds: int, seed0: int, case: str, sim: dict, *, rest=None, pl
         rng = np.random.default_rng(s)
         bias = bias_g * G0 * rng.choice([-1.0, 1.0], size=layout.n_channels)
         y = y0 + bias[:, None] + rng.normal(0.0, noise_g * G0, y0.shape)
-        est = angular_velocity(y, t, layout, rest=rest, plain=plain)
+        est = angular_velocity(y, t, layout, rest=rest, plain=plain, smooth=smooth)
         warned.append(_has(est.warnings, warn_names) if warn_names else False)
         for i in range(3):
             k = int(rng.integers(t.size))
@@ -107,6 +109,12 @@ def run_three_axis_white(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """Three-axis motion with linear vibration, default filter."""
     return _bias_white(n_seeds, seed0, "three-axis-white", dict(paper=False),
                        note="roll/pitch/yaw + 2 m/s^2 linear vibration, 1 kHz x 10 s")
+
+
+def run_three_axis_smooth(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Three-axis motion, offline RTS smoother (``--smooth``) with the constant-error states."""
+    return _bias_white(n_seeds, seed0, "three-axis-smooth", dict(paper=False), smooth=True,
+                       note="as three-axis-white, --smooth")
 
 
 def run_paper_rest(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
@@ -153,13 +161,14 @@ def run_three_axis_mounting(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     return _mounting(n_seeds, seed0, "three-axis-mounting", False)
 
 
-for _f in (run_paper_white, run_three_axis_white, run_paper_rest, run_paper_plain, run_paper_mounting,
+for _f in (run_paper_white, run_three_axis_white, run_three_axis_smooth, run_paper_rest, run_paper_plain, run_paper_mounting,
            run_three_axis_mounting):
     _f.full_seeds = 400
 
 SCENARIOS = {
     "paper-white": run_paper_white,
     "three-axis-white": run_three_axis_white,
+    "three-axis-smooth": run_three_axis_smooth,
     "paper-rest": run_paper_rest,
     "paper-plain": run_paper_plain,
     "paper-mounting": run_paper_mounting,
