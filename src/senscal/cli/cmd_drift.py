@@ -12,6 +12,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, load,
                                 print_json, progress_bar, split_names, table)
+from senscal.cli.common import TimeUnitOpt, time_checked
 from senscal.errors import InputError
 from senscal.io import Recording, write_recording
 
@@ -82,6 +83,7 @@ def drift_cmd(
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
+    time_unit: TimeUnitOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Estimate and remove slowly drifting sensor biases (augmented Kalman filter)."""
@@ -89,7 +91,7 @@ def drift_cmd(
 
     if window is not None and smooth:
         raise InputError("choose either --window or --smooth, not both")
-    rec = load(file, time_column=time_column, fs=fs, names=names, allow_nan=True)
+    rec = load(file, time_column=time_column, fs=fs, names=names, allow_nan=True, time_unit=time_unit)
     setup = drift_setup_for(rec, preset, channels=split_names(channels), trusted=split_names(trusted) or [],
                             covariate=covariate, model=model, signal=signal, signal_tau=signal_tau,
                             signal_mean=signal_mean, covariate_reference=covariate_reference,
@@ -99,8 +101,9 @@ def drift_cmd(
             raise InputError(f"channel '{c}' is not in {file} (channels: {', '.join(rec.names)})")
     cov = {c: rec[c] for c in setup.covariates}
     with progress_bar("estimating noise levels (likelihood evaluations)", None) as advance:
-        res = correct_drift(setup, rec.data(list(setup.channels)), rec.time, cov, window=window, smooth=smooth,
-                            false_alarm_rate=false_alarm_rate, compare=compare, progress=advance)
+        res = time_checked(rec, "drift", correct_drift(
+            setup, rec.data(list(setup.channels)), rec.time, cov, window=window, smooth=smooth,
+            false_alarm_rate=false_alarm_rate, compare=compare, progress=advance))
     if out is not None:
         cols: dict[str, np.ndarray] = {}
         for i, c in enumerate(res.channels):

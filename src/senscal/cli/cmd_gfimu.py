@@ -12,6 +12,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings,
                                 err_console, load, parse_floats, print_json, table)
+from senscal.cli.common import TimeUnitOpt, time_checked
 from senscal.errors import InputError
 from senscal.gfimu import (DEFAULT_BIAS_STD, METHODS, OBSERVATIONS, UNKNOWNS, angular_velocity, attitude_error, error_statistics,
                            integrate_attitude, paper_layout, read_layout)
@@ -42,7 +43,7 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
               initial_omega: str | None, truth: Path | None, attitude: bool, lag: int, noise_std: float | None,
               time_column: str, fs: float | None, names: str | None, bias_std: float | None = None,
               smooth: bool = False, plain: bool = False, rest: str | None = None,
-              differential_max_u: float | None = None):
+              differential_max_u: float | None = None, time_unit: str | None = None):
     """Run the job; returns (document, recording time, estimate, truth w, quaternion)."""
     if layout_file is not None and distance is not None:
         raise InputError("give either --layout or --distance, not both")
@@ -62,11 +63,11 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
         span = parse_floats(rest.replace(":", ","), "--rest")
         if len(span) != 2:
             raise InputError(f"--rest needs START:END in s (e.g. 0:2), got {rest!r}")
-    rec = load(file, time_column=time_column, fs=fs, names=names)
+    rec = load(file, time_column=time_column, fs=fs, names=names, time_unit=time_unit)
     y = rec.data(list(layout.names))
-    est = angular_velocity(y, rec.time, layout, methods=methods, observation=observation, initial=w0,
-                           noise_std=noise_std, lag=lag, bias_std=bias_std, smooth=smooth, plain=plain,
-                           rest=span, differential_max_u=differential_max_u)
+    est = time_checked(rec, "gfimu", angular_velocity(
+        y, rec.time, layout, methods=methods, observation=observation, initial=w0, noise_std=noise_std, lag=lag,
+        bias_std=bias_std, smooth=smooth, plain=plain, rest=span, differential_max_u=differential_max_u))
     doc: dict = {
         "file": str(file), "n_samples": int(rec.n_samples), "sample_rate_hz": rec.sample_rate,
         "layout": {"channels": list(layout.names), "condition_number": est.condition_number,
@@ -152,6 +153,7 @@ def gfimu_cmd(
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
+    time_unit: TimeUnitOpt = None,
     smooth: Annotated[bool, typer.Option("--smooth", help="Offline: the Kalman estimate from the fixed-interval (RTS) smoother over the whole record instead of the causal filter.")] = False,
     json_out: JsonOpt = False,
 ) -> None:
@@ -175,7 +177,7 @@ def gfimu_cmd(
                                          attitude=attitude, lag=lag, noise_std=noise_std,
                                          time_column=time_column, fs=fs, names=names, bias_std=bias_std,
                                          smooth=smooth, plain=plain, rest=rest,
-                                         differential_max_u=differential_max_u)
+                                         differential_max_u=differential_max_u, time_unit=time_unit)
     if out is not None:
         doc["out"] = str(_write_out(out, rec, est, q))
     if plot is not None:

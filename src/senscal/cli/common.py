@@ -32,6 +32,8 @@ err_console = Console(stderr=True, highlight=False, markup=False, emoji=False)
 # Options every command that reads recordings shares (same words everywhere).
 TimeColumnOpt = Annotated[str, typer.Option("--time-column", help="Name of the time column (seconds).")]
 FsOpt = Annotated[Optional[float], typer.Option("--fs", help="Sample rate in Hz for files without a time column.")]
+TimeUnitOpt = Annotated[Optional[str], typer.Option(
+    "--time-unit", help="Unit of a time column whose header gives none: s, ms, us or min (default s).")]
 NamesOpt = Annotated[Optional[str], typer.Option("--names", help="Column names for a text file without header, comma separated.")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON result on stdout.")]
 
@@ -73,10 +75,28 @@ def parse_relative(text: str, what: str) -> float:
 
 def load(path: Path | str, *, time_column: str = "t", fs: float | None = None,
          names: str | None = None, channels: Sequence[str] | None = None,
-         allow_nan: bool = False) -> Recording:
+         allow_nan: bool = False, time_unit: str | None = None) -> Recording:
     """Read a recording for a command (errors are one-line SenscalErrors)."""
     return read_recording(path, time_column=time_column, fs=fs, names=split_names(names),
-                          channels=channels, allow_nan=allow_nan)
+                          channels=channels, allow_nan=allow_nan, time_unit=time_unit)
+
+
+def time_checked(rec: Recording, job: str, result: T, *, channel: str | None = None,
+                 known_hz: float | None = None) -> T:
+    """``result`` (a frozen dataclass with ``warnings``) plus a ``time-unit-suspect`` warning if one fires.
+
+    The checks (:mod:`senscal.io.plausibility`) look at the recording's time
+    stamps for ``job`` and, with ``channel`` and ``known_hz``, compare the
+    channel's dominant frequency with the known one.
+    """
+    from dataclasses import replace
+
+    from senscal.io.plausibility import check_time
+
+    found = check_time(rec.time, job, y=rec[channel] if channel is not None and known_hz is not None else None,
+                       known_hz=known_hz)
+    new = tuple(w for w in found if w not in result.warnings)
+    return replace(result, warnings=tuple(result.warnings) + new) if new else result
 
 
 def print_json(obj: Any) -> None:

@@ -56,6 +56,7 @@ def read_recording(
     allow_nan: bool = False,
     skip_rows: int | None = None,
     time_required: bool = True,
+    time_unit: str | None = None,
 ) -> Recording:
     """Read a recording file into a :class:`Recording`.
 
@@ -90,6 +91,10 @@ def read_recording(
         read with sample index as its time base (``fs = 1``, marked in
         ``metadata["time_basis"]``) instead of refused; for jobs that never
         use time (e.g. a triaxial fit of readings).
+    time_unit : str, optional
+        Unit of a time column whose header gives none (``s``, ``ms``,
+        ``us``, ``min``, ...); converted to seconds. A header that states
+        another unit, or a file without time column, is refused.
 
     Returns
     -------
@@ -141,6 +146,11 @@ def read_recording(
     src = str(path)
     t = None
     use_fs = fs
+    if time_unit is not None:
+        _time_unit_agrees(time_unit, units.get(time_column) if time_column in cols else None, time_column, path,
+                          has_time=time_column in cols and fs is None)
+        if time_column in cols and not units.get(time_column):
+            units = {**units, time_column: time_unit}
     if time_column in cols and units.get(time_column):
         cols[time_column] = _time_in_seconds(cols[time_column], units[time_column], time_column, path)
     if fs is None:
@@ -234,6 +244,18 @@ def _add_column(cols: dict[str, np.ndarray], raw: dict[str, str], name: str, raw
 # Time units a header may carry ("t [ms]"); the Recording's time is always in seconds.
 _TIME_UNITS = {"s": 1.0, "sec": 1.0, "second": 1.0, "seconds": 1.0, "ms": 1e-3, "us": 1e-6, "\u00b5s": 1e-6,
                "\u03bcs": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0, "d": 86400.0}
+
+
+def _time_unit_agrees(unit: str, header: str | None, name: str, path: Path, *, has_time: bool) -> None:
+    """Refuse a --time-unit that is unknown, has no time column to apply to, or contradicts the header."""
+    if unit.strip() not in _TIME_UNITS:
+        raise InputError(f"--time-unit {unit!r} is not a time unit senscal knows; use one of {', '.join(_TIME_UNITS)}")
+    if not has_time:
+        raise InputError(f"--time-unit applies to a time column, and {path} is read without one (column '{name}' "
+                         "absent, or --fs given); drop --time-unit")
+    if header and _TIME_UNITS.get(header.strip()) != _TIME_UNITS[unit.strip()]:
+        raise InputError(f"--time-unit {unit} contradicts the header of {path}, which gives '{name}' in {header}; "
+                         "drop --time-unit or fix the header")
 
 
 def _time_in_seconds(t: np.ndarray, unit: str, name: str, path: Path) -> np.ndarray:
