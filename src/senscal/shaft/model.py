@@ -33,10 +33,14 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.signal import savgol_coeffs
+from scipy.signal.windows import tukey
 
 from senscal._result import ResultMixin
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
-from senscal.shaft.angle import angle_to_rad, check_radius, check_uniform, encoder_kinematics, savgol, white_noise_std
+from senscal.diagnostics import named
+from senscal.shaft.angle import POLYORDER, angle_to_rad, check_radius, check_uniform, encoder_kinematics, savgol, white_noise_std
+from senscal.shaft.estimate import iv_fit, project_out
 from senscal.sinefit import fit_sine, wrap_phase
 
 __all__ = ["G", "GravityModel", "calibrate_gravity", "load_model"]
@@ -45,6 +49,10 @@ G = 9.80665
 ANGLE_FREQ = 1.0 / (2.0 * math.pi)  # fit_sine against an angle in rad: one cycle per revolution
 KIND = "senscal.shaft.GravityModel"
 FORMAT_VERSION = 1
+# Largest sensor radius (m) assumed when judging whether once-per-turn speed ripple could bias the fit
+# and no radius was given: shaft rigs for sensor calibration are well under a metre.
+SYNC_RADIUS_BOUND = 1.0
+TAPER = 0.1  # Tukey window of the gravity fit: cosine over the first and last 5 % of the samples
 
 
 @dataclass(frozen=True)
@@ -151,6 +159,10 @@ class GravityModel(ResultMixin):
     ripple_leak: float
     radius: float | None
     window: float
+    synchronous_ripple: float = 0.0
+    centripetal_coefficient: float | None = None
+    u_centripetal_coefficient: float | None = None
+    nuisance: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     source: str | None = None
     created: str = ""
@@ -395,65 +407,111 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     al_in = kin.angular_acceleration[e:n - e] if n > 2 * e + 2 else kin.angular_acceleration
     mean_speed = float(np.mean(w_in))
     speed_var = float(np.std(w_in) / abs(mean_speed)) if mean_speed != 0 else math.inf
-    alpha = kin.angular_acceleration
-    # Instrument for the response to alpha: the same derivative over a window three times longer.
-    # Its quantisation noise is far smaller and nearly independent of alpha's, so the coefficient is
-    # not pulled toward zero by the noise in alpha (errors in variables), as least squares would be.
-    ninst = min(n - 1 + n % 2, 3 * kin.window_samples)
-    inst = savgol(theta, ninst, 2, dt)
-    ei = ninst // 2
-
+    m = kin.window_samples
+    # Regressors: quintic Savitzky-Golay derivatives, flat to 0.1 % up to about 1/(4 window) (the cubic ones
+    # lose 5 % at 2.7 Hz for 0.1 s): one coefficient must serve the once-per-turn ripple and the rest alike.
+    m5 = max(m, 7) if n >= 7 else m
+    p5 = 5 if m5 >= 7 else POLYORDER
+    x_al = savgol(theta, m5, 2, dt, polyorder=p5)
+    x_w = savgol(theta, m5, 1, dt, polyorder=p5)
+    # Instruments: the same derivatives over a window three times longer.  Their quantisation noise is far
+    # smaller, so the coefficients are not pulled toward zero by the noise in the regressors (errors in
+    # variables), as least squares would be.
+    ml = min(n - 1 + n % 2, 3 * m)
+    z_al = savgol(theta, ml, 2, dt)
+    z_w = savgol(theta, ml, 1, dt)
     # The filters extrapolate over their first and last half window: keep those samples out of the
-    # fit when the encoder's angular acceleration is used, unless that would leave < 1 revolution.
-    use_alpha = bool(ripple_correction or radius)
-    keep = slice(ei, n - ei) if use_alpha and n > 2 * ei + 2 and abs(theta[n - ei - 1] - theta[ei]) >= 2.0 * math.pi \
+    # fit when the encoder's derivatives are used, unless that would leave < 1 revolution.
+    mode = "radius" if radius is not None else ("regression" if ripple_correction else "none")
+    ei = max(ml, m5) // 2
+    keep = slice(ei, n - ei) if n > 2 * ei + 2 and abs(theta[n - ei - 1] - theta[ei]) >= 2.0 * math.pi \
         else slice(0, n)
     # The abscissa is the smoothed angle: the encoder's quantisation would otherwise be an error in
     # the variable (amplitude * step / sqrt(12) of extra residual and a small sinc bias of the amplitude).
-    th_fit = kin.angle
-    x, wts, (ya, yal, yz) = by_angle(th_fit[keep], a[keep], alpha[keep], inst[keep])
-    # Frisch-Waugh-Lovell: the coefficient of alpha from the sine-fit residuals, here by instrumental
-    # variables.  (Channel by channel: the engine's batched path is slower on a non-uniform abscissa.)
-    plain, fal, finst = (fit_angle(y, x, wts) for y in (ya, yal, yz))
-    ra, ral, rz = ya - plain.evaluate(x), yal - fal.evaluate(x), yz - finst.evaluate(x)
-    ww = np.ones_like(x) if wts is None else wts
-    szz = float(np.sum(ww * rz * rz))
-    sza = float(np.sum(ww * rz * ral))
-    identifiable = szz > 0 and abs(sza) > 0
-    b = float(np.sum(ww * rz * ra) / sza) if identifiable else 0.0
-    if radius is not None:
-        # Subtracting S r alpha needs alpha's true size: a quintic window keeps the once-per-turn
-        # ripple unflattened (the cubic one is 0.1-0.5 % low at 1 Hz for 0.1 s, a bias of several u).
-        mode, coef = "radius", sensitivity * radius
-        alpha = savgol(theta, kin.window_samples, 2, dt, polyorder=5)
-        yal = by_angle(th_fit[keep], alpha[keep])[2][0]
-    elif ripple_correction and identifiable:
-        mode, coef = "regression", b
-    else:
-        mode, coef = "none", 0.0
-    fit = fit_angle(ya - coef * yal, x, wts) if coef != 0.0 else plain
-    cov = np.asarray(fit.covariance, dtype=float).copy()
-    dof = fit.dof
-    u_b = math.nan
-    if identifiable:
-        # The sine fit is linear in the data: the residual of ya - b*yal is ra - b*ral.
-        sigma2 = float(np.sum(ww * (ra - b * ral) ** 2)) / max(dof - 1, 1)
-        u_b = math.sqrt(sigma2 * szz) / abs(sza)
-    if mode == "regression":
-        # Covariance = fixed-coefficient covariance + u_b^2 * g g^T, where g is how (amplitude, phase,
-        # offset) move with the coefficient; the cross terms vanish because the instrument's residual
-        # is orthogonal to the sine-fit columns.
-        cov *= dof / max(dof - 1, 1)
-        amp_al, ph_al, off_al = fal.amplitude, fal.phase, fal.offset
-        gvec = np.array([-amp_al * math.cos(fit.phase - ph_al),
-                         -amp_al * math.sin(ph_al - fit.phase) / fit.amplitude,
-                         -off_al])
-        cov += u_b**2 * np.outer(gvec, gvec)
-    u = np.sqrt(np.diag(cov))
+    # Quintic, like the regressors: a cubic window rounds off the speed ripple's angle excursions and puts
+    # sidebands of the gravity sinusoid next to the rotation frequency.
+    th_fit = savgol(theta, m5, 0, dt, polyorder=p5)
+    tk = th_fit[keep]
+    d = np.column_stack([np.sin(tk), np.cos(tk), np.ones_like(tk)])
+    yk = a[keep] - (sensitivity * radius * x_al[keep] if radius is not None else 0.0)
+    # The residual's periodogram smoothed over +/- the rotation frequency (one bin per turn each side):
+    # the noise density near the rotation frequency (and near each regressor's own frequencies), not the
+    # residual's total variance, which the differentiator's noise far above the rotation frequency dominates.
+    hw = max(1, int(round(abs(float(theta[keep][-1] - theta[keep][0])) / (2.0 * math.pi))))
+    # Samples weighted by a Tukey window (5 % cosine ends): an abruptly truncated sinusoid has spectral
+    # sidelobes that would pick up the differentiator's noise tens of hertz away; the taper costs 2 % in u.
+    taper = tukey(tk.size + 2, TAPER)[1:-1]
+    # Bins the fit empties (zero, and the rotation frequency with the taper's main lobe) stay out of the
+    # density averages: they would bias it low.
+    empty = [0, 1, 2, hw - 2, hw - 1, hw, hw + 1, hw + 2]
+    s2 = kin.angle_noise ** 2
+    w2 = x_w[keep] ** 2
+    w2z = z_w[keep] ** 2
+    cands = {
+        "alpha": (x_al[keep], z_al[keep], s2 * _kernel_dot(m5, p5, ml, 2, dt)),
+        # Centripetal term of a misaligned axis, S sin(d) r w^2: w^2 noise is 2 w dw.
+        "speed2": (w2 - w2.mean(), w2z - w2z.mean(), 4.0 * float(np.mean(w2)) * s2 * _kernel_dot(m5, p5, ml, 1, dt)),
+    }
+    info = {}
+    for name, (xv, zv, cvv) in cands.items():
+        xt, zt = project_out(d, np.column_stack([xv, zv])).T
+        cross = float(np.mean(xt * zt))
+        # Fraction by which the noise the two derivatives share could pull the coefficient (x2 for
+        # quantisation that is not white): the instrument must see real, non-synchronous variation.
+        eps = 2.0 * abs(cvv) / abs(cross) if cross != 0 else math.inf
+        sc, cvx, _ = iv_fit(xv, d, d, hw, empty, taper=taper)
+        amp_x = math.hypot(sc[0], sc[1])
+        gx = np.array([sc[0], sc[1]]) / amp_x if amp_x > 0 else np.zeros(2)
+        u_amp_x = math.sqrt(max(float(gx @ cvx[:2, :2] @ gx), 0.0))
+        info[name] = {"eps": eps, "sync": amp_x, "u_sync": u_amp_x, "x": xv, "z": zv}
+    wanted = {"regression": ["alpha", "speed2"], "radius": ["speed2"], "none": []}[mode]
+
+    def solve(names, y):
+        mm = np.column_stack([d] + [info[k]["x"] for k in names])
+        ww = np.column_stack([d] + [info[k]["z"] for k in names])
+        coef, cov, res = iv_fit(y, mm, ww, hw, empty, taper=taper)
+        return coef, cov, res
+
+    def gravity_cov(coef, cov):
+        s_, c_ = coef[0], coef[1]
+        amp_ = math.hypot(s_, c_)
+        jac = np.array([[s_ / amp_, c_ / amp_, 0.0], [-c_ / amp_**2, s_ / amp_**2, 0.0], [0.0, 0.0, 1.0]])
+        return jac @ cov[:3, :3] @ jac.T
+
+    used = [k for k in wanted if info[k]["eps"] < 0.5]
+    coef, cov, res = solve(used, yk)
+    # A coefficient biased by eps moves the gravity term by up to eps |b| times its regressor's
+    # once-per-turn amplitude; kept only while that stays below 0.3 u (k=2 coverage >= 94.5 %).
+    u_amp0 = math.sqrt(gravity_cov(coef, cov)[0, 0])
+    drop = [k for i, k in enumerate(used) if info[k]["eps"] * abs(coef[3 + i]) * info[k]["sync"] > 0.3 * u_amp0]
+    if drop:
+        used = [k for k in used if k not in drop]
+        coef, cov, res = solve(used, yk)
+    b_of = {k: (float(coef[3 + i]), math.sqrt(max(cov[3 + i, 3 + i], 0.0))) for i, k in enumerate(used)}
+    removed = np.column_stack([info[k]["x"] for k in used]) @ coef[3:] if used else 0.0
+    x, cnt, (ya, tw) = by_angle(tk, (yk - removed) * taper, taper)
+    wts = tw if cnt is None else tw * cnt
+    ya = ya / tw
+    fit = fit_angle(ya, x, wts)
+    cov_g = gravity_cov(coef, cov)
+    u = np.sqrt(np.maximum(np.diag(cov_g), 0.0))
     amp, ph, off = float(fit.amplitude), float(fit.phase), float(fit.offset)
-    resid = (a - coef * alpha - (amp * np.sin(th_fit + ph) + off))[keep]
-    rms = float(np.sqrt(np.mean(resid**2)))
+    rms = float(np.sqrt(np.mean(res**2)))
     noise = white_noise_std(a, kin.window_samples)
+    # What removing the ripple changed (or, without the correction, what it would have changed).
+    plain_coef = solve([], a[keep])[0]
+    amp_plain = math.hypot(plain_coef[0], plain_coef[1])
+    if mode == "none":
+        diag = [k for k in ("alpha", "speed2") if info[k]["eps"] < 0.5]
+        dcoef = solve(diag, yk)[0] if diag else plain_coef
+        leak = amp_plain - math.hypot(dcoef[0], dcoef[1])
+        b_al = float(dcoef[3]) if "alpha" in diag else math.nan
+    else:
+        leak = amp_plain - amp
+        b_al = b_of["alpha"][0] if "alpha" in b_of else math.nan
+    # Relative speed ripple at the rotation frequency: alpha = w0^2 m cos(theta + p) for w = w0 (1 + m sin).
+    w_mean2 = float(np.mean(w2)) if w2.size else 0.0
+    sync_rel = info["alpha"]["sync"] / w_mean2 if w_mean2 > 0 else 0.0
 
     # Tilt from horizontal: cos(tilt) = amplitude / (S g).
     ratio = amp / (sensitivity * g)
@@ -466,34 +524,67 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
 
     warnings = []
     if speed_var > max_speed_variation:
-        warnings.append(f"speed was far from constant: it varied by {100 * speed_var:.3g}% (std/mean, limit "
-                        f"{100 * max_speed_variation:.3g}%); angular acceleration leaks into the gravity fit, "
-                        "calibrate at a steadier speed")
-    leak = float(plain.amplitude) - amp if mode != "none" else -b * float(fal.amplitude) * math.cos(ph - fal.phase)
-    # A leak that was removed is reported in ripple_leak; only one left in the fit is a warning.
-    if mode == "none" and abs(leak) > 2.0 * u[0] and math.isfinite(leak):
-        warnings.append(f"angular acceleration during the run moved the gravity amplitude by about {leak:.3g} "
-                        f"({abs(leak) / u[0]:.3g} standard uncertainties) and was NOT removed: enable the ripple "
-                        "correction or give the radius")
-    if mode == "regression" and u[0] > 3.0 * math.sqrt(fit.covariance[0][0]):
-        warnings.append(f"the speed ripple is mostly locked to the rotation, so the fit can hardly tell it from "
-                        f"gravity: the amplitude uncertainty grew {u[0] / math.sqrt(fit.covariance[0][0]):.3g} times; "
-                        "give the sensor radius (--radius) to remove it, or calibrate at a steadier speed")
+        warnings.append(named("speed-not-constant", (
+            f"the speed varied by {100 * speed_var:.3g}% (std/mean, limit {100 * max_speed_variation:.3g}%); "
+            "angular acceleration leaks into the gravity fit, calibrate at a steadier speed")))
+    # Ripple locked to the rotation is a sinusoid of the angle like gravity: only speed variation at
+    # other frequencies (or a known radius) tells its effect apart.  A regressor left out matters when
+    # its once-per-turn part is real (5 sigma: false alarm < 4e-6) and could move the amplitude by more
+    # than 0.3 u for a plausible coefficient: S r with r <= SYNC_RADIUS_BOUND for the tangential term,
+    # S r sin(1 deg) for the centripetal term of a misaligned axis.
+    r_bound = radius if radius is not None else SYNC_RADIUS_BOUND
+    coef_bound = {"alpha": sensitivity * r_bound, "speed2": sensitivity * r_bound * math.sin(math.radians(1.0))}
+    lost = [k for k in (("alpha", "speed2") if mode == "none" else wanted) if k not in used
+            and info[k]["sync"] > 5.0 * info[k]["u_sync"] and coef_bound[k] * info[k]["sync"] > 0.3 * u[0]]
+    if mode == "radius" and "speed2" in lost:
+        per_deg = coef_bound["speed2"] * info["speed2"]["sync"]
+        warnings.append(named("synchronous-ripple", (
+            f"the speed varies once per turn ({100 * sync_rel:.3g}% ripple locked to the rotation) and the run "
+            "holds too little other speed variation to tell the centripetal term of a misaligned sensitive axis "
+            f"from gravity: amplitude and phase may be off by {per_deg:.3g} per degree of misalignment "
+            f"({per_deg / u[0]:.3g} u); calibrate with speed variation that is not once per turn")))
+    elif lost:
+        warnings.append(named("synchronous-ripple", (
+            f"the speed varies once per turn ({100 * sync_rel:.3g}% ripple, angular acceleration "
+            f"{info['alpha']['sync']:.3g} rad/s^2 locked to the rotation) and the run holds too little other speed "
+            "variation to tell its effect from gravity: amplitude, phase and tilt are off by S r times that, "
+            "beyond their u; give the sensor radius (--radius) or calibrate at a steadier speed")))
+    if mode == "none" and "alpha" not in lost and abs(leak) > 2.0 * u[0] and math.isfinite(leak):
+        warnings.append(named("ripple-not-removed", (
+            f"angular acceleration during the run moved the gravity amplitude by about {leak:.3g} "
+            f"({abs(leak) / u[0]:.3g} standard uncertainties) and was NOT removed: enable the ripple correction "
+            "or give the radius")))
     unit = str(output_unit or "").strip()
     if unit and sensitivity == 1.0 and unit.replace(" ", "").replace("²", "^2") not in ("m/s^2", "m/s2", "ms^-2", "m*s^-2"):
-        warnings.append(f"the accelerometer output is in '{unit}' but no sensitivity was given: tilt and bias "
-                        "assume m/s^2; give the sensitivity (output per m/s^2)")
+        warnings.append(named("sensitivity-missing", (
+            f"the accelerometer output is in '{unit}' but no sensitivity was given: tilt and bias assume m/s^2; "
+            "give the sensitivity (output per m/s^2)")))
     if ratio - 1.0 > 3.0 * u_ratio:
-        warnings.append(f"gravity amplitude {amp:.6g} exceeds sensitivity * g = {sensitivity * g:.6g}; "
-                        "check --sensitivity (the output may not be in m/s^2)")
+        warnings.append(named("amplitude-above-g", (
+            f"gravity amplitude {amp:.6g} exceeds sensitivity * g = {sensitivity * g:.6g}; check --sensitivity "
+            "(the output may not be in m/s^2)")))
+    kc = b_of.get("speed2")
     return GravityModel(
         amplitude=amp, phase=float(wrap_phase(ph)), offset=off, u_amplitude=float(u[0]), u_phase=float(u[1]),
-        u_offset=float(u[2]), covariance=cov, residual_rms=rms, noise=noise, sensitivity=float(sensitivity),
+        u_offset=float(u[2]), covariance=cov_g, residual_rms=rms, noise=noise, sensitivity=float(sensitivity),
         u_sensitivity=float(u_sensitivity), output_unit=str(output_unit or ""), g=float(g), tilt=tilt,
-        u_tilt=u_tilt, bias=bias, u_bias=u_bias, revolutions=revs, n_samples=int(resid.size), mean_speed=mean_speed,
-        mean_square_speed=float(np.mean(w_in**2)), speed_variation=speed_var,
+        u_tilt=u_tilt, bias=bias, u_bias=u_bias, revolutions=revs, n_samples=int(res.size), mean_speed=mean_speed,
+        mean_square_speed=w_mean2, speed_variation=speed_var,
         angular_acceleration_rms=float(np.sqrt(np.mean(al_in**2))), ripple_correction=mode,
-        ripple_coefficient=float(coef if mode != "none" else b), u_ripple_coefficient=float(u_b if mode != "radius" else 0.0),
-        ripple_leak=float(leak), radius=radius, window=kin.window, warnings=tuple(warnings), source=source,
+        ripple_coefficient=float(sensitivity * radius if mode == "radius" else b_al),
+        u_ripple_coefficient=float(b_of["alpha"][1] if "alpha" in b_of else (0.0 if mode == "radius" else math.nan)),
+        ripple_leak=float(leak), radius=radius, window=kin.window, synchronous_ripple=float(sync_rel),
+        centripetal_coefficient=None if kc is None else kc[0], u_centripetal_coefficient=None if kc is None else kc[1],
+        nuisance=tuple(used), warnings=tuple(warnings), source=source,
         created=_dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat(),
     )
+
+
+def _kernel_dot(m_short: int, p_short: int, m_long: int, deriv: int, dt: float) -> float:
+    """``sum h_short h_long`` of two centred Savitzky-Golay derivative kernels (their shared white-noise gain)."""
+    hs = savgol_coeffs(m_short, p_short, deriv=deriv, delta=dt)
+    hl = savgol_coeffs(m_long, POLYORDER, deriv=deriv, delta=dt)
+    if hs.size > hl.size:
+        hs, hl = hl, hs
+    pad = (hl.size - hs.size) // 2
+    return float(np.dot(np.pad(hs, (pad, hl.size - hs.size - pad)), hl))

@@ -6,11 +6,12 @@ import math
 from typing import Any
 
 import numpy as np
+from scipy.signal import lfilter
 
 from senscal.errors import InputError
 from senscal.io import Recording
 
-__all__ = ["simulate_shaft", "shaft_motion"]
+__all__ = ["ar1_noise", "simulate_shaft", "shaft_motion"]
 
 G = 9.80665
 
@@ -43,12 +44,22 @@ def shaft_motion(t: np.ndarray, speed: float, terms: list[tuple[float, float, fl
     return theta, omega, alpha
 
 
+def ar1_noise(rng: np.random.Generator, std: float, rho: float, n: int) -> np.ndarray:
+    """Stationary AR(1) noise of standard deviation ``std`` and lag-one correlation ``rho`` (white for 0)."""
+    white = rng.normal(0.0, std, n)
+    if rho == 0.0 or n == 0:
+        return white
+    # x_k = rho x_(k-1) + sqrt(1 - rho^2) w_k, started in the stationary state (x_0 = w_0).
+    c = math.sqrt(1.0 - rho * rho)
+    return lfilter([c], [1.0, -rho], white, zi=[(1.0 - c) * white[0]])[0]
+
+
 def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: float = 1.0, bias: float = 0.05,
                    misalignment_deg: float = 0.5, noise: float = 0.02, encoder_counts: int = 4096,
                    phase_deg: float = 30.0, fs: float = 1000.0, speed_rps: float = 1.0, ripple: float = 0.03,
                    ripple_freq: float = 2.7, sync_ripple: float = 0.0, cal_duration: float = 20.0,
                    test_speed_rps: float = 2.0, modulation: float = 0.5, modulation_freq: float = 0.5,
-                   test_duration: float = 10.0, wrap: bool = True, g: float = G,
+                   test_duration: float = 10.0, wrap: bool = True, g: float = G, noise_rho: float = 0.0,
                    seed: int | None = None) -> tuple[Recording, Recording, dict[str, Any]]:
     """Calibration and test runs of a tangential accelerometer on a tilted shaft.
 
@@ -75,7 +86,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
     misalignment_deg : float
         Sensitive axis angle from the tangent toward the centre, deg.
     noise : float
-        White noise standard deviation of the output, output unit.
+        Noise standard deviation of the output, output unit (white unless ``noise_rho``).
     encoder_counts : int
         Encoder resolution, counts per revolution.
     phase_deg : float
@@ -98,6 +109,10 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
         Write the encoder angle wrapped to 0..360 deg.
     g : float
         Local gravity, m/s^2.
+    noise_rho : float
+        Lag-one correlation of the output noise, in [0, 1): AR(1) noise of
+        standard deviation ``noise`` (a departure from white noise: an
+        accelerometer's own low-pass, mains hum or mechanical vibration).
     seed : int, optional
         Random seed.
 
@@ -113,6 +128,8 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
         raise InputError("radius > 0, fs > 0, noise >= 0, encoder_counts >= 4 and positive durations are required")
     if sensitivity <= 0:
         raise InputError("sensitivity must be positive")
+    if not (0.0 <= noise_rho < 1.0):
+        raise InputError(f"noise_rho must be in [0, 1), got {noise_rho!r}")
     rng = np.random.default_rng(seed)
     d = math.radians(misalignment_deg)
     amp = sensitivity * g * math.cos(math.radians(tilt_deg))
@@ -124,7 +141,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
         t = np.arange(int(round(duration * fs))) / fs
         theta, omega, alpha = shaft_motion(t, speed, terms)
         v = sensitivity * (math.cos(d) * radius * alpha + math.sin(d) * radius * omega**2) \
-            + amp * np.sin(theta + ph) + bias + rng.normal(0.0, noise, t.size)
+            + amp * np.sin(theta + ph) + bias + ar1_noise(rng, noise, noise_rho, t.size)
         enc = np.degrees(np.round(theta / step) * step)
         if wrap:
             enc = np.mod(enc, 360.0)
@@ -141,7 +158,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
     test, w_test, al_test = run(test_duration, w1, [(modulation, modulation_freq, 0.0)], "test")
     leak = math.sin(d) * radius
     truth = {
-        "tilt_deg": tilt_deg, "radius": radius, "sensitivity": sensitivity, "bias": bias,
+        "noise_rho": noise_rho, "tilt_deg": tilt_deg, "radius": radius, "sensitivity": sensitivity, "bias": bias,
         "misalignment_deg": misalignment_deg, "noise_std": noise, "encoder_counts": encoder_counts, "fs": fs, "g": g,
         "output_unit": out_unit,
         "gravity": {"amplitude": amp, "phase_deg": math.degrees(math.atan2(math.sin(ph), math.cos(ph))),

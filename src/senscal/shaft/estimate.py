@@ -1,0 +1,133 @@
+"""Linear estimation with serially correlated errors: instrumental variables and a block HAC covariance.
+
+The gravity fit of :mod:`senscal.shaft.model` is linear in its parameters
+once the angle is known, but its residual is not white: the encoder's
+angular acceleration, which the fit subtracts, carries the Savitzky-Golay
+differentiator's quantisation noise (large per sample, almost all of it far
+above the rotation frequency), and real accelerometers add coloured noise.
+What sets the uncertainty of a parameter is the noise near the frequencies
+its regressor lives at, so the covariance here is a heteroscedasticity and
+autocorrelation consistent (HAC) sandwich [1]_ over blocks of samples, not
+the residual variance times the inverse normal matrix.
+
+References
+----------
+.. [1] Newey W. K., West K. D., "A simple, positive semi-definite,
+   heteroskedasticity and autocorrelation consistent covariance matrix",
+   Econometrica 55 (1987); with a truncated (uniform) kernel as in Hansen
+   L. P., Hodrick R. J., Journal of Political Economy 88 (1980).
+.. [2] Wooldridge J. M., "Econometric Analysis of Cross Section and Panel
+   Data", MIT Press (2010), ch. 5: instrumental variables and their
+   sandwich covariance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["iv_fit", "project_out", "spectral_meat"]
+
+
+def spectral_meat(w: np.ndarray, e: np.ndarray, half_width: int, exclude=()) -> np.ndarray:
+    """Covariance of ``w^T e`` for stationary noise ``e`` with the residual's own, smoothed spectrum.
+
+    ``Var(sum_j w_j e_j) = sum_f |W(f)|^2 S(f)``: each column picks the noise
+    density where its own energy is (the gravity sinusoid at the rotation
+    frequency, the offset at zero, the speed ripple at its frequencies).
+
+    Parameters
+    ----------
+    w : ndarray, shape (N, p)
+        Instruments (deterministic columns), in time order.
+    e : ndarray, shape (N,)
+        Residual on a uniform time base.
+    half_width : int
+        Half width, in frequency bins of ``1 / (N dt)``, of the Daniell
+        (moving-average) smoother of the periodogram: the number of turns in
+        the record puts the band at +/- the rotation frequency, about four
+        degrees of freedom per turn.  Near zero frequency the band is shifted
+        up so that it keeps its width.
+    exclude : sequence of int
+        Bins left out of every average: those the fit emptied (zero and the
+        rotation frequency, with their neighbours), which would otherwise
+        bias the density low.
+
+    Returns
+    -------
+    ndarray, shape (p, p)
+        Equals ``sigma^2 w^T w`` (in expectation) for white noise of variance ``sigma^2``.
+
+    Notes
+    -----
+    The periodogram is not tapered: its leakage falls as the square of the
+    distance in bins, so the encoder differentiator's noise (thousands of
+    times the accelerometer's, tens of hertz up) adds well under 1 % at the
+    rotation frequency of a record many turns long.  The columns should be
+    tapered (see :func:`iv_fit`) so that they do not pick up that noise
+    through their own truncation sidelobes.
+    """
+    n = e.size
+    per = np.abs(np.fft.rfft(e)) ** 2 / n  # variance per bin: sigma^2 for white noise
+    nb = per.size
+    use = np.ones(nb, dtype=bool)
+    ex = np.asarray([k for k in exclude if 0 <= k < nb], dtype=int)
+    use[ex] = False
+    h = int(max(1, min(half_width, (nb - 1) // 2)))
+    cs = np.concatenate([[0.0], np.cumsum(np.where(use, per, 0.0))])
+    cn = np.concatenate([[0], np.cumsum(use)])
+    lo = np.clip(np.arange(nb) - h, 0, max(nb - 2 * h - 1, 0))
+    hi = np.minimum(lo + 2 * h + 1, nb)
+    cnt = cn[hi] - cn[lo]
+    dens = (cs[hi] - cs[lo]) / np.maximum(cnt, 1)
+    wf = np.fft.rfft(w, axis=0)
+    c = np.full(nb, 2.0)
+    c[0] = 1.0
+    if n % 2 == 0:
+        c[-1] = 1.0
+    wk = wf * np.sqrt(c * dens / n)[:, None]
+    return np.real(wk.conj().T @ wk)
+
+
+def project_out(d: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Residual of the columns of ``v`` after least squares on the columns of ``d`` (Frisch-Waugh-Lovell)."""
+    coef, *_ = np.linalg.lstsq(d, v, rcond=None)
+    return v - d @ coef
+
+
+def iv_fit(y: np.ndarray, m: np.ndarray, w: np.ndarray, half_width: int, exclude=(), taper=None):
+    """Just-identified instrumental-variable fit with a block HAC covariance.
+
+    Solves ``w^T diag(taper) (y - m b) = 0`` (each regressor in ``m`` has
+    one instrument in ``w``; a regressor that is its own instrument is
+    exogenous).
+
+    Parameters
+    ----------
+    y : ndarray, shape (N,)
+    m : ndarray, shape (N, p)
+        Regressors.
+    w : ndarray, shape (N, p)
+        Instruments.
+    half_width : int
+    exclude : sequence of int
+        Smoothing of the residual's periodogram (see :func:`spectral_meat`).
+    taper : ndarray, shape (N,), optional
+        Sample weights that go smoothly to zero at the record's ends (a
+        Tukey window): the columns' spectra then have no truncation
+        sidelobes to pick up noise far from their own frequencies.
+
+    Returns
+    -------
+    coef : ndarray, shape (p,)
+    cov : ndarray, shape (p, p)
+        ``A^-1 S A^-T`` with ``A = w^T diag(taper) m`` and ``S`` the covariance of
+        ``w^T e`` from the residual's spectrum (:func:`spectral_meat`).
+    resid : ndarray, shape (N,)
+    """
+    wt = w if taper is None else w * np.asarray(taper, dtype=float)[:, None]
+    a = wt.T @ m
+    coef = np.linalg.solve(a, wt.T @ y)
+    resid = y - m @ coef
+    ainv = np.linalg.inv(a)
+    cov = ainv @ spectral_meat(wt, resid, half_width, exclude) @ ainv.T
+    return coef, cov, resid
