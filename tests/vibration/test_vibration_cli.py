@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 
 import pytest
 
@@ -164,3 +165,81 @@ def test_response_and_velocity_save_to_registry(cli, centrifuge_dir, tmp_path):
     # Registry options without --save are a user error, not silently ignored.
     r = cli("response", *files, "--output", "output", "--input-amplitude", "100", "--sensor", "ACC-1")
     assert r.code == 2 and "--save" in r.err
+
+
+def test_phase_reference_unknown_entered_or_measured(cli, tmp_path):
+    # Issue 13 item 3 through the command line: an encoder zero 5 deg off.
+    assert cli("simulate", "centrifuge", "--out", tmp_path, "--seed", "11", "--freqs", "1,5,10",
+               "--encoder-zero-deg", "5", "--phase-reference-freq", "0.25").code == 0
+    truth = json.loads((tmp_path / "centrifuge_truth.json").read_text())
+    assert truth["initial_phase_deg"] == 95.0 and (tmp_path / "phaseref.csv").exists()
+    files = _files(tmp_path, "centrifuge")
+    base = ["response", *files, "--output", "output", "--input-amplitude", "100", "--angle", "angle", "--json"]
+    by_file = {p["file"]: p for p in truth["points"]}
+
+    def off_by(doc):
+        return [(p["phase_delay_deg"] - by_file[p["file"].split("/")[-1]]["phase_delay_deg"]) / p["U_phase_delay_deg"]
+                for p in doc["points"]]
+
+    # neither: the delay is off by the 5 deg (thousands of U), and one named warning says so
+    r = cli(*base)
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    assert all(abs(z) > 100 for z in off_by(doc))
+    assert [w.split(":")[0] for w in doc["warnings"]] == ["phase-reference-unknown"]
+    assert r.err.count("phase-reference-unknown") == 1
+    assert doc["points"][0]["phase_reference"] == "assumed encoder zero"
+    # --strict: the result is still printed, then exit 3
+    r = cli(*base, "--strict")
+    assert r.code == 3 and json.loads(r.out)["points"] and "phase-reference-unknown" in r.err
+    # phi_0 measured by a start-up run: covers, no warning, the certificate says how phi_0 was obtained
+    r = cli(*base, "--phase-reference", tmp_path / "phaseref.csv", "--strict", "--report", tmp_path / "c.html")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    assert all(abs(z) < 1 for z in off_by(doc)) and doc["warnings"] == []
+    assert "start-up" in doc["phase_reference"] or "run" in doc["phase_reference"]
+    html = (tmp_path / "c.html").read_text()
+    assert "Input phase phi_0" in html and "phaseref.csv" in html
+    # phi_0 entered with its u: covers, u in the budget
+    r = cli(*base, "--initial-phase-deg", "95", "--u-initial-phase-deg", "0.01", "--strict")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    assert all(abs(z) < 1 for z in off_by(doc))
+    comps = {c["source"]: c["standard_uncertainty"] for c in doc["points"][0]["phase_delay_budget"]["components"]}
+    assert comps["input phase"] == pytest.approx(math.radians(0.01))
+    # the lowest-frequency response record itself can serve as the reference
+    r = cli(*base, "--phase-reference", files[0])
+    assert r.code == 0, r.err
+    d0 = json.loads(r.out)["points"][0]
+    assert abs(d0["phase_delay_deg"] - truth["points"][0]["phase_delay_deg"]) < d0["U_phase_delay_deg"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--phase-reference", "REF"], "--angle"),
+    (["--angle", "angle", "--phase-reference", "REF", "--initial-phase-deg", "90"], "not both"),
+    (["--angle", "angle", "--u-initial-phase-deg", "0.1"], "--initial-phase-deg"),
+    (["--angle", "angle", "--initial-phase-deg", "90", "--u-initial-phase-deg", "-1"], "--u-initial-phase-deg"),
+])
+def test_phase_reference_user_errors(cli, centrifuge_dir, args, message):
+    files = _files(centrifuge_dir, "centrifuge")
+    args = [files[0] if a == "REF" else a for a in args]
+    r = cli("response", *files[1:3], "--output", "output", "--input-amplitude", "100", *args)
+    assert r.code == 2, r.err
+    assert message in r.err and "Traceback" not in r.err and len(r.err.strip().splitlines()) == 1
+
+
+def test_linearity_of_a_linear_sensor_is_a_bound_and_strict_exits_3(cli, tmp_path):
+    levels = "20,40,60,80,100"
+    assert cli("simulate", "centrifuge", "--out", tmp_path, "--seed", "5", "--freqs", "1",
+               "--accelerations", levels).code == 0
+    args = ["linearity", *_files(tmp_path, "centrifuge"), "--output", "output", "--input-amplitudes", levels,
+            "--angle", "angle"]
+    r = cli(*args, "--json")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    assert doc["linearity_resolved"] is False
+    assert doc["linearity_bound_percent"] > doc["linearity_percent"]
+    assert [w.split(":")[0] for w in doc["warnings"]] == ["linearity-not-resolved"]
+    assert doc["coverage_factor"] == 2.0 and doc["U_slope"] == pytest.approx(2 * doc["u_slope"])
+    r = cli(*args, "--strict")
+    assert r.code == 3 and "linearity below" in r.out and "linearity-not-resolved" in r.err

@@ -359,22 +359,26 @@ def phase_reference_run(output, t, angle_deg, *, harmonics: int = 1, drift: bool
 
 
 def apply_phase_reference(points: Sequence[ResponsePoint], ref: PhaseReference) -> tuple[ResponsePoint, ...]:
-    """Phase delays of angle-synchronised points relative to a reference run (the paper's phi_0).
+    """Phase delays of angle-synchronised points relative to a start-up run (the paper's phi_0).
 
-    The reference run's output phase is ``phi_0 + d(f_ref)``, with ``d`` the
-    sensor's own phase delay.  Below the resonance a sensor's phase is linear
-    in frequency, ``d(f) = -tau f`` (relative error of order
-    ``(f / f_n)^2``), so the lowest point above ``f_ref``, at ``f_1`` with
-    output phase ``phi_1``, gives ``d(f_ref) = c (phi_1 - phi_ref)`` with
-    ``c = f_ref / (f_1 - f_ref)`` and
+    The reference run's output phase is ``phi_ref = phi_0 + d(f_ref)``, with
+    ``d`` the sensor's own phase delay, which is not zero at any turning
+    frequency.  It is extrapolated from the points above ``f_ref``: a
+    sensor's phase is an odd function of frequency, ``d(f) = -tau f + beta
+    f^3 + O(f^5)``, and the measured ``m_j = phi_j - phi_ref = d(f_j) -
+    d(f_ref)`` of the two lowest points above ``f_ref`` fix ``tau`` and
+    ``beta``, so ``d(f_ref) = sum_j a_j m_j`` (linear in the measured phases).
+    The difference from the linear-only extrapolation (``beta = 0``, lowest
+    point) is a type B component ``"start-up run's own delay (model)"``:
+    it is the size of the curvature the extrapolation had to correct.  Then
+    ``phi_0 = phi_ref - d(f_ref)`` and ``dphi_i = phi_i - phi_0``.
 
-        ``phi_0 = (1 + c) phi_ref - c phi_1``,  ``dphi_i = phi_i - phi_0``.
-
-    The uncertainty follows from the three independent phase fits (a point
-    whose source is the reference run's file shares its fit).  The
-    reference part is common to all points: it goes into the budget as
-    ``"phi_0 from reference run"`` (type B for the averaging of repeats,
-    which cannot reduce it).
+    The uncertainty follows from the independent phase fits of the
+    reference run and of the points used (a point whose ``source`` equals
+    the reference's shares its fit).  Everything except the point's own fit
+    is common to all points and goes into the budget as ``"phi_0 from
+    reference run"`` (type B for the averaging of repeats, which cannot
+    reduce it).
 
     Parameters
     ----------
@@ -387,49 +391,71 @@ def apply_phase_reference(points: Sequence[ResponsePoint], ref: PhaseReference) 
     -------
     tuple of ResponsePoint
         The points with ``phase_delay``, its budget and ``phase_reference =
-        "reference run"``; a point gets the warning
-        ``phase-reference-uncorrected`` when no point lies above ``f_ref``
-        (then ``c = 0``: delays are relative to the sensor's own delay at
-        ``f_ref``).
+        "reference run"``.  With one point above ``f_ref`` only the linear
+        term is extrapolated and the warning ``phase-reference-uncorrected``
+        says the curvature is not checked; with none, nothing is
+        extrapolated (delays relative to the sensor's own at ``f_ref``) and
+        the same warning says so.
     """
     import dataclasses
 
     if any(p.sync is None for p in points):
         raise InputError("a phase-reference run applies to double-centrifuge records fitted against the turntable angle "
                          "(--angle)")
-    above = [p for p in points if p.frequency > ref.frequency * (1 + _SAME_FREQ)]
-    warns: tuple[str, ...] = ()
-    if above:
-        p1 = min(above, key=lambda p: p.frequency)
-        c = ref.frequency / (p1.frequency - ref.frequency)
-        # Phases of the same fit share one key, so shared records are not counted twice.
-        key1 = p1.source or id(p1)
-    else:
-        p1, c, key1 = None, 0.0, None
-        warns = (named("phase-reference-uncorrected", (
-            f"no response point lies above the phase-reference run's {ref.frequency:.4g} Hz, so the sensor's own "
-            "delay at that frequency cannot be extrapolated: the phase delays are relative to it; record the "
-            "reference run at the lowest frequency")),)
     key_ref = ref.source or "reference run"
-    u_of = {key_ref: (ref.u_phase, ref.dof)}
-    if p1 is not None:
-        u_of.setdefault(key1, (p1.u_phase, _dof_of(p1)))
-        # phi_1 relative to phi_ref must not wrap apart
-        d1 = float(wrap_phase(p1.phase - ref.phase))
+    u_of: dict = {key_ref: (ref.u_phase, ref.dof)}
+    above = sorted((p for p in points if p.frequency > ref.frequency * (1 + _SAME_FREQ)), key=lambda p: p.frequency)
+    # distinct frequencies: repeats at f_1 would make the 2 x 2 system singular
+    use: list[ResponsePoint] = []
+    for p in above:
+        if not use or p.frequency > use[-1].frequency * (1 + _SAME_FREQ):
+            use.append(p)
+        if len(use) == 2:
+            break
+    fr = ref.frequency
+    warns: tuple[str, ...] = ()
+    a: list[float] = []
+    u_model = 0.0
+    if use:
+        f1 = use[0].frequency
+        a_lin = [fr / (f1 - fr)]
+        if len(use) == 2:
+            f2 = use[1].frequency
+            m = np.array([[-(f1 - fr), f1**3 - fr**3], [-(f2 - fr), f2**3 - fr**3]])
+            a = list(np.linalg.solve(m.T, np.array([-fr, fr**3])))
+        else:
+            a = a_lin
+    m_meas = [float(wrap_phase(p.phase - ref.phase)) for p in use]
+    d_ref = float(sum(aj * mj for aj, mj in zip(a, m_meas)))
+    if len(use) == 2:
+        u_model = abs(d_ref - a_lin[0] * m_meas[0])
+    else:
+        what = ("only one point lies above" if use else "no response point lies above")
+        warns = (named("phase-reference-uncorrected", (
+            f"{what} the start-up run's {fr:.4g} Hz, so its own phase delay is "
+            + ("extrapolated linearly without a check of the curvature" if use else "not corrected: the phase delays "
+               "are relative to the sensor's delay at that frequency")
+            + "; record the start-up run below at least two response frequencies")),)
+    keys = []
+    for p in use:
+        k = p.source or id(p)
+        keys.append(k)
+        u_of.setdefault(k, (p.u_phase, _dof_of(p)))
+    phi0 = ref.phase - d_ref
     out = []
     for p in points:
         key = p.source or id(p)
-        coef = {key: 1.0}
-        coef[key_ref] = coef.get(key_ref, 0.0) - (1.0 + c)
-        if p1 is not None:
-            coef[key1] = coef.get(key1, 0.0) + c
         u_of.setdefault(key, (p.u_phase, _dof_of(p)))
-        phi0 = ref.phase + (-c * d1 if p1 is not None else 0.0)
+        coef = {key: 1.0}
+        coef[key_ref] = coef.get(key_ref, 0.0) - (1.0 + sum(a))
+        for k, aj in zip(keys, a):
+            coef[k] = coef.get(k, 0.0) + aj
         delay = float(wrap_phase(p.phase - phi0))
         own = abs(coef.get(key, 0.0)) * u_of[key][0]
         rest = math.sqrt(sum((cf * u_of[k][0]) ** 2 for k, cf in coef.items() if k != key))
-        budget = make_budget("phase delay", delay, "rad", [("phase fits (type A)", "A", own, u_of[key][1]),
-                                                           ("phi_0 from reference run", "B", rest)])
+        comps = [("phase fits (type A)", "A", own, u_of[key][1]), ("phi_0 from reference run", "B", rest),
+                 ("start-up run's own delay (model)", "B", u_model)]
+        budget = make_budget("phase delay", delay, "rad", comps)
         pw = tuple(w for w in p.warnings if not w.startswith("phase-reference-unknown:")) + warns
         out.append(dataclasses.replace(p, phase_delay=delay, u_phase_delay=budget.combined, phase_delay_budget=budget,
                                        phase_reference="reference run", warnings=pw))
