@@ -137,11 +137,15 @@ def _template(w_dt: float):
 def _row_rotated(yr, ts, tc, sa, ca, pv):
     # b0 = sin(a + k w dt), b1 = cos(a + k w dt) by the angle-sum identities:
     # independent per sample, so the loop vectorises.
-    a0 = 0.0
-    a1 = 0.0
-    a2 = 0.0
-    sq = 0.0
-    for k in range(yr.size):
+    v = yr[0] - pv
+    a0 = v * (sa * tc[0] + ca * ts[0])
+    a1 = v * (ca * tc[0] - sa * ts[0])
+    a2 = v
+    sq = v * v
+    lag = 0.0
+    # The lag-one product reads yr[k - 1] afresh (no value carried between
+    # iterations), so the loop still vectorises.
+    for k in range(1, yr.size):
         v = yr[k] - pv
         b0 = sa * tc[k] + ca * ts[k]
         b1 = ca * tc[k] - sa * ts[k]
@@ -149,10 +153,7 @@ def _row_rotated(yr, ts, tc, sa, ca, pv):
         a1 += v * b1
         a2 += v
         sq += v * v
-    # Lag-one products in their own loop: no carried dependency, so both loops vectorise.
-    lag = 0.0
-    for k in range(1, yr.size):
-        lag += (yr[k] - pv) * (yr[k - 1] - pv)
+        lag += v * (yr[k - 1] - pv)
     return a0, a1, a2, sq, lag
 
 

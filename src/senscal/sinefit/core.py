@@ -104,8 +104,8 @@ class SineFit(ResultMixin):
         noise; from the variance of the noise-spectrum estimate otherwise).
     residual_lag1 : float or ndarray
         Lag-one autocorrelation of the residuals (dimensionless; NaN for a
-        zero residual).  ``|r1| sqrt(N) > 2.58`` is the whiteness test's
-        rejection.
+        zero residual).  ``|r1| sqrt(N) > 2.58`` and ``|r1| > 0.01`` is the
+        whiteness test's rejection (see :mod:`senscal.sinefit.noise`).
     warnings : tuple of str
         Named warnings (``coloured-noise``, ``phase-origin-far``) that say
         what departs from the fit's assumptions and what to do.
@@ -225,7 +225,7 @@ def fit_warnings(noise_model, residual_lag1, dof_effective, u_phase, t_ref: floa
     tuple of str
     """
     from senscal.diagnostics import named
-    from senscal.sinefit.noise import WHITE_Z, lag1_significant
+    from senscal.sinefit.noise import WHITE_R1_MIN, WHITE_Z, lag1_significant
 
     model = np.atleast_1d(np.asarray(noise_model))
     r1 = np.atleast_1d(np.asarray(residual_lag1, dtype=float))
@@ -243,7 +243,7 @@ def fit_warnings(noise_model, residual_lag1, dof_effective, u_phase, t_ref: floa
 
     out = []
     bad = lag1_significant(r1, n_samples)
-    lim = WHITE_Z / math.sqrt(n_samples)
+    lim = max(WHITE_Z / math.sqrt(n_samples), WHITE_R1_MIN)
     sw = bad & (model == "coloured")
     if sw.any():
         j = np.flatnonzero(sw)[np.argmax(np.abs(r1[sw]))]

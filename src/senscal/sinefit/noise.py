@@ -41,10 +41,18 @@ __all__ = ["WHITE_Z", "ColouredNoise", "lag1_significant", "coloured_covariance"
 # alarm rate on white noise is 1 %.  Colour too weak to trip it changes u by
 # about r1 (at most 2.6 / sqrt(N), 6 % at N = 2000): inside the coverage rule.
 WHITE_Z = 2.576
+# Colour that changes u by less than about 1 % is not worth a switch: AR(1)
+# noise with lag-one correlation r1 scales u by sqrt((1 + r1) / (1 - r1)),
+# about 1 + r1.  This bound binds only beyond N = (2.576 / 0.01)^2 = 66,000
+# samples, where it removes the false alarms (and their cost) of long records.
+WHITE_R1_MIN = 0.01
 
 
 def lag1_significant(r1, n: int):
     """True where the lag-one autocorrelation ``r1`` of ``n`` residuals is not white.
+
+    Not white means: significant at the 1 % level (``|r1| sqrt(N) > 2.576``)
+    and large enough to change u by 1 % or more (``|r1| > 0.01``).
 
     Parameters
     ----------
@@ -53,7 +61,8 @@ def lag1_significant(r1, n: int):
     n : int
         Number of samples.
     """
-    return np.abs(np.asarray(r1, dtype=float)) * math.sqrt(n) > WHITE_Z
+    a = np.abs(np.asarray(r1, dtype=float))
+    return (a * math.sqrt(n) > WHITE_Z) & (a > WHITE_R1_MIN)
 
 
 @dataclass(frozen=True)
