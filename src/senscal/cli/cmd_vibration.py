@@ -290,7 +290,7 @@ def response_cmd(
                                   source=same[0] if same else str(phase_reference))
         points = list(apply_phase_reference(points, ref))
         phase_ref_text = (f"phi_0 = {math.degrees(ref.phase):.4f} deg at encoder zero from the {ref.frequency:.4g} Hz "
-                          f"run {phase_reference} (its own delay extrapolated linearly in frequency)")
+                          f"run {phase_reference} (its own delay extrapolated from the points above it, odd cubic in frequency)")
     elif initial_phase_deg is not None:
         phase_ref_text = (f"phi_0 = {initial_phase_deg:g} deg entered (u = {u_initial_phase_deg:g} deg)"
                           + (" at encoder zero" if angle else " at t = 0"))
