@@ -1,7 +1,7 @@
 """Monte-Carlo coverage of the drift job (issue 14, drift items 1-5).
 
 Seed counts: each record needs its own maximum-likelihood search (0.1-1.6 s
-of CPU per record), so CI runs 20-60 seeds per scenario and the benchmark
+of CPU per record), so CI runs 20-40 seeds per scenario and the benchmark
 (``SENSCAL_MC=full``, ``benchmarks/bench_coverage.py drift``) 200.  The
 scenarios that compare models (three or more extra searches per record) and
 the warn-only ones get the fewest: a warning that must fire in >= 95 % of
@@ -15,7 +15,7 @@ import pytest
 from senscal.validation import check_coverage, mc_seeds
 from senscal.validation.drift import SCENARIOS
 
-CI_SEEDS = {"white": 40, "gm-signal+ramp": 40, "ramp-rw-model": 20, "known": 60, "covariate": 60,
+CI_SEEDS = {"white": 30, "gm-signal+ramp": 30, "ramp-rw-model": 20, "known": 40, "covariate": 40,
             "reference-defaulted": 20, "wrong-tau": 20}
 
 

@@ -257,11 +257,11 @@ def _compare_models(setup: DriftSetup, y: np.ndarray, t: np.ndarray, covariates,
     rows = [{"model": "used", "loglik": loglik, "n_levels": n_levels, "aic": 2 * n_levels - 2 * loglik}]
     for label, alt in _alternatives(setup):
         try:
-            r = correct_drift(alt, y, t, covariates, compare=False)
+            noise, ll = correct_drift(alt, y, t, covariates, compare=False, _fit_only=True)
         except Exception:  # an alternative that cannot be fitted is simply not offered
             continue
-        k = sum(p.estimated for p in r.noise)
-        rows.append({"model": label, "loglik": r.loglik, "n_levels": k, "aic": 2 * k - 2 * r.loglik})
+        k = sum(p.estimated for p in noise)
+        rows.append({"model": label, "loglik": ll, "n_levels": k, "aic": 2 * k - 2 * ll})
     return tuple(rows)
 
 
@@ -386,7 +386,7 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
                   window: int | None = None, smooth: bool = False,
                   false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, detect_shift: float = 1.0,
                   estimate: bool = True, compare: bool = True,
-                  progress: Callable[[], None] | None = None) -> DriftResult:
+                  progress: Callable[[], None] | None = None, _fit_only: bool = False) -> DriftResult:
     """Estimate and remove slowly drifting biases.
 
     The augmented state ``[signal; biases]`` (patent step a) is filtered
@@ -483,6 +483,7 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
     dt = np.empty(T)
     dt[1:] = np.diff(tt)
     dt[0] = dt[1]
+    y_raw = yy
     if setup.signal.kind in ("gauss_markov", "known"):
         # Known mean: the filter works on the deviation.
         yy = yy - setup.signal.mean
@@ -540,6 +541,9 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
         # is spent only when the first one is suspect).
         noise, loglik = estimate_levels(build, yy, {k: first_start[k] for k in missing}, given,
                                         starts=[{k: other[k] for k in missing}], progress=progress)
+    if _fit_only:
+        # Model comparison needs only the maximised likelihood.
+        return noise, loglik
     levels = {p.name: p.value for p in noise}
     warnings: list[str] = []
     warnings += _degenerate(setup, noise, mom)
@@ -580,7 +584,7 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
             "--bias-dynamics ramp, or give a model file")))
     comparison: tuple = ()
     if compare and estimate:
-        comparison = _compare_models(setup, yy, tt, covariates, float(res.loglik), len(missing))
+        comparison = _compare_models(setup, y_raw, tt, covariates, float(res.loglik), len(missing))
         better = [c for c in comparison if c["aic"] < comparison[0]["aic"] - _AIC_MARGIN]
         if better:
             b = min(better, key=lambda c: c["aic"])
