@@ -16,7 +16,7 @@ import numpy as np
 
 from senscal._result import ResultMixin
 from senscal.diagnostics import named
-from senscal.errors import DegenerateGeometryError, DiagnosticError, InputError, TooFewSamplesError
+from senscal.errors import ConvergenceError, DegenerateGeometryError, DiagnosticError, InputError, TooFewSamplesError
 from senscal.triaxial import diagnostics as dg
 from senscal.triaxial.estimators import (
     PAIR_ANGLE, ModelFit, _calibration, _design, _linear_problem, fit_algebraic, fit_linear, fit_lms, fit_ml, param_names,
@@ -73,6 +73,10 @@ class TriaxialResult(ResultMixin):
         Fisher information determines, its unidentifiable groups and its
         held-out error over 5 contiguous time blocks (see
         :mod:`senscal.triaxial.selection`).
+    linearisation_bias : dict or None
+        ``--method linear``/``lms``: linearised least-squares weights minus
+        the exact maximum-likelihood fit's, per weight and in units of the
+        least-squares u (``in_u``, ``max_abs_in_u``).
     heading : dict or None
         For a turn about one axis (or with an accelerometer): heading error
         before and after calibration (see :mod:`senscal.triaxial.heading`).
@@ -102,6 +106,7 @@ class TriaxialResult(ResultMixin):
     n_used: int
     model_evidence: tuple[dict[str, Any], ...] = ()
     heading: dict[str, Any] | None = None
+    linearisation_bias: dict[str, Any] | None = None
 
     def value(self, name: str) -> float:
         """A parameter's value (NaN if unidentifiable)."""
@@ -202,6 +207,37 @@ def _noise_floor(h: np.ndarray, b0: np.ndarray, r0: float, plane: tuple[int, int
         return 1e-9 * r0
     res = y - d @ w
     return max(0.5 * rho * float(np.sqrt(res @ res / dof)) * r0, 1e-9 * r0)
+
+
+# Coverage of an N(delta, 1) estimate by +-2 stays >= 93 % (the project's lower limit) while
+# |delta| <= 0.43: a larger bias makes the k=2 interval miss too often.
+LINEARISATION_LIMIT_U = 0.43
+
+
+def _linearisation_bias(h: np.ndarray, model: str, field: float | None, lin: ModelFit) -> dict[str, Any] | None:
+    """Linearised least-squares weights minus the exact model's, in units of their standard uncertainty.
+
+    The exact maximum-likelihood fit of the same model (``full``, ``diagonal``
+    or ``offsets``) is mapped to the seed's weights (``dK = K - 1``, angles,
+    offsets, field); its own noise is far below the linearised fit's u, so
+    the difference is the linearisation (second-order) error.
+    """
+    try:
+        ex = fit_ml(h, model, field=field)
+    except (DegenerateGeometryError, TooFewSamplesError, ConvergenceError):
+        return None
+    ev = dict(zip(ex.names, ex.values))
+    if "K" in ev:
+        ev.setdefault("Kx", ev["K"])
+        ev.setdefault("Ky", ev["K"])
+    exact = {"dKx": ev.get("Kx", 1.0) - 1.0, "dKy": ev.get("Ky", 1.0) - 1.0, "field": ex.field}
+    exact.update({n: ev.get(n, 0.0) for n in ("alpha", "beta", "gamma", "Bx", "By", "Bz")})
+    d, du = {}, {}
+    for n, v, u in zip(lin.names, lin.values, lin.uncertainties):
+        d[n] = float(v - exact[n])
+        du[n] = float(d[n] / u) if np.isfinite(u) and u > 0 else None
+    worst = max((abs(x) for x in du.values() if x is not None), default=0.0)
+    return {"difference": d, "in_u": du, "max_abs_in_u": worst, "limit_in_u": LINEARISATION_LIMIT_U}
 
 
 def _param_units(names, unit: str, field_known: bool) -> dict[str, str]:
@@ -357,10 +393,12 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     def weak_of(mdl: str) -> set:
         return {p for g in analyses[mdl][2]["groups"] for p in g["parameters"]}
 
-    def fit_model(hh: np.ndarray, mdl: str, warm: np.ndarray | None = None) -> ModelFit:
+    def fit_model(hh: np.ndarray, mdl: str, warm: np.ndarray | None = None, quick: bool = False) -> ModelFit:
         """Maximum-likelihood (or ellipsoid) fit of an exact model, directions the data cannot see pinned.
 
-        ``warm``: start there (the all-data fit, for the cross-validation folds).
+        ``warm``: start there.  ``quick``: a prediction-only fit (candidates
+        and cross-validation folds): loose tolerance, capped evaluations, no
+        covariance; the chosen model is refitted in full from its answer.
         """
         pl_ = plane if mdl == "planar" else None
         weak_ = weak_of(mdl)
@@ -379,18 +417,19 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         theta0 = start.values if start is not None else analyses[mdl][1]
         if weak_:
             # Directions the data cannot see: pin them weakly at the nominal
-            # point (a noise unit per plausible range) so the fit converges;
+            # point (one noise floor, in sensor units like the residuals, per
+            # plausible range) so the fit converges;
             # they are reported as unknown.
             names_ = analyses[mdl][0]
             sc = dg.physical_scales(names_, f0 if mdl != "planar" else r_plane, k0 if mdl != "planar" else 1.0)
-            wt = np.array([1.0 / s_ if n in weak_ else 0.0 for n, s_ in zip(names_, sc)])
+            wt = np.array([sigma0 / s_ if n in weak_ else 0.0 for n, s_ in zip(names_, sc)])
             prior = (analyses[mdl][1], wt)
             theta0 = analyses[mdl][1]
         if warm is not None:
             theta0 = warm
         return fit_ml(hh, mdl, field=field, plane=pl_, start=theta0, unit=unit, channels=channels, prior=prior,
-                      tol=1e-12 if warm is None else 1e-7, with_covariance=warm is None,
-                      max_nfev=None if warm is None else 20 * (len(analyses[mdl][0]) + 1))
+                      tol=1e-7 if quick else 1e-12, with_covariance=not quick,
+                      max_nfev=(20 if warm is not None else 60) * (len(analyses[mdl][0]) + 1) if quick else None)
 
     if model is not None:
         chosen = model
@@ -441,7 +480,7 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
             per: tuple[float, ...] = ()
             if err is None:
                 pl_ = plane if m == "planar" else None
-                whole, err = safe(fit_model, hu, m)
+                whole, err = safe(fit_model, hu, m, None, True)
                 out = None
                 if whole is not None:
                     # A centre farther from the cloud's own centre than its
@@ -457,7 +496,7 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
                         whole = None
                 if whole is not None:
                     fits_all[m] = whole
-                    out, err = safe(held_out_residuals, hu, lambda hh, m=m, w=whole.values: fit_model(hh, m, w),
+                    out, err = safe(held_out_residuals, hu, lambda hh, m=m, w=whole.values: fit_model(hh, m, w, True),
                                     lambda f_, ht, m=m, pl_=pl_: residuals(m, f_.values, ht, field, pl_))
                 if out is not None:
                     if np.all(np.isfinite(out[0])):
@@ -493,8 +532,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         if method == "lms":
             ls = fit_linear(hh, field=field, model=chosen, unit=unit, channels=channels)
             return fit_lms(hh, field=field, model=chosen, lr=lr, epochs=epochs, unit=unit, channels=channels), ls
-        if hh is hu and chosen in fits_all:
-            return fits_all[chosen], None
+        if hh is hu and chosen in fits_all and method != "ellipsoid":
+            return fit_model(hh, chosen, fits_all[chosen].values), None
         return fit_model(hh, chosen), None
 
     def norms(cal: TriaxialCalibration, hh: np.ndarray) -> np.ndarray:
@@ -591,6 +630,16 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     # of data already in field units.
     plaus = dg.plausibility(plaus_params, fit.field, max_angle_deg=max_angle_deg, gain_ratio=gain_ratio,
                             max_offset=max_offset if raw_note is None else None)
+    lin_bias = None
+    if linear_method:
+        lin_bias = _linearisation_bias(hu2, chosen, field, ls if ls is not None else fit)
+        if lin_bias is not None and lin_bias["max_abs_in_u"] > LINEARISATION_LIMIT_U:
+            worst_n = max((k for k, v in lin_bias["in_u"].items() if v is not None),
+                          key=lambda k: abs(lin_bias["in_u"][k]))
+            warnings.append(named("linearisation-error", (
+                f"the seed's linearised model differs from the exact maximum-likelihood fit by up to "
+                f"{lin_bias['max_abs_in_u']:.3g} standard uncertainties ({worst_n}): the dropped second-order terms "
+                "are not in u, so the intervals of --method linear/lms do not cover; use --method ml (the default)")))
     lms_cmp = None
     if ls is not None:
         d = {}
@@ -648,6 +697,7 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         conditioning=conditioning, noise=float(fit.noise), norm_error_before=before, norm_error_after=after,
         outliers=tuple(int(idx[k]) for k in outl), saturated=tuple(int(k) for k in np.flatnonzero(sat_mask)),
         plausibility=tuple(plaus), warnings=tuple(warnings), lms_vs_least_squares=lms_cmp,
+        linearisation_bias=lin_bias,
         n_samples=int(n_total), n_used=int(kept.size),
         model_evidence=tuple(c.to_dict() for c in candidates), heading=heading,
     )
