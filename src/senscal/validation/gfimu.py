@@ -74,6 +74,7 @@ def _bias_white(n_seeds: int, seed0: int, case: str, sim: dict, *, rest=None, pl
     bias_g, noise_g = 1e-4, 1e-3
     est_w, u_w, tr_w = ([[] for _ in range(3)] for _ in range(3))
     est_c, u_c, tr_c, warned = [], [], [], []
+    est_f, u_f, tr_f = [], [], []
     for s in range(seed0, seed0 + n_seeds):
         rng = np.random.default_rng(s)
         bias = bias_g * G0 * rng.choice([-1.0, 1.0], size=layout.n_channels)
@@ -85,17 +86,26 @@ def _bias_white(n_seeds: int, seed0: int, case: str, sim: dict, *, rest=None, pl
             est_w[i].append(est.omega["kalman"][i, k])
             u_w[i].append(est.u_omega[i, k])
             tr_w[i].append(w_true[i, k])
+        c_true = _offset_truth(layout, bias)
         if rest is not None:
             j = int(rng.integers(9))
             est_c.append(est.rest.offsets[j])
             u_c.append(est.rest.u_offsets[j])
-            tr_c.append(_offset_truth(layout, bias)[j])
+            tr_c.append(c_true[j])
+        if est.filter.offsets is not None:
+            j = int(rng.integers(9))
+            est_f.append(est.filter.offsets[j])
+            u_f.append(est.filter.u_offsets[j])
+            tr_f.append(c_true[j])
     wflag = warned if warn_names else None
     rows = [coverage_row(JOB, case, f"{ax} (pointwise band)", est_w[i], u_w[i], tr_w[i], warned=wflag,
                          expect=expect, note=note) for i, ax in enumerate(_AXES)]
     if rest is not None:
         rows.append(coverage_row(JOB, case, "rest offsets (alpha, W; one of 9 per seed)", est_c, u_c, tr_c,
                                  note="constant errors of " + ", ".join(UNKNOWNS[3:]) + " on the rest segment"))
+    if est_f and not smooth:
+        rows.append(coverage_row(JOB, case, "filter offsets at the end (one of 9 per seed)", est_f, u_f, tr_f,
+                                 note="constant errors of alpha and W estimated by the filter"))
     return rows
 
 
