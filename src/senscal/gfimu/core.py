@@ -286,7 +286,8 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
 
         filt = run(sig)
         fw = _filter_warnings(filt, states, gate_probability)
-        if noise_std is None and filt.nis is not None and any(w.startswith(("filter-gated", "innovations-")) for w in fw):
+        mismatch = any(w.startswith(("filter-gated", "innovations-")) for w in fw)
+        if noise_std is None and filt.nis is not None and mismatch:
             # The measurements disagree with the model by more than white noise: re-run with the channel
             # noise scaled to the innovations (median NIS over its chi-square median), so that the filter
             # tracks them instead of gating most of them.  The warnings of the first run stand: the

@@ -171,8 +171,8 @@ def run_three_axis_mounting(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     return _mounting(n_seeds, seed0, "three-axis-mounting", False)
 
 
-for _f in (run_paper_white, run_three_axis_white, run_three_axis_smooth, run_paper_rest, run_paper_plain, run_paper_mounting,
-           run_three_axis_mounting):
+for _f in (run_paper_white, run_three_axis_white, run_three_axis_smooth, run_paper_rest, run_paper_plain,
+           run_paper_mounting, run_three_axis_mounting):
     _f.full_seeds = 400
 
 SCENARIOS = {
