@@ -156,3 +156,27 @@ def test_calibrate_save_to_registry(cli, tmp_path):
     amp = json.loads(r.out)["amplitude"]
     h = json.loads(cli("registry", "history", "SHAFT-1", "--db", db, "--json").out)["records"]
     assert any(x["quantity"] == "gravity_amplitude" and x["value"] == pytest.approx(amp) for x in h)
+
+
+def test_once_per_turn_ripple_is_named_and_strict_exits_3(cli, tmp_path):
+    """An unbalanced rotor (1 % speed ripple locked to the turn, nothing else): one named warning, exit 3."""
+    from senscal.cli import main
+
+    out = tmp_path / "sync"
+    try:
+        main(["simulate", "shaft", "--out", str(out), "--seed", "4", "--cal-duration", "10", "--test-duration", "1",
+              "--ripple", "0", "--sync-ripple", "0.01", "--noise-rho", "0.5"])
+    except SystemExit as exc:
+        assert exc.code in (0, None)
+    truth = json.loads((out / "shaft_truth.json").read_text())
+    assert truth["noise_rho"] == 0.5 and truth["calibration"]["sync_ripple"] == 0.01
+    args = ("shaft", "calibrate", out / "shaft_cal.csv", "--angle", "angle", "--accel", "accel", "--json")
+    r = cli(*args)
+    assert r.code == 0
+    doc = json.loads(r.out)
+    assert [w.split(":")[0] for w in doc["warnings"]] == ["synchronous-ripple"]
+    assert doc["synchronous_ripple"] == pytest.approx(0.01, rel=0.05)
+    assert "warning: synchronous-ripple:" in r.err
+    r = cli(*args, "--strict")
+    assert r.code == 3 and "synchronous-ripple" in r.err
+    assert json.loads(r.out)["warnings"] == doc["warnings"]  # the result is still printed before exit 3

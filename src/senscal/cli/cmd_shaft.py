@@ -11,11 +11,11 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, print_json,
-                                progress_bar, table)
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, load,
+                                print_json, progress_bar, table)
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted,
                                        save_if_requested)
-from senscal.errors import DiagnosticError, InputError
+from senscal.errors import InputError
 
 shaft_app = typer.Typer(help="Rotating shaft: gravity identification and compensation (angular acceleration "
                              "from one tangential accelerometer).", no_args_is_help=True)
@@ -28,7 +28,6 @@ AngleUnitOpt = Annotated[Optional[str], typer.Option(
 WindowOpt = Annotated[Optional[float], typer.Option(
     "--window", help="Savitzky-Golay window of the encoder derivatives, s.")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Before/after compensation against angle (PNG).")]
-StrictOpt = Annotated[bool, typer.Option("--strict", help="Exit with code 3 when the data raise a warning.")]
 
 _UNIT_WORDS = {"deg": "deg", "degree": "deg", "degrees": "deg", "°": "deg", "rad": "rad", "radian": "rad",
                "radians": "rad"}
@@ -48,16 +47,6 @@ def angle_unit_of(rec, name: str, given: str | None) -> str:
     return g
 
 
-def _warn(warnings) -> None:
-    for w in warnings:
-        err_console.print(f"warning: {w}")  # plain text: w may quote user strings
-
-
-def _strict(warnings, strict: bool) -> None:
-    if strict and warnings:
-        raise DiagnosticError(f"{len(warnings)} warning(s) with --strict: {warnings[0]}")
-
-
 def calibration_summary(model) -> dict:
     """The JSON fields of ``senscal shaft calibrate`` (CLI contract)."""
     d = {
@@ -72,6 +61,9 @@ def calibration_summary(model) -> dict:
         "angular_acceleration_rms": model.angular_acceleration_rms,
         "ripple_correction": model.ripple_correction, "ripple_coefficient": model.ripple_coefficient,
         "u_ripple_coefficient": model.u_ripple_coefficient, "ripple_leak": model.ripple_leak,
+        "synchronous_ripple": model.synchronous_ripple, "nuisance": list(model.nuisance),
+        "centripetal_coefficient": model.centripetal_coefficient,
+        "u_centripetal_coefficient": model.u_centripetal_coefficient,
         "n_samples": model.n_samples, "window_s": model.window, "warnings": list(model.warnings),
     }
     return d
@@ -127,7 +119,6 @@ def calibrate_cmd(
         a = rec[accel]
         doc["plot"] = str(plot_compensation(plot, model, th, a, (a - model.gravity(th)) / sensitivity,
                                             unit=rec.unit(accel), title=f"gravity calibration: {file.name}"))
-    _warn(model.warnings)
     save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
                       job="shaft", method="gravity sine fit against the encoder angle (Yang et al. 2014)",
                       quantities=lambda: [quoted(doc, "gravity_amplitude", "amplitude", "u_amplitude", model.output_unit),
@@ -151,7 +142,7 @@ def calibrate_cmd(
         for k in ("model", "plot"):
             if k in doc:
                 console.print(f"wrote {doc[k]}")
-    _strict(model.warnings, strict)
+    emit_warnings(model.warnings, strict)
 
 
 @shaft_app.command("compensate")
@@ -206,7 +197,6 @@ def compensate_cmd(
             alphas={"uncompensated (smoothed)": _smoothed(res.uncompensated_angular_acceleration, res),
                     "compensated (smoothed)": res.angular_acceleration_smoothed,
                     "encoder (Savitzky-Golay)": res.angular_acceleration_encoder}))
-    _warn(res.warnings)
     if json_out:
         print_json(doc)
     else:
@@ -225,7 +215,7 @@ def compensate_cmd(
         for k in ("out", "plot"):
             if k in doc:
                 console.print(f"wrote {doc[k]}")
-    _strict(res.warnings, strict)
+    emit_warnings(res.warnings, strict)
 
 
 def _smoothed(x, res):
@@ -245,12 +235,15 @@ def simulate_shaft_cmd(
     bias: Annotated[float, typer.Option("--bias", help="Sensor bias, output unit.")] = 0.05,
     misalignment: Annotated[float, typer.Option("--misalignment", help="Sensitive axis toward the centre, deg.")] = 0.5,
     noise: Annotated[float, typer.Option("--noise", help="Output noise standard deviation.")] = 0.02,
+    noise_rho: Annotated[float, typer.Option(
+        "--noise-rho", help="Lag-one correlation of the output noise, 0 <= rho < 1 (AR(1); 0: white).")] = 0.0,
     encoder_counts: Annotated[int, typer.Option("--encoder-counts", help="Encoder counts per revolution.")] = 4096,
     fs: Annotated[float, typer.Option("--fs", help="Sample rate, Hz.")] = 1000.0,
     speed: Annotated[float, typer.Option("--speed", help="Calibration speed, rev/s.")] = 1.0,
     ripple: Annotated[float, typer.Option("--ripple", help="Relative speed ripple of the calibration run.")] = 0.03,
     ripple_freq: Annotated[float, typer.Option("--ripple-freq", help="Ripple frequency, Hz.")] = 2.7,
-    sync_ripple: Annotated[float, typer.Option("--sync-ripple", help="Relative ripple locked to the turn.")] = 0.0,
+    sync_ripple: Annotated[float, typer.Option(
+        "--sync-ripple", help="Relative speed ripple locked to the turn (once per revolution, an unbalanced rotor).")] = 0.0,
     cal_duration: Annotated[float, typer.Option("--cal-duration", help="Calibration run, s.")] = 20.0,
     test_speed: Annotated[float, typer.Option("--test-speed", help="Test run mean speed, rev/s.")] = 2.0,
     modulation: Annotated[float, typer.Option("--modulation", help="Test run relative speed modulation.")] = 0.5,
@@ -265,7 +258,7 @@ def simulate_shaft_cmd(
 
     cal, test, truth = simulate_shaft(
         tilt_deg=tilt, radius=radius, sensitivity=sensitivity, bias=bias, misalignment_deg=misalignment, noise=noise,
-        encoder_counts=encoder_counts, fs=fs, speed_rps=speed, ripple=ripple, ripple_freq=ripple_freq,
+        noise_rho=noise_rho, encoder_counts=encoder_counts, fs=fs, speed_rps=speed, ripple=ripple, ripple_freq=ripple_freq,
         sync_ripple=sync_ripple, cal_duration=cal_duration, test_speed_rps=test_speed, modulation=modulation,
         modulation_freq=modulation_freq, test_duration=test_duration, wrap=wrap, seed=seed)
     al = truth.pop("_test_angular_acceleration")
