@@ -208,3 +208,16 @@ def test_fit_phase_far_from_origin_shows_centre_phase(cli, tmp_path):
     d = doc["channels"]["x"]
     assert d["t_phase_centre_s"] == pytest.approx(1e5 + (n - 1) / 1000.0)
     assert d["u_phase_deg"] > math.degrees(1.0) > 100 * d["u_phase_centre_deg"]
+
+
+def test_fit_nan_channel_is_skipped_not_the_file(cli, tmp_path):
+    t = np.arange(1000) / 1000.0
+    good = np.sin(2 * math.pi * 10 * t) + np.random.default_rng(1).normal(0, 0.01, t.size)
+    bad = good.copy()
+    bad[5] = np.nan
+    p = tmp_path / "nan2.csv"
+    pd.DataFrame({"t": t, "a": good, "b": bad}).to_csv(p, index=False)
+    r = cli("fit", p, "--json")
+    assert r.code == 0, r.err
+    assert list(json.loads(r.out)["channels"]) == ["a"]
+    assert "channel-not-fitted: channel 'b' was not fitted: it has NaN at sample 5" in r.err

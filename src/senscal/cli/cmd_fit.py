@@ -58,16 +58,21 @@ def fit_summary(fit: SineFit) -> dict:
 def not_a_signal(y: np.ndarray) -> str | None:
     """Why a column cannot hold a sine (None when it might).
 
-    A constant column has nothing to fit; a column that changes by the same
+    NaN/inf cannot be fitted; a constant column has nothing to fit; a column that changes by the same
     step every sample is a sample counter or a ramp (a scope's ``Sample``
     column), whose spectrum peaks at the lowest bin and whose fit fails
     with a misleading "record too short".
     """
     y = np.asarray(y, dtype=float)
-    finite = y[np.isfinite(y)]
+    bad = np.flatnonzero(~np.isfinite(y))
+    if bad.size:
+        more = f" (and {bad.size - 1} more)" if bad.size > 1 else ""
+        kind = "NaN" if np.isnan(y[bad[0]]) else "inf"
+        return f"it has {kind} at sample {bad[0]}{more}; remove or interpolate the bad samples"
+    finite = y
     if finite.size and np.ptp(finite) == 0.0:
         return f"it is constant ({finite[0]:g}): there is no signal to fit"
-    if y.size > 2 and np.all(np.isfinite(y)):
+    if y.size > 2:
         d = np.diff(y)
         if d[0] != 0.0 and np.ptp(d) <= 1e-9 * abs(d[0]):
             return (f"it rises by the same step ({d[0]:g}) every sample: a sample counter or ramp, not a signal; "
@@ -89,7 +94,8 @@ def fit_recording(path: Path, *, channels: list[str] | None, freq: float | None,
     """
     if noise_model not in NOISE_MODELS:
         raise InputError(f"--noise-model must be one of {', '.join(NOISE_MODELS)}, got {noise_model!r}")
-    rec = load(path, time_column=time_column, fs=fs, names=names, channels=channels)
+    # NaN in one channel should not stop the others: checked per channel below.
+    rec = load(path, time_column=time_column, fs=fs, names=names, channels=channels, allow_nan=True)
     chans = list(rec.names)
     y = rec.data(chans)
     failed: dict[str, SenscalError] = {}
