@@ -122,6 +122,6 @@ def test_save_to_registry(cli, sim, tmp_path):
     r = cli("registry", "history", "MAG-1", "--db", db, "--json")
     assert r.code == 0, r.err
     text = r.out
-    assert "Bx" in text and "alpha_deg" not in text  # unidentifiable parameters are not recorded
+    assert "gamma_deg" in text and "alpha_deg" not in text  # unidentifiable parameters are not recorded
     r = cli("triaxial", "calibrate", f, "--channels", "x,y,z", "--sensor", "MAG-1")
     assert r.code == 2 and "add --save" in r.err
