@@ -18,6 +18,7 @@ import numpy as np
 import scipy.linalg
 
 from senscal._result import ResultMixin
+from senscal.diagnostics import named
 from senscal.shaft.angle import angle_to_rad, check_radius, encoder_kinematics, savgol, smooth
 from senscal.shaft.model import GravityModel, by_angle, check_accel, fit_angle, time_step
 
@@ -83,7 +84,8 @@ class ShaftCompensation(ResultMixin):
     misalignment, u_misalignment : float or None
         ``asin(k)``: sensitive axis turned toward the centre, rad.
     bias_change, u_bias_change : float or None
-        Change of the sensor bias since calibration, m/s^2 (from the leakage regression).
+        Change of the sensor bias since calibration, m/s^2 (from the leakage
+        regression); its u includes the calibration's ``u_offset``.
     warnings : tuple of str
     """
 
@@ -244,8 +246,9 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
                                                savgol(theta, m5, 1, dt, polyorder=p5)[mid], r,
                                                model.mean_square_speed, m5)
         if math.isnan(u_kr):
-            warnings.append("the speed hardly changes in this run (or it is too short): the centripetal leakage "
-                            "cannot be estimated and was not removed")
+            warnings.append(named("centripetal-not-estimable", (
+                "the speed hardly changes in this run (or it is too short): the centripetal leakage cannot be "
+                "estimated and was not removed; compensate a run whose speed varies")))
             kr = u_kr = c = u_c = None
         else:
             # The bias change is measured against the calibration's offset: its uncertainty is in it too.
@@ -280,15 +283,15 @@ def compensate(model: GravityModel, accel, angle, t=None, *, fs: float | None = 
         res_amp, u_res_amp = float(fit.amplitude), float(fit.u_amplitude)
         limit = max(5.0 * u_res_amp, 0.02 * model.amplitude / s)
         if res_amp > limit:
-            warnings.append(
+            warnings.append(named("gravity-left", (
                 f"a gravity-like sinusoid of {res_amp:.3g} m/s^2 ({100 * res_amp * s / model.amplitude:.3g}% of the "
                 "calibrated one) is left after compensation: the sensor was remounted, the angle zero or channel "
-                "differs, or the model belongs to another sensor; recalibrate"
-            )
+                "differs, or the model belongs to another sensor; recalibrate")))
     if math.isfinite(corr) and rms > 3.0 * expected and rms > 0.1 * float(np.std(se)):
-        warnings.append(f"accelerometer and encoder angular accelerations differ by {rms:.3g} rad/s^2 RMS "
-                        f"(noise alone would give {expected:.3g}); check the radius and the model"
-                        + ("" if remove_centripetal else ", or remove the centripetal leakage of a misaligned axis (--centripetal)"))
+        warnings.append(named("encoder-mismatch", (
+            f"accelerometer and encoder angular accelerations differ by {rms:.3g} rad/s^2 RMS (noise alone would "
+            f"give {expected:.3g}); check the radius and the model"
+            + ("" if remove_centripetal else ", or remove the centripetal leakage of a misaligned axis (--centripetal)"))))
     return ShaftCompensation(
         t=tt, angle=theta, tangential_acceleration=at, angular_acceleration=alpha, angular_acceleration_encoder=al_enc,
         angular_velocity_encoder=kin.angular_velocity, uncompensated_angular_acceleration=alpha_unc, radius=r,

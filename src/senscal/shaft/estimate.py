@@ -1,21 +1,20 @@
-"""Linear estimation with serially correlated errors: instrumental variables and a block HAC covariance.
+"""Linear estimation with coloured noise: instrumental variables and a spectral sandwich covariance.
 
 The gravity fit of :mod:`senscal.shaft.model` is linear in its parameters
 once the angle is known, but its residual is not white: the encoder's
 angular acceleration, which the fit subtracts, carries the Savitzky-Golay
 differentiator's quantisation noise (large per sample, almost all of it far
 above the rotation frequency), and real accelerometers add coloured noise.
-What sets the uncertainty of a parameter is the noise near the frequencies
-its regressor lives at, so the covariance here is a heteroscedasticity and
-autocorrelation consistent (HAC) sandwich [1]_ over blocks of samples, not
-the residual variance times the inverse normal matrix.
+What sets the uncertainty of a parameter is the noise density where its
+regressor's energy is, so the covariance here is a sandwich whose middle is
+``sum_f |W(f)|^2 S(f)`` with ``S`` the residual's smoothed periodogram [1]_,
+not the residual variance times the inverse normal matrix.
 
 References
 ----------
-.. [1] Newey W. K., West K. D., "A simple, positive semi-definite,
-   heteroskedasticity and autocorrelation consistent covariance matrix",
-   Econometrica 55 (1987); with a truncated (uniform) kernel as in Hansen
-   L. P., Hodrick R. J., Journal of Political Economy 88 (1980).
+.. [1] Percival D. B., Walden A. T., "Spectral Analysis for Physical
+   Applications", Cambridge University Press (1993), ch. 6: the smoothed
+   (Daniell) periodogram and its leakage.
 .. [2] Wooldridge J. M., "Econometric Analysis of Cross Section and Panel
    Data", MIT Press (2010), ch. 5: instrumental variables and their
    sandwich covariance.
@@ -79,6 +78,9 @@ def spectral_meat(w: np.ndarray, e: np.ndarray, half_width: int, exclude=()) -> 
     hi = np.minimum(lo + 2 * h + 1, nb)
     cnt = cn[hi] - cn[lo]
     dens = (cs[hi] - cs[lo]) / np.maximum(cnt, 1)
+    if np.any(cnt == 0):
+        # A record too short to leave any bin in the band: the residual's mean square (white noise).
+        dens[cnt == 0] = float(np.mean(per[use])) if use.any() else float(np.mean(per)) * nb / max(nb - len(ex), 1)
     wf = np.fft.rfft(w, axis=0)
     c = np.full(nb, 2.0)
     c[0] = 1.0

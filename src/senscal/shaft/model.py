@@ -17,9 +17,9 @@ References
    excitation method in sensor calibration", Transducer and Microsystem
    Technologies, 2014 (seed 000, experiment 2, eq. 11 and fig. 4;
    ``shared/METHODS.md`` section 1c).
-.. [2] Frisch R., Waugh F. V., "Partial time regressions as compared with
-   individual trends", Econometrica 1 (1933): the nuisance regressor is
-   projected out with the sine fit itself.
+.. [2] Wooldridge J. M., "Econometric Analysis of Cross Section and Panel
+   Data", MIT Press (2010), ch. 5: instrumental variables (the encoder's
+   derivatives over a longer window instrument the short-window ones).
 """
 
 from __future__ import annotations
@@ -75,13 +75,16 @@ class GravityModel(ResultMixin):
         Constant term, output unit: sensor bias plus the centripetal leakage
         of a misaligned axis at the calibration speed.
     covariance : ndarray, shape (3, 3)
-        Covariance of (amplitude, phase, offset).
+        Covariance of (amplitude, phase, offset): from the residual's noise
+        density near the rotation frequency (and near zero for the offset),
+        plus what the estimated ripple coefficients contribute.
     residual_rms : float
         RMS of the per-sample residuals, output unit.
     noise : float
         White noise of the accelerometer, output unit, from the output minus
         its Savitzky-Golay smoothing (``residual_rms`` also holds the encoder
-        differentiator's noise the ripple correction brings in).
+        differentiator's noise the ripple correction brings in, almost all of
+        it far above the rotation frequency, where it does not reach the fit).
     sensitivity, u_sensitivity : float
         Output unit per m/s^2 (1 when the output is in m/s^2).
     output_unit : str
@@ -109,8 +112,9 @@ class GravityModel(ResultMixin):
         ``"regression"`` (coefficient estimated with the fit), ``"radius"``
         (``S r alpha`` subtracted for a given radius) or ``"none"``.
     ripple_coefficient, u_ripple_coefficient : float
-        Output per unit encoder angular acceleration (``S r`` ideally),
-        output unit / (rad/s^2).
+        Output per unit encoder angular acceleration (``S r cos(d)``),
+        output unit / (rad/s^2); NaN when the run has too little speed
+        variation to estimate it.
     ripple_leak : float
         Change of the amplitude caused by the correction (what a plain fit
         would have got wrong), output unit.
@@ -118,10 +122,22 @@ class GravityModel(ResultMixin):
         Radius given for the ``"radius"`` correction, m.
     window : float
         Savitzky-Golay window of the encoder derivatives, s.
+    synchronous_ripple : float
+        Relative speed ripple locked to the rotation (once per turn), from
+        the encoder's angular acceleration (``w = w0 (1 + m sin(theta + p))``
+        gives ``m``).
+    centripetal_coefficient, u_centripetal_coefficient : float or None
+        Output per unit ``w^2`` (``S r sin(d)`` for a sensitive axis turned by
+        ``d`` toward the centre), output unit / (rad/s)^2, when regressed out
+        (None when the run's speed variation could not separate it).
+    nuisance : tuple of str
+        Encoder regressors estimated with the gravity term: ``"alpha"``
+        (angular acceleration) and/or ``"speed2"`` (``w^2``).
     warnings : tuple of str
-        What the data say about the run: speed far from constant, ripple
-        leaking into the fit uncorrected or locked to the rotation, amplitude
-        above ``S g``, an output unit that is not m/s^2 without a sensitivity.
+        Named warnings (``name: sentence``): ``speed-not-constant``,
+        ``synchronous-ripple`` (once-per-turn ripple the run cannot tell from
+        gravity), ``ripple-not-removed``, ``amplitude-above-g``,
+        ``sensitivity-missing``.
     source : str or None
         File the calibration came from.
     created : str
@@ -322,6 +338,12 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     Fits ``amplitude * sin(theta + phase) + offset`` to the accelerometer
     against the unwrapped encoder angle (the three-parameter sine fit with
     the angle as abscissa), so speed ripple does not distort the sinusoid.
+    The samples are weighted by a Tukey window (5 % cosine ends) and the
+    uncertainties come from the residual's noise density near the rotation
+    frequency (:func:`senscal.shaft.estimate.spectral_meat`), not from its
+    total variance: the encoder differentiator's noise is large per sample
+    but lies far above the rotation frequency, and coloured accelerometer
+    noise is counted where it matters.
 
     Parameters
     ----------
@@ -346,14 +368,17 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     radius : float, optional
         Radius of the sensor, m.  When given, ``sensitivity * radius *
         alpha_encoder`` is subtracted before the fit (works for ripple locked
-        to the rotation too).
+        to the rotation too); the centripetal term ``w^2`` is still regressed.
     ripple_correction : bool
         Without ``radius``: estimate the response to the encoder's angular
-        acceleration together with the gravity term (a fourth regressor,
-        projected out with the sine fit itself [2]_), so non-synchronous
-        speed ripple does not leak into the fit; its uncertainty enters the
-        reported covariance.  False gives the plain three-parameter fit of
-        the paper [1]_.
+        acceleration and to ``w^2`` (centripetal term of a misaligned axis)
+        together with the gravity term (instrumental variables [2]_), so
+        speed ripple does not leak into the fit.  The coefficients are learnt
+        from speed variation that is not once per turn and then remove the
+        once-per-turn part as well; their uncertainty enters the reported
+        covariance.  A run whose only speed variation is locked to the turn
+        cannot separate them: the named warning ``synchronous-ripple`` says
+        so.  False gives the plain three-parameter fit of the paper [1]_.
     g : float
         Local gravity, m/s^2.
     window : float
@@ -381,7 +406,8 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     ----------
     .. [1] Yang X., Li C., Mu D., Chen C., Transducer and Microsystem
        Technologies, 2014 (seed 000, experiment 2; METHODS.md 1c).
-    .. [2] Frisch R., Waugh F. V., Econometrica 1 (1933).
+    .. [2] Wooldridge J. M., Econometric Analysis of Cross Section and Panel
+       Data (2010), ch. 5.
     """
     theta = angle_to_rad(angle, angle_unit, monotonic=True)
     n = theta.size
