@@ -401,6 +401,8 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
         raise FileFormatError(f"model file {path} does not exist") from None
     except yaml.YAMLError as exc:
         raise FileFormatError(f"model file {path} is not valid YAML ({str(exc).splitlines()[0]})") from None
+    except FileFormatError:
+        raise
     except (RecursionError, ValueError, TypeError, OverflowError) as exc:  # deep nesting, odd scalars
         raise FileFormatError(f"model file {path} cannot be read as a drift model ({type(exc).__name__})") from None
     except OSError as exc:
