@@ -80,6 +80,8 @@ def test_intact_registry_verifies(cli, db_url):
     assert rep.intact and rep.n_records == 4 and rep.problems == () and len(rep.head) == 64
     r = _verify(cli, db_url)
     assert r.code == 0 and rep.head in r.out, r.err
+    h = cli("registry", "history", "A1", "--db", db_url, "--strict", "--json")
+    assert h.code == 0 and json.loads(h.out)["warnings"] == [], h.err
     doc = json.loads(cli("registry", "verify", "--db", db_url, "--json").out)
     assert doc["intact"] and doc["n_records"] == 4 and doc["head"] == rep.head
     # The chain extends with every record, and an empty registry verifies too.
@@ -112,6 +114,14 @@ def test_replace_of_a_quantity(cli, db_url):
     assert r.code == 3 and "registry-tampered" in r.err and recs[1].uid in r.err, r.err
     assert len(r.err.strip().splitlines()) == 1
     assert reg.verify().first_broken == recs[1].uid
+    # History and due dates still answer, with the named warning; --strict exits 3.
+    h = cli("registry", "history", "A1", "--db", db_url)
+    assert h.code == 0 and "registry-tampered" in h.err, h.err
+    assert json.loads(cli("registry", "history", "A1", "--db", db_url, "--json").out)["warnings"][0].startswith(
+        "registry-tampered")
+    assert cli("registry", "history", "A1", "--db", db_url, "--strict").code == 3
+    due = ["registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "1%", "--db", db_url]
+    assert "registry-tampered" in cli(*due).err and cli(*due, "--strict").code == 3
     reg.close()
 
 

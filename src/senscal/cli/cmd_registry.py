@@ -11,7 +11,8 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
-from senscal.cli.common import JsonOpt, console, err_console, parse_relative, print_json, table, write_json
+from senscal.cli.common import (JsonOpt, StrictOpt, console, emit_warnings, err_console, parse_relative, print_json,
+                                table, write_json)
 from senscal.cli.registry_opts import CreateSensorOpt, DbOpt, OperatorOpt
 from senscal.errors import FileFormatError, InputError
 
@@ -28,6 +29,22 @@ def _open(db: str | None):
     from senscal.registry import open_registry
 
     return open_registry(db)
+
+
+def _tamper_warning(rep, url: str) -> str:
+    """The one named warning of a broken hash chain (``registry verify`` exits 3 with it)."""
+    from senscal.diagnostics import named
+
+    more = len(rep.problems) - 1
+    return named("registry-tampered", f"{url}: {rep.problems[0]}"
+                 + (f" (and {more} more finding{'s' if more > 1 else ''})" if more else "")
+                 + "; run 'senscal registry verify', restore the database from a backup or an export and compare")
+
+
+def _chain_warnings(reg) -> list[str]:
+    # History and due dates are only as good as the records: say when the chain is broken.
+    rep = reg.verify()
+    return [] if rep.intact else [_tamper_warning(rep, reg.url)]
 
 
 def _parse_nominal(items: list[str] | None) -> dict:
@@ -142,6 +159,7 @@ def history_cmd(
     all_records: Annotated[bool, typer.Option("--all", help="Include superseded records.")] = False,
     db: DbOpt = None,
     json_out: JsonOpt = False,
+    strict: StrictOpt = False,
 ) -> None:
     """A sensor's calibration history (table, JSON, plot)."""
     with _open(db) as reg:
@@ -149,6 +167,7 @@ def history_cmd(
         report = None
         if plot is not None and quantity is not None and sum(p.superseded_by is None for p in points) >= 2:
             report = reg.drift(serial, quantity)
+        warns = _chain_warnings(reg)
     if plot is not None:
         if not points:
             raise InputError(f"sensor {serial!r} has no calibration records to plot")
@@ -157,7 +176,8 @@ def history_cmd(
         plot_history(points, plot, report=report, title=f"{serial}: calibration history")
         err_console.print(f"plot written to {plot}")
     if json_out:
-        print_json({"serial": serial, "records": [p.to_dict() for p in points]})
+        print_json({"serial": serial, "records": [p.to_dict() for p in points], "warnings": warns})
+        emit_warnings(warns, strict)
         return
     # Midnight means "a date" (paper certificates): show the time only when there is one.
     rows = [[p.date[:10] if p.date[11:19] == "00:00:00" else p.date[:16].replace("T", " ")]
@@ -168,6 +188,7 @@ def history_cmd(
     console.print(table(f"{title}  (U = expanded uncertainty, k=2)",
                         ["date"] + ([] if quantity else ["quantity"]) + ["value", "U", "unit", "id", "job", "note"],
                         rows))
+    emit_warnings(warns, strict)
 
 
 @registry_app.command("due")
@@ -181,6 +202,7 @@ def due_cmd(
     plot: Annotated[Optional[Path], typer.Option("--plot", metavar="FILE.png", help="History, drift line, due date.")] = None,
     db: DbOpt = None,
     json_out: JsonOpt = False,
+    strict: StrictOpt = False,
 ) -> None:
     """Drift per year (weighted line through the history), its significance, and the due date."""
     tol = parse_relative(tolerance, "--tolerance")
@@ -189,14 +211,17 @@ def due_cmd(
     with _open(db) as reg:
         rep = reg.drift(serial, quantity, tolerance=tol, nominal=nominal, k=k)
         points = reg.history(serial, quantity) if plot is not None else []
+        warns = _chain_warnings(reg)
     if plot is not None:
         from senscal.registry.plot import plot_history
 
         plot_history(points, plot, report=rep, title=f"{serial}: {quantity} drift and due date")
         err_console.print(f"plot written to {plot}")
     doc = due_document(rep, tol)
+    doc["warnings"] = warns
     if json_out:
         print_json(doc)
+        emit_warnings(warns, strict)
         return
     rows = [
         ["drift per year", f"{rep.drift_per_year:.6g} {rep.unit}/yr", f"{2 * rep.u_drift_per_year:.2g}"],
@@ -213,6 +238,7 @@ def due_cmd(
     if rep.due is not None and rep.due.overdue:
         err_console.print(f"{serial} is overdue: at the last calibration the deviation plus "
                           f"{k:g} standard uncertainties already reaches the tolerance")
+    emit_warnings(warns, strict)
 
 
 def due_document(rep, tol: float) -> dict:
@@ -241,7 +267,6 @@ def verify_cmd(db: DbOpt = None, json_out: JsonOpt = False) -> None:
     can edit). Prints the chain head: keep it elsewhere to detect a history
     rebuilt from scratch.
     """
-    from senscal.diagnostics import named
     from senscal.errors import DiagnosticError
 
     with _open(db) as reg:
@@ -253,10 +278,7 @@ def verify_cmd(db: DbOpt = None, json_out: JsonOpt = False) -> None:
     elif rep.intact:
         console.print(f"{url}: {rep.n_records} records, hash chain intact; head {rep.head or '-'}")
     if not rep.intact:
-        more = f" (and {len(rep.problems) - 1} more finding{'s' if len(rep.problems) > 2 else ''})" \
-            if len(rep.problems) > 1 else ""
-        raise DiagnosticError(named("registry-tampered", f"{url}: {rep.problems[0]}{more}; restore the "
-                                    "database from a backup or an export and compare"))
+        raise DiagnosticError(_tamper_warning(rep, url))
 
 
 @registry_app.command("export")
