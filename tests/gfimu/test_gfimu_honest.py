@@ -94,6 +94,7 @@ def test_rest_segment_measures_the_constant_errors(cli, tmp_path):
         r = cli("gfimu", tmp_path / "gfimu.csv", "--rest", bad)
         assert r.code == 2 and "rest" in r.err and "Traceback" not in r.err, (bad, r.err)
     assert cli("gfimu", tmp_path / "gfimu.csv", "--rest", "0:2", "--plain").code == 2
+    assert cli("gfimu", tmp_path / "gfimu.csv", "--rest", "0:2", "--bias-std", "0.01").code == 2
     assert cli("gfimu", tmp_path / "gfimu.csv", "--rest", "0:2", "--observation", "sqrt").code == 2
 
 

@@ -168,6 +168,8 @@ def gfimu_cmd(
     if (bias_std is not None or rest is not None) and observation != "quadratic":
         raise InputError("--bias-std and --rest need --observation quadratic (the constant errors are states of that "
                          "filter)")
+    if bias_std is not None and rest is not None:
+        raise InputError("--rest measures the constant errors that --bias-std would only bound: give one of them")
     if plain and (bias_std is not None or rest is not None):
         raise InputError("--plain is the filter without constant-error states: drop --bias-std / --rest, or --plain")
     if differential_max_u is not None and not 0 < differential_max_u < float("inf"):

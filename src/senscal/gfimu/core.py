@@ -275,6 +275,8 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
         states = observation == "quadratic" and not plain
         if plain and (bias_std is not None or rest is not None):
             raise InputError("plain (the paper's filter) has no constant-error states: drop bias_std and rest")
+        if bias_std is not None and rest is not None:
+            raise InputError("rest replaces the bias_std prior of the constant-error states: give one of them")
         if not states and (bias_std is not None or rest is not None):
             raise InputError("bias_std and rest (constant-error states) need the quadratic observation")
         b = (DEFAULT_BIAS_STD if bias_std is None else bias_std) if states else None
