@@ -26,6 +26,7 @@ __all__ = ["app", "simulate_app", "main", "load_commands", "debug_enabled"]
 
 _loaded = False
 _debug_flag = False
+_command = None
 
 
 def load_commands() -> typer.Typer:
@@ -75,9 +76,13 @@ def main(argv: Sequence[str] | None = None) -> None:
     Exit codes: 0 success, 2 user error (bad input, unreadable or unwritable
     file), 3 ``--strict`` diagnostic, 1 internal error (a bug), 130 interrupted.
     """
-    global _debug_flag
+    global _debug_flag, _command
     _debug_flag = False
-    command = typer.main.get_command(load_commands())
+    if _command is None:
+        # Building the Click tree from the Typer signatures costs ~0.5-2 s; it is the same for every call
+        # (in-process test runners, batch workers), so build it once.
+        _command = typer.main.get_command(load_commands())
+    command = _command
     from senscal.cli.common import err_console
 
     # Messages stay one line when stderr is a file or pipe (Rich would wrap them at 80 columns).
