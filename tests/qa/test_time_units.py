@@ -61,6 +61,7 @@ def test_time_stamp_checks_fire_on_ms_and_not_on_seconds():
     t_s = np.arange(1000) / 1000.0
     assert check_sample_rate(t_s, "velocity") == () and check_sample_rate(t_s * 1000, "velocity") != ()
     assert "whole-number time stamps" in check_sample_rate(t_s * 1000, "gfimu")[0]
+    assert "whole-number" not in check_sample_rate(t_s * 1000 + 0.5, "gfimu")[0]
     assert check_sample_rate(t_s * 1000, "drift") == ()            # slow sampling is normal for drift
     epoch_s = 1.7e9 + np.arange(10.0)
     assert check_epoch_ms(epoch_s) == () and check_epoch_ms(epoch_s * 1000) != ()

@@ -404,7 +404,7 @@ def linearity_cmd(
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
     u_input: Annotated[Optional[str], typer.Option("--u-input", help="Standard uncertainty of each input level, random from level to level (e.g. main-arm speed set anew), e.g. 0.05%.")] = None,
     output_unit: UnitOpt = None,
-    time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None,
+    time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
@@ -421,7 +421,8 @@ def linearity_cmd(
     points, unit = _response_points(
         files, [freq] * len(files), output=output, input_amplitudes=amps, reference=None, reference_sensitivity=None,
         angle=angle, static_sensitivity=None, initial_phase_deg=None, u_input=0.0, u_reference=0.0, u_static=0.0,
-        drift=drift, harmonics=harmonics, time_column=time_column, fs=fs, names=names, output_unit=output_unit)
+        drift=drift, harmonics=harmonics, time_column=time_column, fs=fs, names=names, output_unit=output_unit,
+        time_unit=time_unit)
     u_in = _rel(u_input, "--u-input")
     lin = amplitude_linearity(amps, [p.output_amplitude for p in points], [p.u_output_amplitude for p in points],
                               [p.source for p in points], u_input=u_in)

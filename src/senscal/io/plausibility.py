@@ -141,10 +141,9 @@ def check_sample_rate(t: np.ndarray, job: str) -> tuple[str, ...]:
     if not (dt > 0 and math.isfinite(dt)) or 1.0 / dt >= lo:
         return ()
     whole = bool(np.all(np.abs(t - np.round(t)) <= 1e-9 * np.maximum(1.0, np.abs(t))))
-    look = (f" and whole-number time stamps (0, {dt:g}, {2 * dt:g}, ...), what a clock in milliseconds writes"
-            if whole else "")
-    return (_suspect(f"a sample interval of {dt:g} s ({1.0 / dt:.3g} Hz){look} is implausible for {job} "
-                     f"(instruments sample at >= {lo:g} Hz); frequencies would be 1000x low if the time is in ms"),)
+    look = ", and whole-number time stamps are what a clock in milliseconds writes" if whole else ""
+    return (_suspect(f"a sample interval of {dt:g} s ({1.0 / dt:.3g} Hz) is implausible for {job} (instruments "
+                     f"sample at >= {lo:g} Hz){look}; in ms every frequency is 1000x low and every rate 1000x high"),)
 
 
 def check_epoch_ms(t: np.ndarray) -> tuple[str, ...]:
