@@ -143,3 +143,32 @@ def test_white_z_is_the_one_percent_quantile():
     from scipy.stats import norm
 
     assert WHITE_Z == pytest.approx(norm.ppf(0.995), abs=1e-3)
+
+
+def test_coloured_covariance_with_harmonics_and_drift():
+    # The sandwich propagates the AR spectrum through every column: the
+    # second harmonic (at 25 Hz), the offset and the drift (near 0 Hz).
+    # Over M = 300 records the z-score spread has a sampling sd of
+    # 1/sqrt(2 M) = 0.041; 4 of those, plus 2 % for u's own dof (about 50:
+    # Student t sd 1.02), is the band.
+    rng = np.random.default_rng(5)
+    m, n = 300, 2000
+    t = np.arange(n) / 1000.0
+    y = (np.sin(2 * math.pi * 12.5 * t + 0.3) + 0.1 * np.sin(2 * math.pi * 25 * t - 0.5) + 0.3
+         + 0.2 * (t - t.mean()) + ar1_noise(rng, (m, n), 0.05, 0.9))
+    fit = fit_sine(y, fs=1000.0, freq=12.5, harmonics=2, drift=True)
+    band = 4 / math.sqrt(2 * m) + 0.02
+    for est, u, truth in ((fit.drift, fit.u_drift, 0.2), (fit.offset, fit.u_offset, 0.3),
+                          (fit.amplitude, fit.u_amplitude, 1.0),
+                          (fit.harmonic_amplitudes[:, 1], fit.u_harmonic_amplitudes[:, 1], 0.1)):
+        assert abs(np.std((est - truth) / u) - 1) < band
+
+
+def test_phase_centre_is_the_phase_at_t_ref():
+    rng = np.random.default_rng(12)
+    for t0 in (0.0, 3.7, 1e4):
+        t, y = _sine(rng, 1, 1500, f=7.3, t0=t0)
+        fit = fit_sine(y[0], t)
+        assert abs(math.remainder(fit.phase_centre - (fit.phase + 2 * math.pi * fit.frequency * fit.t_ref),
+                                  2 * math.pi)) < 1e-6 * max(1.0, t0)
+        assert fit.u_phase_centre <= fit.u_phase * (1 + 1e-9)
