@@ -70,6 +70,10 @@ def parse_relative(text: str, what: str) -> float:
         raise InputError(f"{what} must be a finite number, got {text!r}")
     if value < 0:
         raise InputError(f"{what} must not be negative, got {text!r}")
+    if value >= 1e6:
+        # No tolerance or relative uncertainty is a million times its quantity; such values (1e308%) are typos
+        # and overflow the budgets that square them.
+        raise InputError(f"{what} is a relative value, a fraction or a percentage; {text!r} is far too large")
     return value
 
 
