@@ -8,7 +8,9 @@ the safety net in :func:`main` prints one line asking for a report and exits
 
 from __future__ import annotations
 
+import functools
 import importlib
+import math
 import os
 import pkgutil
 import sys
@@ -19,7 +21,7 @@ import typer
 
 from senscal.cli import _clickcompat as cx
 from senscal.cli.app import app, simulate_app
-from senscal.errors import SenscalError
+from senscal.errors import InputError, SenscalError
 from senscal.io.guard import protect_inputs
 
 __all__ = ["app", "simulate_app", "main", "load_commands", "debug_enabled"]
@@ -46,6 +48,65 @@ def _root(debug: bool = typer.Option(False, "--debug", help="Show the Python tra
     """Calibrate sensors and correct their errors."""
     global _debug_flag
     _debug_flag = _debug_flag or debug
+
+
+# The simulators allocate whole records in memory and write them as text (~20 bytes a value): beyond this many
+# samples per channel (0.8 GB of float64, several GB of CSV) a request is a typo, not a simulation.
+MAX_SIMULATED_SAMPLES = 100_000_000
+# Sizes given as counts (readings, poses, records, samples) share the limit.
+_COUNT_OPTIONS = ("n", "samples", "records", "readings", "poses", "points", "n_points")
+
+
+def check_common_options(command_path: str, kw: dict) -> None:
+    """Checks every command shares, applied once here instead of in each command.
+
+    ``--seed`` must be a non-negative integer (numpy's generators refuse
+    others deep inside a simulator); for ``simulate`` commands the sample
+    rate and durations must be positive and finite, and the record they
+    describe at most :data:`MAX_SIMULATED_SAMPLES` samples.
+
+    Raises
+    ------
+    InputError
+        Naming the option and the fix.
+    """
+    seed = kw.get("seed")
+    if seed is not None and not isinstance(seed, bool) and isinstance(seed, int) and not 0 <= seed < 2**63:
+        raise InputError(f"--seed must be a whole number from 0 to 2^63-1, got {seed}")
+    if " simulate " not in f" {command_path} ":
+        return
+    for name in ("fs", *(k for k in kw if k == "duration" or k.endswith("_duration"))):
+        v = kw.get(name)
+        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise InputError(f"--{name.replace('_', '-')} must be a positive, finite number, got {v!r}")
+    fs = kw.get("fs")
+    for name in (k for k in kw if k == "duration" or k.endswith("_duration")):
+        if fs is not None and kw[name] is not None and fs * kw[name] > MAX_SIMULATED_SAMPLES:
+            raise InputError(f"--fs {fs:g} Hz over --{name.replace('_', '-')} {kw[name]:g} s is "
+                             f"{fs * kw[name]:.3g} samples per channel; the simulators write at most "
+                             f"{MAX_SIMULATED_SAMPLES:.0e}: shorten the record or lower the rate")
+    for name in _COUNT_OPTIONS:
+        v = kw.get(name)
+        if isinstance(v, int) and not isinstance(v, bool) and v > MAX_SIMULATED_SAMPLES:
+            raise InputError(f"--{name.replace('_', '-')} {v} is more than the simulators write "
+                             f"({MAX_SIMULATED_SAMPLES:.0e}); ask for fewer")
+
+
+def _with_common_checks(group, path: str = "senscal"):
+    """Wrap every command's callback in :func:`check_common_options` (once, when the tree is built)."""
+    for name, cmd in getattr(group, "commands", {}).items():
+        sub = f"{path} {name}"
+        if getattr(cmd, "commands", None):
+            _with_common_checks(cmd, sub)
+        elif cmd.callback is not None and not getattr(cmd.callback, "_senscal_checked", False):
+            def checked(*args, __f=cmd.callback, __p=sub, **kw):
+                check_common_options(__p, kw)
+                return __f(*args, **kw)
+
+            functools.update_wrapper(checked, cmd.callback)
+            checked._senscal_checked = True  # type: ignore[attr-defined]
+            cmd.callback = checked
+    return group
 
 
 def debug_enabled() -> bool:
@@ -81,7 +142,7 @@ def main(argv: Sequence[str] | None = None) -> None:
     if _command is None:
         # Building the Click tree from the Typer signatures costs ~0.5-2 s; it is the same for every call
         # (in-process test runners, batch workers), so build it once.
-        _command = typer.main.get_command(load_commands())
+        _command = _with_common_checks(typer.main.get_command(load_commands()))
     command = _command
     from senscal.cli.common import err_console
 
@@ -130,6 +191,15 @@ def main(argv: Sequence[str] | None = None) -> None:
             where = exc.filename if exc.filename2 is None else f"{exc.filename} -> {exc.filename2}"
             reason = (exc.strerror or type(exc).__name__).rstrip(".").lower()
             _fail(f"error: {where}: {reason}", 2)
+        _fail(f"internal error ({type(exc).__name__}: {exc}); please report it; rerun with --debug for the "
+              "traceback", 1)
+    except ValueError as exc:
+        if debug_enabled():
+            raise
+        if "Maximum allowed size exceeded" in str(exc):
+            # numpy's words for an array whose size overflows: the same as running out of memory.
+            _fail("error: the options ask for an array too large to allocate (check sizes, durations, "
+                  "frequencies and sample rates)", 2)
         _fail(f"internal error ({type(exc).__name__}: {exc}); please report it; rerun with --debug for the "
               "traceback", 1)
     except Exception as exc:
