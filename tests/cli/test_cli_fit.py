@@ -221,3 +221,13 @@ def test_fit_nan_channel_is_skipped_not_the_file(cli, tmp_path):
     assert r.code == 0, r.err
     assert list(json.loads(r.out)["channels"]) == ["a"]
     assert "channel-not-fitted: channel 'b' was not fitted: it has NaN at sample 5" in r.err
+
+
+def test_simulate_far_origin_then_fit_names_the_phase(cli, tmp_path):
+    r = cli("simulate", "sine", "--out", tmp_path, "--seed", "4", "--channels", "1", "--t0", "1e5")
+    assert r.code == 0, r.err
+    r = cli("fit", tmp_path / "sine.csv", "--json")
+    assert r.code == 0, r.err
+    d = json.loads(r.out)["channels"]["ch1"]
+    assert d["t_phase_centre_s"] > 1e5 and "phase-origin-far" in r.err
+    assert cli("simulate", "sine", "--out", tmp_path, "--t0", "nan").code == 2

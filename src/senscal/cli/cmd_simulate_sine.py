@@ -25,6 +25,8 @@ def simulate_sine_cmd(
     duration: Annotated[float, typer.Option("--duration", help="Record length in s.")] = 2.0,
     freq: Annotated[float, typer.Option("--freq", help="Frequency in Hz.")] = 12.5,
     noise: Annotated[float, typer.Option("--noise", help="Noise standard deviation.")] = 0.05,
+    t0: Annotated[float, typer.Option(
+        "--t0", help="Time of the first sample in s (a record far from t = 0: phase at t = 0 vs at the centre).")] = 0.0,
     noise_rho: Annotated[float, typer.Option(
         "--noise-rho", help="Coloured noise: lag-one correlation of AR(1) noise, -1 < rho < 1 (0 = white).")] = 0.0,
 ) -> None:
@@ -34,10 +36,12 @@ def simulate_sine_cmd(
     if not (channels >= 1 and 0 < duration < math.inf and 0 < fs < math.inf and 0 <= noise < math.inf
             and 0 < freq < math.inf):
         raise InputError("channels >= 1, finite duration > 0, fs > 0, freq > 0 and noise >= 0 are required")
+    if not math.isfinite(t0):
+        raise InputError(f"--t0 must be a finite time in s, got {t0}")
     if not -1.0 < noise_rho < 1.0:
         raise InputError(f"--noise-rho must lie strictly between -1 and 1 (stationary AR(1) noise), got {noise_rho}")
     rec, truth = simulate_sine(n_channels=channels, fs=fs, duration=duration, frequency=freq, noise=noise,
-                               noise_rho=noise_rho, seed=seed)
+                               t0=t0, noise_rho=noise_rho, seed=seed)
     p = write_recording(rec, out / "sine.csv")
     q = write_truth(truth, out / "sine_truth.json")
     console.print(f"wrote {p} and {q}")
