@@ -82,6 +82,7 @@ def test_registry_fields_round_trip_literally(cli, tmp_path, serial):
     assert _shown(str(export), r.err), r.err
     r = _clean(cli("registry", "import", export, "--db", str(tmp_path / "copy.sqlite")))
     assert "imported 1 sensors and 3 records" in r.out
+    assert _clean(cli("registry", "verify", "--db", str(tmp_path / "copy.sqlite"))).code == 0
     assert _clean(cli("registry", "verify", "--db", db)).code == 0
 
 
@@ -116,3 +117,18 @@ def test_emit_warnings_prints_markup_literally(capsys):
     emit_warnings([f"odd-name: file {STYLED} {BROKEN} {LINK}"])
     err = capsys.readouterr().err
     assert f"file {STYLED} {BROKEN} {LINK}" in err and "warning:" in err
+
+
+def test_markup_in_vibration_options_and_outputs(cli, tmp_path):
+    _clean(cli("simulate", "hydraulic", "--out", tmp_path / "h", "--seed", "1"))
+    folder = tmp_path / "out["
+    folder.mkdir()
+    files = sorted((tmp_path / "h").glob("hydraulic_0[1-2].csv"))
+    r = _clean(cli("velocity", *files, "--position", "position", "--velocity", "velocity", "--output-unit", STYLED,
+                   "--sensor-id", BROKEN, "--model", LINK, "--condition", f"{EMOJI}={BROKEN}",
+                   "--report", folder / "]c.html", "--plot", folder / f"]{TEX}.png"))
+    assert _shown(f"{STYLED}/(m/s)", r.out) and _shown(str(folder / "]c.html"), r.out), r.out
+    html = (folder / "]c.html").read_text()
+    assert LINK in html and BROKEN in html                  # the certificate quotes them verbatim too
+    r = _clean(cli("velocity", files[0], "--position", BROKEN, "--velocity", "velocity"), code=2)
+    assert len(r.err.strip().splitlines()) == 1 and BROKEN in r.err, r.err
