@@ -12,7 +12,7 @@ from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (
-    FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, err_console, load, print_json, progress_bar, split_names, table,
+    FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, emit_warnings, TimeColumnOpt, console, err_console, load, print_json, progress_bar, split_names, table,
     write_json,
 )
 from senscal.cli.registry_opts import (
@@ -97,10 +97,12 @@ def calibrate_cmd(
     min_pose: Annotated[float, typer.Option("--min-pose", help="Shortest static pose kept, s.")] = 1.0,
     outlier_sigma: Annotated[float, typer.Option("--outlier-sigma", help="Exclude readings this many robust sigma off (0: keep all).")] = 5.0,
     out: Annotated[Optional[Path], typer.Option("--out", help="Write the parameters (for 'triaxial apply') as JSON.")] = None,
-    plot: Annotated[Optional[Path], typer.Option("--plot", help="Sphere projections and norm error before/after (PNG).")] = None,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="Sphere projections and norm error before/after (PNG); a one-axis turn or --accel-channels also writes <name>_heading.png.")] = None,
+    accel_channels: Annotated[Optional[str], typer.Option("--accel-channels", help="An accelerometer recorded alongside (X,Y,Z names): it is calibrated too, and the tilt-compensated heading error and dip-angle spread are reported before/after.")] = None,
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
+    skip_rows: SkipRowsOpt = None,
     json_out: JsonOpt = False,
     save: SaveOpt = False,
     sensor: SensorOpt = None,
@@ -113,7 +115,10 @@ def calibrate_cmd(
     from senscal.triaxial import calibrate, detect_static
 
     chans = _channels(channels)
-    rec = load(file, time_column=time_column, fs=fs, names=names, channels=chans)
+    extra = _channels(accel_channels) if accel_channels is not None else []
+    # Only --static uses time: a headerless x,y,z file needs no --fs otherwise.
+    rec = load(file, time_column=time_column, fs=fs, names=names, channels=chans + extra, skip_rows=skip_rows,
+               time_required=static)
     h = rec.data(chans)
     unit = rec.units.get(chans[0], "")
     st = None
@@ -127,6 +132,23 @@ def calibrate_cmd(
         res = calibrate(h, field=field, method=method, model=model, lr=lr, epochs=epochs, strict=strict,
                         outlier_sigma=None if outlier_sigma == 0 else outlier_sigma, unit=unit, channels=chans)
     doc = calibrate_document(res, file=file, channels=chans, static=st)
+    tilt = None
+    if accel_channels is not None:
+        from senscal.triaxial.heading import summary, tilt_heading_report
+
+        achans = _channels(accel_channels)
+        if static:
+            raise InputError("--accel-channels needs the readings themselves, not --static pose means; drop --static")
+        if set(achans) & set(chans):
+            raise InputError("--accel-channels must name the accelerometer's channels, not the calibrated ones")
+        a = rec.data(achans)
+        with progress_bar("calibrating the accelerometer", None):
+            ra = calibrate(a, outlier_sigma=None if outlier_sigma == 0 else outlier_sigma,
+                           unit=rec.units.get(achans[0], ""), channels=achans)
+        tilt = tilt_heading_report(h, res.calibration.apply(h), a, ra.calibration.apply(a))
+        doc["tilt_heading"] = {**summary(tilt), "accelerometer": {
+            "channels": achans, "model": ra.model, "method": ra.method, "norm_error_after": ra.norm_error_after,
+            "warnings": list(ra.warnings), "calibration": ra.calibration.to_dict()}}
     if out is not None:
         write_json(doc, out)
     save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
@@ -146,14 +168,18 @@ def calibrate_cmd(
             raw[k] = 0.0
             corr[k] = 0.0
         plot_calibration(raw, corr, f, plot, unit=unit, title=f"{file.name}: {res.model} model, {res.method}")
-        if res.heading is not None:
+        if res.heading is not None or tilt is not None:
             from senscal.triaxial.plots import plot_heading
 
-            hp = plot_heading(res.heading, plot.with_name(f"{plot.stem}_heading{plot.suffix}"),
-                              title=f"{file.name}: heading error before / after")
+            hp = plot_heading(tilt if tilt is not None else res.heading, plot.with_name(f"{plot.stem}_heading{plot.suffix}"),
+                              title=f"{file.name}: {'tilt-compensated ' if tilt is not None else ''}heading error "
+                                    "before / after")
             err_console.print(f"wrote {hp}")
+    # The accelerometer's own warnings count too: a bad tilt spoils the heading.
+    warnings = list(res.warnings) + list(doc.get("tilt_heading", {}).get("accelerometer", {}).get("warnings", []))
     if json_out:
         print_json(doc)
+        emit_warnings(warnings, strict)
         return
     rows = []
     for n, p in doc["parameters"].items():
@@ -175,8 +201,11 @@ def calibrate_cmd(
         hb, ha = res.heading["deviation_before_deg"], res.heading["U_after_deg"]
         console.print(f"turn about one axis: heading error before {hb['rms']:.3g} deg rms ({hb['max_abs']:.3g} max); "
                       f"after, U(k=2) {ha['rms']:.3g} deg rms ({ha['max_abs']:.3g} max)")
-    for w in res.warnings:
-        err_console.print(f"warning: {w}")
+    if tilt is not None:
+        tb, d0, d1 = tilt["deviation_before_deg"], tilt["dip_before_deg"], tilt["dip_after_deg"]
+        console.print(f"tilt-compensated heading: raw minus calibrated {tb['rms']:.3g} deg rms ({tb['max_abs']:.3g} "
+                      f"max); dip angle spread {d0['std']:.3g} deg before, {d1['std']:.3g} deg after")
+    emit_warnings(warnings, strict)
 
 
 @triaxial_app.command("apply")
