@@ -129,7 +129,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
     if sensitivity <= 0:
         raise InputError("sensitivity must be positive")
     if not (0.0 <= noise_rho < 1.0):
-        raise InputError(f"noise_rho must be in [0, 1), got {noise_rho!r}")
+        raise InputError(f"noise_rho (--noise-rho) must be in [0, 1), got {noise_rho!r}; 0 gives white noise")
     rng = np.random.default_rng(seed)
     d = math.radians(misalignment_deg)
     amp = sensitivity * g * math.cos(math.radians(tilt_deg))
