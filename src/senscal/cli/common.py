@@ -35,6 +35,9 @@ FsOpt = Annotated[Optional[float], typer.Option("--fs", help="Sample rate in Hz 
 TimeUnitOpt = Annotated[Optional[str], typer.Option(
     "--time-unit", help="Unit of a time column whose header gives none: s, ms, us or min (default s).")]
 NamesOpt = Annotated[Optional[str], typer.Option("--names", help="Column names for a text file without header, comma separated.")]
+SkipRowsOpt = Annotated[Optional[int], typer.Option(
+    "--skip-rows", help="Text files: lines before the header to skip (default: a preamble of ';'/'#' comments and "
+                        "key,value lines such as 'Fs,50' is detected).")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON result on stdout.")]
 
 
@@ -79,10 +82,16 @@ def parse_relative(text: str, what: str) -> float:
 
 def load(path: Path | str, *, time_column: str = "t", fs: float | None = None,
          names: str | None = None, channels: Sequence[str] | None = None,
-         allow_nan: bool = False, time_unit: str | None = None) -> Recording:
-    """Read a recording for a command (errors are one-line SenscalErrors)."""
+         allow_nan: bool = False, time_unit: str | None = None, skip_rows: int | None = None,
+         time_required: bool = True) -> Recording:
+    """Read a recording for a command (errors are one-line SenscalErrors).
+
+    ``time_required=False`` for jobs that never use time: a file with neither
+    time column nor sample rate is then read on a sample-index time base.
+    """
     return read_recording(path, time_column=time_column, fs=fs, names=split_names(names),
-                          channels=channels, allow_nan=allow_nan, time_unit=time_unit)
+                          channels=channels, allow_nan=allow_nan, time_unit=time_unit, skip_rows=skip_rows,
+                          time_required=time_required)
 
 
 def time_checked(rec: Recording, job: str, result: T, *, channel: str | None = None,
