@@ -275,7 +275,9 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         linearised model by least squares; ``lms``: the same by the seed's
         LMS neuron (``lr``, ``epochs``).
     model : {"full", "diagonal", "offsets", "planar"}, optional
-        Force a model.  None: the richest model the data support.
+        Force a model.  None: chosen by held-out error over 5 contiguous
+        time blocks (:mod:`senscal.triaxial.selection`); the linearised
+        methods take the richest of their models the data determine.
     strict : bool
         Raise :class:`DiagnosticError` (exit 3) on insufficient coverage or
         implausible parameters instead of warning.
@@ -286,7 +288,10 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         Fraction of equal-area sphere cells below which coverage is called
         insufficient for the full model.
     planar_thickness : float
-        Principal-axis spread ratio below which the data count as planar.
+        Principal-axis spread ratio below which the noise floor and rough
+        centre are measured in the plane.  Whether the data are a turn about
+        one axis is decided from the Fisher information instead
+        (``planarity["planar"]``, ``planarity["evidence"]``).
     max_angle_deg, gain_ratio, max_offset :
         Plausibility limits (see :func:`diagnostics.plausibility`).
     unit : str
