@@ -49,7 +49,7 @@ class TriaxialResult(ResultMixin):
         ``{"parameters": [...], "reason": str}`` for the full model on these
         data (and for the fitted model, if it was forced).
     model_choice : tuple of str
-        Why richer models were rejected (empty when the first choice held).
+        Why each other model was not chosen (held-out evidence, or why it could not be evaluated).
     field, field_estimated, scale_note :
         Field magnitude used (field units); when estimated the overall scale
         is arbitrary and ``scale_note`` says so.
