@@ -288,7 +288,7 @@ TALLY = Tally()
 
 # CI: a fixed budget of a few minutes on 2 cores; SENSCAL_FUZZ=long for the nightly run.
 LONG = os.environ.get("SENSCAL_FUZZ", "").lower() == "long"
-CASES_PER_TARGET = 300 if LONG else 24
+CASES_PER_TARGET = 300 if LONG else 40
 CASE_TIMEOUT_S = 60.0 if LONG else 30.0
 
 
