@@ -22,12 +22,26 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, width: float = 8.0, height: fl
     return fig, axes
 
 
+def literal_text(fig: Figure) -> Figure:
+    """Show every text of ``fig`` literally: no mathtext, so a unit or file name with ``$`` cannot break drawing.
+
+    senscal's own labels use no TeX; user strings (units, channel and file
+    names) reach titles and labels, and ``$\\frac{$`` made matplotlib raise.
+    """
+    from matplotlib.text import Text
+
+    for t in fig.findobj(Text):
+        t.set_parse_math(False)
+    return fig
+
+
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
     """Save a figure (format from the extension: .png, .svg, .pdf)."""
     from senscal.io.guard import atomic_output, check_output
 
     formats = tuple("." + k for k in fig.canvas.get_supported_filetypes())
     path = check_output(path, suffixes=formats, what="plot")
+    literal_text(fig)
     with atomic_output(path, what="plot") as tmp:  # no half-written image on a full disk
         fig.savefig(tmp, dpi=dpi, format=path.suffix[1:].lower())
     return path
@@ -36,6 +50,7 @@ def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
 def svg_inline(fig: Figure) -> str:
     """The figure as an ``<svg>`` element for a self-contained HTML page."""
     buf = io.StringIO()
+    literal_text(fig)
     fig.savefig(buf, format="svg")
     text = buf.getvalue()
     return text[text.index("<svg"):]
