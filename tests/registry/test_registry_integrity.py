@@ -226,3 +226,24 @@ def test_same_evidence_twice_adds_nothing(db_url):
     assert not other.already_recorded
     assert len(reg.history("A1", "sensitivity")) == 5 and reg.verify().intact
     reg.close()
+
+
+def test_retry_after_an_output_failure_adds_no_duplicate(cli, tmp_path, monkeypatch):
+    # The terminal fails after the record committed (a closed pipe, a full disk under tee):
+    # the user retries, and the registry must still hold one record.
+    from senscal.cli import cmd_registry
+
+    db = str(tmp_path / "r.sqlite")
+    args = ["registry", "record", "S1", "--quantity", "sensitivity", "--value", "0.01", "--uncertainty", "2e-5",
+            "--unit", "V/g", "--k", "2", "--date", "2024-02-01", "--create-sensor", "accelerometer", "--db", db]
+
+    def broken(*a, **k):
+        raise OSError(5, "Input/output error")
+
+    with monkeypatch.context() as m:
+        m.setattr(cmd_registry.console, "print", broken)
+        assert cli(*args).code != 0
+    r = cli(*args)
+    assert r.code == 0 and "already recorded" in r.out and "nothing added" in r.out, (r.out, r.err)
+    sens = json.loads(cli("registry", "sensors", "--db", db, "--json").out)["sensors"]
+    assert [(s["serial"], s["n_calibrations"]) for s in sens] == [("S1", 1)]
