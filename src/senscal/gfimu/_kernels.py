@@ -190,7 +190,7 @@ def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate, reset_after=0, inflate=4.0):
 
 
 @nb.njit(cache=True)
-def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=4.0):
+def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=4.0, skip=None):
     """EKF on the quadratic terms with the array's constant errors as states.
 
     State (12): ``w`` (3), the constant error of the angular acceleration
@@ -204,6 +204,9 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=
     ``reset_after`` and ``inflate`` as in :func:`quadratic_ekf`; only the
     rate block is widened (its rows and columns scaled by ``sqrt(inflate)``,
     which keeps ``P`` positive definite), the constant errors keep theirs.
+    Samples with ``skip[k]`` (optional bool array) are predicted only: their
+    information is already in the prior (a rest segment's mean), and using
+    it again would count it twice.  Their NIS is NaN.
     """
     n = wq.shape[1]
     x = np.empty((12, n))
@@ -236,6 +239,13 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=
             for i in range(3):
                 for j in range(3):
                     Pk[i, j] += Q[i, j]
+        if skip is not None and skip[k]:
+            nis[k] = np.nan
+            x[:, k] = xk
+            for i in range(3):
+                for j in range(3):
+                    Pw[i, j, k] = Pk[i, j]
+            continue
         _quadratic_innovation(wq, k, xk, nu, Hw)
         for r in range(6):
             nu[r] -= xk[6 + r]

@@ -64,6 +64,8 @@ class RestOffsets(ResultMixin):
     spread_ratio : float
         Observed over expected variance of the kinematics inside the segment
         (1 when the body really is at rest).
+    mask : ndarray of bool, shape (T,)
+        The segment's samples.
     """
 
     span: tuple
@@ -72,6 +74,7 @@ class RestOffsets(ResultMixin):
     u_offsets: np.ndarray
     covariance: np.ndarray = field(repr=False)
     spread_ratio: float
+    mask: np.ndarray = field(default=None, repr=False)
 
 
 def rest_offsets(kin: KinematicSolution, t: np.ndarray, noise_std, span) -> RestOffsets:
@@ -108,7 +111,7 @@ def rest_offsets(kin: KinematicSolution, t: np.ndarray, noise_std, span) -> Rest
     r = np.linalg.solve(L, x - c[:, None])
     ratio = float(np.sum(r * r) / (9 * (n - 1)))
     return RestOffsets(span=(a, b), n=n, offsets=c, u_offsets=np.sqrt(np.diag(C) / n), covariance=C / n,
-                       spread_ratio=ratio)
+                       spread_ratio=ratio, mask=sel)
 
 
 @dataclass(frozen=True)
@@ -284,7 +287,8 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
         def run(s):
             return kalman_rate(kin, t, s, observation=observation, initial=w0, lag=lag,
                                gate_probability=gate_probability, bias_std=b, smooth=smooth,
-                               reset_after=reset_after, offsets_prior=prior)
+                               reset_after=reset_after, offsets_prior=prior,
+                               prior_samples=None if prior is None else rest_res.mask)
 
         filt = run(sig)
         fw = _filter_warnings(filt, states, gate_probability)
@@ -295,7 +299,7 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
             # tracks them instead of gating most of them.  The warnings of the first run stand: the
             # departure is correlated in time, so the rescaled u still understates the error.
             for _ in range(3):
-                r = float(np.median(filt.nis) / chi2.median(6))
+                r = float(np.nanmedian(filt.nis) / chi2.median(6))
                 if not (np.isfinite(r) and r > 1.5):
                     break
                 noise_scale *= math.sqrt(r)

@@ -161,7 +161,7 @@ def channel_covariance(kin: KinematicSolution, noise_std) -> np.ndarray:
 def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation: str = "quadratic",
                 initial=None, initial_std: float = 1e-3, lag: int = 1, gate_probability: float = 1e-4,
                 passes: int = 3, bias_std=None, smooth: bool = False, reset_after: int = 5,
-                offsets_prior=None) -> RateFilterResult:
+                offsets_prior=None, prior_samples=None) -> RateFilterResult:
     """Independent Kalman filter: integration as process, the array's quadratic terms as observation.
 
     Parameters
@@ -225,6 +225,10 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         With ``bias_std`` replaced: prior mean and covariance of the nine
         constant errors (e.g. measured on a rest segment), in
         :data:`~senscal.gfimu.layout.UNKNOWNS` order ``alpha_x`` ... ``W_yz``.
+    prior_samples : ndarray of bool, shape (T,), optional
+        Samples whose measurements made ``offsets_prior`` (the rest
+        segment): the filter only predicts through them, so that their
+        information is not counted twice.
 
     Returns
     -------
@@ -261,7 +265,7 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
     if bias_std is not None or offsets_prior is not None:
         if observation != "quadratic":
             raise InputError("bias_std (constant-error states) needs the quadratic observation")
-        res = _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std, offsets_prior, reset_after)
+        res = _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std, offsets_prior, reset_after, prior_samples)
         if not smooth:
             return res
         # Smooth the 3-state EKF on the kinematics freed of the constant errors found over the record.
@@ -311,7 +315,7 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
 
 
 def _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std, offsets_prior=None,
-                    reset_after: int = 0) -> RateFilterResult:
+                    reset_after: int = 0, prior_samples=None) -> RateFilterResult:
     """The quadratic EKF with the nine constant errors of ``alpha`` and ``W`` as states."""
     x12 = np.zeros(12)
     x12[:3] = x0
@@ -332,7 +336,8 @@ def _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std, offsets_prior=None,
     dt = np.zeros(t.size)
     dt[1:] = np.diff(t)
     x, Pw, Pend, nis, rej = quadratic_ekf_offsets(np.ascontiguousarray(kin.W), u, dt, Q, C[6:12, 6:12], x12, P12,
-                                                  gate, reset_after)
+                                                  gate, reset_after, 4.0,
+                                                  None if prior_samples is None else np.asarray(prior_samples, bool))
     res = _result(x[:3], Pw, rej, np.ones((6, x.shape[1]), bool), "quadratic", 1)
     return replace(res, offsets=x[3:, -1].copy(), u_offsets=np.sqrt(np.maximum(np.diag(Pend)[3:], 0.0)), nis=nis)
 
