@@ -246,3 +246,10 @@ def test_radius_correction_not_overconfident():
         zs.append(_z(_cal(cal, radius=truth["radius"]), truth))
     # With 8 runs a unit spread would exceed 1.7 with probability < 1 %.
     assert np.all(np.std(zs, axis=0, ddof=1) < 1.7), np.std(zs, axis=0, ddof=1)
+
+
+def test_few_turns_are_named():
+    """Under 10 turns the noise level behind u has under 40 degrees of freedom: k=2 covers < 95 %, said so."""
+    short = _cal(cached(7, cal_duration=4.0, test_duration=1.0)[0])
+    assert has_warning(short.warnings, "few-turns")
+    assert not has_warning(_cal(cached(1)[0]).warnings, "few-turns")  # 10 s at 1 rev/s
