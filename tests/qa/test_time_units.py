@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from senscal.io.plausibility import (check_epoch_ms, check_known_frequency, check_logger_interval, check_sample_rate,
-                                     check_span, check_time, dominant_frequency)
+from senscal.io.plausibility import (check_angular_rate, check_epoch_ms, check_known_frequency, check_logger_interval,
+                                     check_sample_rate, check_span, check_time, dominant_frequency)
 
 NAME = "time-unit-suspect"
 
@@ -71,6 +71,16 @@ def test_time_stamp_checks_fire_on_ms_and_not_on_seconds():
     ten_days = np.arange(0, 10 * 86400.0, 300.0)
     assert check_span(ten_days, "drift") == () and check_span(ten_days * 1000, "drift") != ()
     assert len(check_time(ten_days * 1000, "drift")) == 1          # one warning, however many checks fire
+
+
+def test_angular_rate_against_the_array_readings():
+    # The paper's array (L = 0.04 m) turning at up to 7 rad/s reads some 20 m/s^2; in ms the
+    # integrated rates reach 7000 rad/s, a centripetal load of 2e6 m/s^2 no channel shows.
+    assert check_angular_rate(7.0, 20.0, 0.04) == ()
+    (w,) = check_angular_rate(7000.0, 20.0, 0.04)
+    assert w.startswith(NAME) and "--time-unit ms" in w
+    # A fast turbine rig (1000 rad/s at 0.1 m) reads its 1e5 m/s^2: plausible.
+    assert check_angular_rate(1000.0, 1.2e5, 0.1) == ()
 
 
 # --- commands ------------------------------------------------------------------
@@ -153,6 +163,19 @@ def test_gfimu_in_ms(cli, sims, tmp_path):
     r = cli("gfimu", ms, *args, "--time-unit", "ms")
     assert r.code == 0 and _warns(r) == [] and math.isclose(json.loads(r.out)["sample_rate_hz"], 1000.0), r.err
     assert _warns(cli("gfimu", sims / "g" / "gfimu.csv", *args)) == []
+
+
+def test_gfimu_at_20_khz_in_ms(cli, tmp_path):
+    # 20 kHz in ms reads as 20 Hz, a plausible IMU rate: the rates themselves give it away.
+    from senscal.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["simulate", "gfimu", "--out", str(tmp_path / "g"), "--seed", "2", "--fs", "20000", "--duration", "0.5"])
+    ms = _to_ms(tmp_path / "g" / "gfimu.csv", tmp_path / "ms.csv")
+    args = ["--layout", tmp_path / "g" / "layout.csv", "--method", "integration", "--json"]
+    (w,) = _warns(cli("gfimu", ms, *args))
+    assert "angular rate" in w, w
+    assert _warns(cli("gfimu", tmp_path / "g" / "gfimu.csv", *args)) == []
 
 
 def test_drift_in_ms(cli, sims, tmp_path):

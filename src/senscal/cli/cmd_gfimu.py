@@ -39,6 +39,25 @@ def _truth_on(rec_t: np.ndarray, path: Path, need_q: bool) -> tuple[np.ndarray, 
     return w, None
 
 
+def _rate_checked(est, y, layout):
+    """``est`` plus a time-unit-suspect warning when its rates are physically impossible for the array."""
+    from dataclasses import replace
+
+    from senscal.io.plausibility import TIME_UNIT_WARNING, check_angular_rate
+
+    if any(w.startswith(TIME_UNIT_WARNING) for w in est.warnings):
+        return est
+    pos = np.asarray(layout.positions, dtype=float)
+    radius = float(np.max(np.linalg.norm(pos - pos.mean(axis=0), axis=1))) if pos.size else float("nan")
+    # NaN rates (samples a method rejected) are skipped without numpy's all-NaN warnings.
+    norms = [np.linalg.norm(np.asarray(w, dtype=float), axis=0) for w in est.omega.values()]
+    rates = [float(n[np.isfinite(n)].max()) for n in norms if np.isfinite(n).any()]
+    ay = np.abs(np.asarray(y, dtype=float))
+    found = check_angular_rate(max(rates, default=float("nan")),
+                               float(ay[np.isfinite(ay)].max()) if np.isfinite(ay).any() else float("nan"), radius)
+    return replace(est, warnings=tuple(est.warnings) + found) if found else est
+
+
 def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, method: str, observation: str,
               initial_omega: str | None, truth: Path | None, attitude: bool, lag: int, noise_std: float | None,
               time_column: str, fs: float | None, names: str | None, bias_std: float | None = None,
@@ -68,6 +87,7 @@ def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, m
     est = time_checked(rec, "gfimu", angular_velocity(
         y, rec.time, layout, methods=methods, observation=observation, initial=w0, noise_std=noise_std, lag=lag,
         bias_std=bias_std, smooth=smooth, plain=plain, rest=span, differential_max_u=differential_max_u))
+    est = _rate_checked(est, y, layout)
     doc: dict = {
         "file": str(file), "n_samples": int(rec.n_samples), "sample_rate_hz": rec.sample_rate,
         "layout": {"channels": list(layout.names), "condition_number": est.condition_number,

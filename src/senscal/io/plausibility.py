@@ -12,6 +12,8 @@ fails. Where something is known about the job, the wrong unit shows:
 * the first time stamp is a Unix time in milliseconds (1e11..1e14 "s" is
   the years 5000 to 3 million);
 * a sample interval that is a whole-second logger interval in ms (300000);
+* an angular rate whose centripetal load is far beyond what an accelerometer
+  array reads;
 * a drift record spans decades.
 
 Each check returns a tuple of named warnings (empty when plausible); the
@@ -28,7 +30,8 @@ import numpy as np
 from senscal.diagnostics import named
 
 __all__ = ["TIME_UNIT_WARNING", "UNIT_FACTORS", "MIN_SAMPLE_RATE_HZ", "MAX_SPAN_S", "dominant_frequency",
-           "check_known_frequency", "check_sample_rate", "check_epoch_ms", "check_logger_interval", "check_span",
+           "check_known_frequency", "check_sample_rate", "check_angular_rate", "check_epoch_ms", "check_logger_interval",
+           "check_span",
            "check_time"]
 
 TIME_UNIT_WARNING = "time-unit-suspect"
@@ -144,6 +147,38 @@ def check_sample_rate(t: np.ndarray, job: str) -> tuple[str, ...]:
     look = ", and whole-number time stamps are what a clock in milliseconds writes" if whole else ""
     return (_suspect(f"a sample interval of {dt:g} s ({1.0 / dt:.3g} Hz) is implausible for {job} (instruments "
                      f"sample at >= {lo:g} Hz){look}; in ms every frequency is 1000x low and every rate 1000x high"),)
+
+
+def check_angular_rate(omega_max: float, accel_max: float, radius: float, *,
+                       factor: float = 100.0) -> tuple[str, ...]:
+    """Warn when an angular rate would push an accelerometer array far beyond what it reads.
+
+    A rigid body turning at ``omega`` loads sensors ``radius`` apart from
+    their centre with centripetal accelerations of order ``omega^2 radius``;
+    the readings differ by that much at least on some channel of an
+    observable layout. A rate with ``omega^2 radius`` more than ``factor``
+    times the largest reading plus g cannot be the body's; integrated over
+    time stamps 1000x too long (ms read as s), rates come out 1000x high.
+
+    Parameters
+    ----------
+    omega_max : float
+        Largest estimated rate magnitude, rad/s.
+    accel_max : float
+        Largest absolute reading of any channel, m/s^2.
+    radius : float
+        Largest distance of a sensor from the sensors' centroid, m.
+    factor : float
+        Margin (projections onto sensing directions, gravity, noise).
+    """
+    if not all(math.isfinite(v) for v in (omega_max, accel_max, radius)) or radius <= 0:
+        return ()
+    centripetal = omega_max ** 2 * radius
+    if centripetal <= factor * (abs(accel_max) + 9.81):
+        return ()
+    return (_suspect(f"an angular rate of {omega_max:.4g} rad/s would load sensors {radius:.3g} m from the array's "
+                     f"centre with {centripetal:.3g} m/s^2, but no channel reads more than {accel_max:.3g} m/s^2; "
+                     "rates integrated over time stamps in ms read as s come out 1000x high"),)
 
 
 def check_epoch_ms(t: np.ndarray) -> tuple[str, ...]:
