@@ -27,6 +27,7 @@ References
 .. [3] ILAC-G24:2022 / OIML D 10, recalibration intervals of measuring equipment.
 """
 
+from senscal.registry.chain import ChainReport
 from senscal.registry.db import default_url, mask_url, parse_url
 from senscal.registry.drift import DriftFit, DueDate, due_time, fit_drift
 from senscal.registry.store import (
@@ -47,5 +48,5 @@ from senscal.registry.store import (
 __all__ = [
     "Registry", "open_registry", "Sensor", "Quantity", "Calibration", "HistoryPoint", "DriftReport",
     "DriftFit", "DueDate", "fit_drift", "due_time", "default_url", "mask_url", "parse_url", "parse_date",
-    "sha256_file", "UnknownSensorError", "DuplicateSensorError", "UnknownQuantityError",
+    "sha256_file", "UnknownSensorError", "DuplicateSensorError", "UnknownQuantityError", "ChainReport",
 ]
