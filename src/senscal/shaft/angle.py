@@ -95,6 +95,9 @@ def check_radius(radius) -> float:
         raise InputError(f"radius must be a number of metres, got {radius!r}") from None
     if not math.isfinite(r) or r <= 0:
         raise InputError(f"radius must be a positive distance in m from the shaft axis to the sensor, got {radius!r}")
+    if r < 1e-6:
+        # Dividing by a sub-micrometre radius (1e-320 overflowed to inf) is a unit slip, not a sensor position.
+        raise InputError(f"radius {r:g} m is below a micrometre; give the sensor's distance from the axis in metres")
     return r
 
 

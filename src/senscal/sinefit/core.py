@@ -716,6 +716,12 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         if harmonics * freq >= nyquist:
             what = f"harmonic {harmonics} at {harmonics * freq:g} Hz" if harmonics > 1 else f"frequency {freq:g} Hz"
             raise InputError(f"{what} is at or above the Nyquist frequency {nyquist:g} Hz; sample faster or fit fewer harmonics")
+        # Below f*T = sqrt(2 eps)/(2 pi) ~ 3.4e-9 the cosine column equals the offset column to float64 rounding
+        # (1 - cos x ~ x^2/2 < eps): the model is singular, not merely poorly conditioned.
+        if freq * dt * max(n - 1, 1) < math.sqrt(2 * np.finfo(float).eps) / (2 * math.pi):
+            raise DataError(f"the record is too short (or the frequency too low) to tell the sine from the offset: "
+                            f"{freq:g} Hz spans {freq * dt * max(n - 1, 1):.3g} periods of it; record at least one "
+                            "full period or check the unit of --freq")
     sw = None
     per_channel_w = False
     if weights is not None:
