@@ -307,6 +307,11 @@ def check_accel(accel, n: int | None = None) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise DataError(f"the accelerometer channel has NaN or inf at sample {int(np.flatnonzero(~np.isfinite(a))[0])}; "
                         "remove or interpolate bad samples first")
+    peak = float(np.max(np.abs(a))) if a.size else 0.0
+    if peak > 1e150:
+        # Least squares squares the data: beyond 1e154 the squares overflow float64 (same rule as fit_sine).
+        raise DataError(f"the accelerometer channel reaches {peak:.3g}, too large for a least-squares fit "
+                        "(its squares overflow); check the unit or rescale the data")
     return a
 
 
