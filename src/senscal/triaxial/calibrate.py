@@ -312,6 +312,10 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         raise InputError(f"readings must have shape (3, N) for axes X, Y, Z; got {h.shape}")
     if not np.all(np.isfinite(h)):
         raise InputError("readings contain NaN or inf; remove them before calibrating")
+    if h.size and float(np.max(np.abs(h))) > 1e150:
+        # The ellipsoid fit works with squares and products of readings: beyond 1e154 they overflow float64.
+        raise InputError(f"readings reach {float(np.max(np.abs(h))):.3g}, too large for the fit (their squares "
+                         "overflow); check the unit or remove the corrupt readings")
     if method not in METHODS:
         raise InputError(f"unknown method {method!r}; use one of {', '.join(METHODS)}")
     if model is not None and model not in MODELS:
