@@ -88,6 +88,9 @@ def test_model_preset_from_yaml(cli, sim, tmp_path):
     (["--preset", "redundant", "--trusted", "ref", "--window", "5", "--smooth"], "either"),
     (["--preset", "model"], "--model"),
     (["--preset", "bogus"], "--preset"),
+    (["--preset", "covariate", "--channels", "thermal", "--covariate", "temperature", "--bias-dynamics", "ramp"],
+     "--bias-dynamics"),
+    (["--preset", "known", "--true-value", "nan"], "finite"),
     (["--preset", "redundant", "--channels", "ref,nope", "--trusted", "ref"], "nope"),
 ])
 def test_user_errors_exit_2_with_one_line(cli, sim, args, words):

@@ -53,6 +53,9 @@ def drift_setup_for(rec: Recording, preset: str, *, channels: list[str] | None, 
             raise InputError("--preset covariate needs --covariate NAME (the channel the bias follows)")
         if trusted:
             raise InputError("--trusted is for the redundant preset; the covariate preset has one sensor")
+        if bias_dynamics != "random_walk":
+            raise InputError("--bias-dynamics is for the additive biases of the redundant and known presets; the "
+                             "covariate preset has only a covariate-linked bias")
         if len(chans) != 1:
             raise InputError(f"--preset covariate corrects one sensor; choose it with --channels (got {', '.join(chans)})")
         return covariate_setup(chans[0], covariate, **kw)
