@@ -9,11 +9,12 @@ cases per target; ``SENSCAL_FUZZ=long`` runs many more (nightly).
 
 from __future__ import annotations
 
+import os
 import zlib
 
 import pytest
 
-from _fuzz_harness import CASE_TIMEOUT_S, CASES_PER_TARGET, TALLY, check_seeds, fuzz_target
+from _fuzz_harness import CASE_TIMEOUT_S, CASES_PER_TARGET, TALLY, check_seeds, dump_summary, fuzz_target
 
 TARGETS = ["fit.csv", "fit.parquet", "fit.h5", "fit.tdms", "fit.npz", "fit-fs.parquet", "fit-fs.npz", "velocity",
            "response", "shaft calibrate", "shaft compensate --model", "triaxial calibrate",
@@ -30,5 +31,6 @@ def test_corpus_covers_every_target_and_seeds_run(corpus, tmp_path):
 def test_mutated_inputs(cli, corpus, tmp_path, name):
     before = len(TALLY.failures)
     fuzz_target(cli, corpus[name], CASES_PER_TARGET, zlib.crc32(name.encode()), tmp_path, TALLY, CASE_TIMEOUT_S)
+    dump_summary(TALLY, os.environ.get("SENSCAL_FUZZ_REPORT"))  # kept up to date: a killed long run still reports
     failures = TALLY.failures[before:]
     assert not failures, f"{len(failures)} bad outcomes, first: " + "\n".join(failures[:5])
