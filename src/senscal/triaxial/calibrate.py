@@ -589,6 +589,20 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         if model is not None and chosen != "full":
             unidentifiable += [dict(g, model=chosen) for g in analyses_eff[chosen][2]["groups"]]
         weak = weak | {p for g in analyses_eff[chosen][2]["groups"] for p in g["parameters"]}
+        if chosen in ("diagonal", "offsets") and analyses_eff["full"][2]["n_ok"]:
+            # A simpler model only assumes the missing terms are zero: a
+            # parameter the full model cannot tell from one of them (Bx from
+            # alpha on a level turn) is not determined here either, whatever
+            # this model's own information says.  (The planar model's
+            # parameters are in-plane combinations that include the leakage,
+            # so they stay.)
+            tied = {p for g in analyses_eff["full"][2]["groups"] for p in g["parameters"]}
+            extra = [n for n in analyses[chosen][0] if n in tied and n not in weak]
+            if extra:
+                weak = weak | set(extra)
+                unidentifiable.append({"parameters": extra, "model": chosen, "reason": (
+                    f"{', '.join(extra)} cannot be told from terms the {chosen} model assumes zero (see the full "
+                    "model's groups): not determined by these orientations")})
         candidates = [Candidate(**{**c.__dict__, "unidentifiable": tuple(analyses_eff[c.model][2]["groups"]),
                                    "n_identifiable": len(analyses_eff[c.model][0]) - len(
                                        {p for g in analyses_eff[c.model][2]["groups"] for p in g["parameters"]})})
