@@ -2,18 +2,43 @@
 
 Jobs live in sub-packages (``vibration``, ``shaft``, ``gfimu``, ``drift``,
 ``triaxial``) built on shared engines (``sinefit``, ``kalman``) and one
-recording type (:class:`senscal.io.Recording`).
+recording type (:class:`senscal.io.Recording`).  The top-level names load on
+first use, so ``import senscal`` (and the command line) start fast.
 """
 
+from __future__ import annotations
+
+import importlib
 from importlib.metadata import PackageNotFoundError, version as _version
+from typing import TYPE_CHECKING, Any
 
 from senscal import errors
-from senscal.io import Recording, read_recording, write_recording
-from senscal.sinefit import SineFit, fit_sine
 
 try:
     __version__ = _version("senscal")
 except PackageNotFoundError:  # running from a source tree
     __version__ = "0.0.0+src"
 
+_LAZY = {
+    "Recording": "senscal.io", "read_recording": "senscal.io", "write_recording": "senscal.io",
+    "fit_sine": "senscal.sinefit", "SineFit": "senscal.sinefit",
+}
+
 __all__ = ["Recording", "read_recording", "write_recording", "fit_sine", "SineFit", "errors", "__version__"]
+
+if TYPE_CHECKING:  # pragma: no cover
+    from senscal.io import Recording, read_recording, write_recording
+    from senscal.sinefit import SineFit, fit_sine
+
+
+def __getattr__(name: str) -> Any:
+    mod = _LAZY.get(name)
+    if mod is None:
+        raise AttributeError(f"module 'senscal' has no attribute {name!r}")
+    value = getattr(importlib.import_module(mod), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

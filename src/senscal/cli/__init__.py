@@ -109,6 +109,74 @@ def _with_common_checks(group, path: str = "senscal"):
     return group
 
 
+class _LazyGroup:
+    """Behaviour bound onto a built Typer group so its commands load on first use.
+
+    ``senscal --help`` lists the commands from :mod:`senscal.cli._manifest_data`
+    without importing them; ``senscal NAME ...`` imports only NAME's module
+    (numba, scipy.stats and dask stay unloaded for a registry command).
+    """
+
+    def __init__(self, group, table: dict, path: tuple):
+        self.group, self.table, self.path, self.listing = group, table, path, False
+        self._format_help = group.format_help
+        group.list_commands = self.list_commands
+        group.get_command = self.get_command
+        group.format_help = self.format_help
+
+    def list_commands(self, ctx):
+        names = list(self.table)
+        return names + [n for n in self.group.commands if n not in self.table]
+
+    def get_command(self, ctx, cmd_name):
+        cmd = self.group.commands.get(cmd_name)
+        if cmd is not None:
+            return cmd
+        entry = self.table.get(cmd_name)
+        if entry is None:
+            return None
+        module, short_help = entry
+        if self.listing:
+            # Listing for --help: a stand-in with the manifest's help, nothing imported.
+            return cx.click.Command(cmd_name, help=short_help, short_help=short_help)
+        importlib.import_module(f"{__name__}.{module}")
+        node = typer.main.get_command(app)
+        for part in self.path:
+            node = node.commands[part]
+        cmd = node.commands.get(cmd_name)
+        if cmd is None:
+            return None
+        _with_common_checks(_Holder({cmd_name: cmd}), " ".join(("senscal", *self.path)))
+        self.group.commands[cmd_name] = cmd
+        return cmd
+
+    def format_help(self, ctx, formatter):
+        self.listing = True
+        try:
+            return self._format_help(ctx, formatter)
+        finally:
+            self.listing = False
+
+
+class _Holder:
+    def __init__(self, commands):
+        self.commands = commands
+
+
+def _lazy_root():
+    """The root Click group with every command (and simulator) loaded on first use."""
+    from senscal.cli._manifest_data import COMMANDS, SIMULATORS
+
+    root = typer.main.get_command(app)
+    # A command module already imported (tests, batch workers) is simply found in the table too.
+    root.commands = {n: c for n, c in root.commands.items() if n == "simulate"}
+    sim = root.commands["simulate"]
+    sim.commands = {}
+    _LazyGroup(sim, SIMULATORS, ("simulate",))
+    _LazyGroup(root, {**COMMANDS, "simulate": ("", "")}, ())
+    return root
+
+
 def debug_enabled() -> bool:
     """True when ``--debug`` was given or ``SENSCAL_DEBUG`` is set to a true value."""
     return _debug_flag or os.environ.get("SENSCAL_DEBUG", "").strip().lower() in ("1", "true", "yes", "on")
@@ -140,9 +208,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     global _debug_flag, _command
     _debug_flag = False
     if _command is None:
-        # Building the Click tree from the Typer signatures costs ~0.5-2 s; it is the same for every call
-        # (in-process test runners, batch workers), so build it once.
-        _command = _with_common_checks(typer.main.get_command(load_commands()))
+        # The root group loads a command's module only when that command runs (see _LazyGroup); it is
+        # the same for every call (in-process test runners, batch workers), so it is built once.
+        _command = _lazy_root()
     command = _command
     from senscal.cli.common import err_console
 

@@ -126,14 +126,50 @@ def write_json(obj: Any, path: Path | str) -> Path:
     return path
 
 
+class StackingTable(Table):
+    """A Rich table that never elides a number.
+
+    Where the table fits the terminal (or pipe: 80 columns) it prints as a
+    table; where it does not, each row prints as a block of ``column: value``
+    lines under the row's first cell, so every digit stays readable.
+    """
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._plain_rows: list[list[str]] = []
+
+    def add_plain_row(self, cells: Sequence[str]) -> None:
+        self._plain_rows.append([str(c) for c in cells])
+        self.add_row(*[Text(c) for c in cells])
+
+    def natural_width(self) -> int:
+        """Characters the table needs on one line: cells, padding (2) and borders (1 per column + 1)."""
+        heads = [c.header.plain if isinstance(c.header, Text) else str(c.header) for c in self.columns]
+        widths = [max([len(h)] + [len(r[i]) for r in self._plain_rows if i < len(r)]) for i, h in enumerate(heads)]
+        return sum(widths) + 3 * len(widths) + 1
+
+    def __rich_console__(self, console, options):
+        if self.natural_width() <= options.max_width or not self._plain_rows:
+            yield from super().__rich_console__(console, options)
+            return
+        heads = [c.header.plain if isinstance(c.header, Text) else str(c.header) for c in self.columns]
+        if self.title is not None:
+            yield Text(self.title.plain if isinstance(self.title, Text) else str(self.title), style="italic")
+        pad = max(len(h) for h in heads[1:]) if len(heads) > 1 else 0
+        for row in self._plain_rows:
+            yield Text(f"{heads[0]}: {row[0]}" if heads[0] else row[0], style="bold")
+            for h, v in zip(heads[1:], row[1:]):
+                yield Text(f"  {h.ljust(pad)}  {v}")
+
+
 def table(title: str, columns: Sequence[str], rows: Iterable[Sequence[Any]]) -> Table:
-    """A Rich table with right-aligned numeric columns."""
+    """A Rich table with right-aligned numeric columns that stacks rather than elide (see StackingTable)."""
     # Text objects are never parsed as markup, whichever console renders the table.
-    tab = Table(title=Text(str(title)), title_justify="left")
+    tab = StackingTable(title=Text(str(title)), title_justify="left")
     for i, c in enumerate(columns):
-        tab.add_column(Text(str(c)), justify="left" if i == 0 else "right")
+        tab.add_column(Text(str(c)), justify="left" if i == 0 else "right", overflow="fold")
     for r in rows:
-        tab.add_row(*[Text(fmt(v)) for v in r])
+        tab.add_plain_row([fmt(v) for v in r])
     return tab
 
 

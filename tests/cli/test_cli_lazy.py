@@ -1,0 +1,56 @@
+"""The command line loads a command's module only when that command runs."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from senscal.cli import _manifest
+from senscal.cli._manifest_data import COMMANDS, SIMULATORS
+
+HEAVY = ("numba", "dask", "distributed", "scipy.stats", "pandas", "matplotlib")
+
+
+def test_manifest_matches_the_code():
+    commands, simulators = _manifest.build()
+    assert commands == COMMANDS and simulators == SIMULATORS, (
+        "the command table is stale: run python -m senscal.cli._manifest > src/senscal/cli/_manifest_data.py")
+
+
+def _loaded_after(args: list[str]) -> tuple[int, set[str], str]:
+    code = textwrap.dedent(f"""
+        import sys
+        from senscal.cli import main
+        try:
+            main({args!r})
+        except SystemExit as exc:
+            code = exc.code
+        print("LOADED", " ".join(m for m in {HEAVY!r} if m in sys.modules), "CODE", code)
+    """)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    line = [ln for ln in out.stdout.splitlines() if ln.startswith("LOADED")][-1]
+    loaded, rc = line[len("LOADED"):].split("CODE")
+    return int(rc), set(loaded.split()), out.stdout
+
+
+@pytest.mark.parametrize("args", [["--help"], ["simulate", "--help"], ["registry", "--help"]])
+def test_help_imports_no_heavy_library(args):
+    rc, loaded, out = _loaded_after(args)
+    assert rc == 0
+    assert not loaded & {"numba", "dask", "distributed", "scipy.stats"}, loaded
+    if args == ["--help"]:
+        # every command is listed with its help, none imported
+        for name in COMMANDS:
+            assert name in out
+
+
+def test_a_command_runs_and_unknown_is_one_line(cli, tmp_path):
+    r = cli("simulate", "sine", "--out", tmp_path, "--seed", "1")
+    assert r.code == 0, r.err
+    r = cli("fit", tmp_path / "sine.csv", "--freq", "12.5", "--json")
+    assert r.code == 0 and '"channels"' in r.out
+    r = cli("fitt", "x")
+    assert r.code == 2 and len(r.err.strip().splitlines()) == 1 and "fitt" in r.err
