@@ -8,9 +8,10 @@ first use, so ``import senscal`` (and the command line) start fast.
 
 from __future__ import annotations
 
-import importlib
 from importlib.metadata import PackageNotFoundError, version as _version
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from senscal._lazy import lazy_attributes
 
 from senscal import errors
 
@@ -31,14 +32,4 @@ if TYPE_CHECKING:  # pragma: no cover
     from senscal.sinefit import SineFit, fit_sine
 
 
-def __getattr__(name: str) -> Any:
-    mod = _LAZY.get(name)
-    if mod is None:
-        raise AttributeError(f"module 'senscal' has no attribute {name!r}")
-    value = getattr(importlib.import_module(mod), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_attributes(__name__, globals(), _LAZY)

@@ -6,8 +6,9 @@ command line start without importing pandas, h5py and pyarrow.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from senscal._lazy import lazy_attributes
 
 _LAZY = {
     "check_output": "senscal.io.guard", "note_input": "senscal.io.guard", "protect_inputs": "senscal.io.guard",
@@ -24,14 +25,4 @@ if TYPE_CHECKING:  # pragma: no cover
     from senscal.io.recording import Recording, check_finite, check_time
 
 
-def __getattr__(name: str) -> Any:
-    mod = _LAZY.get(name)
-    if mod is None:
-        raise AttributeError(f"module 'senscal.io' has no attribute {name!r}")
-    value = getattr(importlib.import_module(mod), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_attributes(__name__, globals(), _LAZY)
