@@ -434,6 +434,7 @@ def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
                               "save it as UTF-8 CSV") from None
     if len(df) == 0:
         raise FileFormatError(f"{path} has a header but no data rows")
+    _check_not_truncated(path, sep, len(fields))
     units: dict[str, str] = {}
     cols: dict[str, np.ndarray] = {}
     raw: dict[str, str] = {}
@@ -442,6 +443,44 @@ def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
         if unit is not None:
             units[nm] = unit
     return cols, units, meta, file_fs, 0.0
+
+
+def _check_not_truncated(path: Path, sep: str, width: int, tail_bytes: int = 65536) -> None:
+    """Refuse a CSV whose last line was cut off (an interrupted copy or export).
+
+    A cut-off last line parses as a valid, shorter recording whose last value
+    is wrong (``0.12`` of ``0.1234``) or missing.  Only a file that does not
+    end with a line break is suspect; it is refused when its last line has
+    fewer fields than the header, or when a field of the last line is shorter
+    than that field is on every one of the (up to 50) lines before it.
+    """
+    try:
+        with open(path, "rb") as fh:
+            fh.seek(0, 2)
+            size = fh.tell()
+            fh.seek(max(0, size - tail_bytes))
+            tail = fh.read()
+    except OSError:
+        return
+    if not tail or tail.endswith((b"\n", b"\r")):
+        return
+    lines = [ln.rstrip(b"\r") for ln in tail.split(b"\n")]
+    last = lines[-1].decode("utf-8", "replace")
+    if not last.strip() or last.lstrip().startswith(_COMMENT):
+        return
+    # lines[0] may start mid-line when the tail was cut from a longer file.
+    prev = [ln.decode("utf-8", "replace") for ln in lines[1:-1] if ln.strip()][-50:]
+    prev = [ln for ln in prev if not ln.lstrip().startswith(_COMMENT) and len(_fields(ln, sep)) == width]
+    last_fields = _fields(last, sep)
+    short = len(last_fields) < width
+    if not short and len(prev) >= 3:
+        prev_fields = [_fields(ln, sep) for ln in prev]
+        short = any(len(last_fields[k]) < min(len(pf[k]) for pf in prev_fields) for k in range(width))
+    if short:
+        raise DataError(f"{path}: the last line ({last.strip()[:60]!r}) is shorter than the lines before it and the "
+                        "file does not end with a line break, so it looks truncated (a cut-off number would be read "
+                        "as a wrong value); copy or export the file again, delete the last line, or, if it is "
+                        "complete, end it with a line break")
 
 
 def _preamble_metadata(lines: list[str], path: Path) -> tuple[dict[str, str], float | None]:
