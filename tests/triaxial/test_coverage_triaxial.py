@@ -1,6 +1,6 @@
 """Coverage of every parameter of the automatic choice against simulated truth (senscal.validation.triaxial).
 
-CI runs 15 seeds per scenario, 8 for the level turn (each seed is a full calibration with 5-block
+CI runs 60 seeds per scenario, 30 for the level turn (each seed is a full calibration with 5-block
 cross-validation of four models); SENSCAL_MC=full runs 400.  check_coverage fails only when the 99.9 % Wilson interval of the
 observed coverage misses 93-97 %.
 """
@@ -17,6 +17,6 @@ from senscal.validation.triaxial import SCENARIOS
 def test_coverage(case):
     run = SCENARIOS[case]
     # The level turn cross-validates four models on 72 readings with pinned directions: 3x slower per seed.
-    rows = run(mc_seeds(run.full_seeds, 8 if case == "level-turn" else 15), 0)
+    rows = run(mc_seeds(run.full_seeds, 30 if case == "level-turn" else 60), 0)
     assert rows and all(r.n > 0 for r in rows)
     check_coverage(rows)
