@@ -30,20 +30,25 @@ def build() -> tuple[dict[str, tuple[str, str]], dict[str, tuple[str, str]]]:
 
     import senscal.cli as cli
 
-    commands: dict[str, tuple[str, str]] = {}
-    simulators: dict[str, tuple[str, str]] = {}
     for mod in sorted(pkgutil.iter_modules(cli.__path__), key=lambda m: m.name):
-        if not mod.name.startswith("cmd_"):
-            continue
-        importlib.import_module(f"senscal.cli.{mod.name}")
-        root = typer.main.get_command(cli.app)
-        for name, cmd in root.commands.items():
-            if name != "simulate" and name not in commands:
-                commands[name] = (mod.name, cmd.get_short_help_str(10_000))
-        for name, cmd in root.commands["simulate"].commands.items():
-            if name not in simulators:
-                simulators[name] = (mod.name, cmd.get_short_help_str(10_000))
+        if mod.name.startswith("cmd_"):
+            importlib.import_module(f"senscal.cli.{mod.name}")
+    root = typer.main.get_command(cli.app)
+    commands = {name: (_module_of(cmd), cmd.get_short_help_str(10_000))
+                for name, cmd in root.commands.items() if name != "simulate"}
+    simulators = {name: (_module_of(cmd), cmd.get_short_help_str(10_000))
+                  for name, cmd in root.commands["simulate"].commands.items()}
     return commands, simulators
+
+
+def _module_of(cmd) -> str:
+    """The ``cmd_*`` module that defines a command (for a group: its first subcommand's)."""
+    while cmd.callback is None and getattr(cmd, "commands", None):
+        cmd = next(iter(cmd.commands.values()))
+    fn = cmd.callback
+    while hasattr(fn, "__wrapped__"):
+        fn = fn.__wrapped__
+    return fn.__module__.rsplit(".", 1)[-1]
 
 
 if __name__ == "__main__":
