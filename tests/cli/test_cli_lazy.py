@@ -54,3 +54,10 @@ def test_a_command_runs_and_unknown_is_one_line(cli, tmp_path):
     assert r.code == 0 and '"channels"' in r.out
     r = cli("fitt", "x")
     assert r.code == 2 and len(r.err.strip().splitlines()) == 1 and "fitt" in r.err
+
+
+def test_version(cli):
+    from senscal import __version__
+
+    r = cli("--version")
+    assert r.code == 0 and r.out.strip() == f"senscal {__version__}"

@@ -42,9 +42,19 @@ def load_commands() -> typer.Typer:
     return app
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from senscal import __version__
+
+        print(f"senscal {__version__}")
+        raise typer.Exit()
+
+
 @app.callback()
 def _root(debug: bool = typer.Option(False, "--debug", help="Show the Python traceback of an internal error "
-                                                             "(also SENSCAL_DEBUG=1).")) -> None:
+                                                             "(also SENSCAL_DEBUG=1)."),
+          version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
+                                       help="Print senscal's version and exit.")) -> None:
     """Calibrate sensors and correct their errors."""
     global _debug_flag
     _debug_flag = _debug_flag or debug
