@@ -523,14 +523,7 @@ def _read_parquet(path: Path, *, names=None, group=None, skip_rows=None):
     meta_raw = (table.schema.metadata or {}).get(b"senscal")
     meta: Any = {}
     if meta_raw:
-        try:
-            meta = json.loads(meta_raw)
-        except (ValueError, RecursionError):
-            raise FileFormatError(f"{path} has senscal metadata that is not valid JSON; rewrite the file with "
-                                  "senscal or drop its metadata") from None
-        if not isinstance(meta, dict):
-            raise FileFormatError(f"{path} has senscal metadata that is a {type(meta).__name__}, not a mapping; "
-                                  "rewrite the file with senscal or drop its metadata")
+        meta = _embedded_json(meta_raw, path, "senscal metadata", "its metadata")
     cols: dict[str, np.ndarray] = {}
     raw: dict[str, str] = {}
     for i, name in enumerate(table.column_names):
@@ -571,12 +564,26 @@ def _read_hdf5(path: Path, *, names=None, group=None, skip_rows=None):
         meta_raw = grp.attrs.get("metadata")
         meta: Any = {}
         if meta_raw is not None:
-            try:
-                meta = json.loads(_attr_text(meta_raw, "metadata attribute", path))
-            except (ValueError, RecursionError):
-                raise FileFormatError(f"{path} has a metadata attribute that is not valid JSON; rewrite the file "
-                                      "with senscal or drop the attribute") from None
+            meta = _embedded_json(_attr_text(meta_raw, "metadata attribute", path), path, "a metadata attribute",
+                                  "the attribute", mapping=False)
     return cols, units, meta, fs, t0
+
+
+def _embedded_json(text: str | bytes, path: Path, what: str, drop: str, *, mapping: bool = True) -> Any:
+    """Parse the JSON a file carries about itself (Parquet metadata, HDF5 attribute, NPZ entry).
+
+    ``what`` names where it sits and ``drop`` what the user may remove, for the
+    one-line error; with ``mapping`` the document must be a JSON object.
+    """
+    try:
+        doc = json.loads(text)
+    except (ValueError, RecursionError):
+        raise FileFormatError(f"{path} has {what} that is not valid JSON; rewrite the file with senscal or "
+                              f"drop {drop}") from None
+    if mapping and not isinstance(doc, dict):
+        raise FileFormatError(f"{path} has {what} that is a {type(doc).__name__}, not a mapping; rewrite the file "
+                              f"with senscal or drop {drop}")
+    return doc
 
 
 def _attr_text(value: Any, what: str, path: Path) -> str:
@@ -667,14 +674,8 @@ def _read_npz(path: Path, *, names=None, group=None, skip_rows=None):
             elif key == "t0" and arr.ndim == 0:
                 t0 = arr
             elif key == "__senscal__":
-                try:
-                    info = json.loads(_attr_text(arr, "'__senscal__' entry", path))
-                except (ValueError, RecursionError):
-                    raise FileFormatError(f"{path} has a '__senscal__' entry that is not valid JSON; rewrite the "
-                                          "file with senscal or drop the entry") from None
-                if not isinstance(info, dict):
-                    raise FileFormatError(f"{path} has a '__senscal__' entry that is a {type(info).__name__}, "
-                                          "not a mapping; rewrite the file with senscal or drop the entry")
+                info = _embedded_json(_attr_text(arr, "'__senscal__' entry", path), path, "a '__senscal__' entry",
+                                      "the entry")
                 units = info.get("units", {})
                 meta = info.get("metadata", {})
             elif arr.ndim == 1:
