@@ -128,10 +128,14 @@ def run_known(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
                 "one sensor, true value known (0)", levels_truth={"g_noise_std": 0.1, "g_bias_rate_std": 0.01})
 
 
+# One sensor of a Gauss-Markov quantity (tau 200 s) whose bias is 0.2/degC x (c - 20): shared by the covariate cases.
+_COVARIATE_SIM = dict(n=_N, channels=("x",), trusted=(), noise=0.1, signal="gauss_markov", signal_level=1.0,
+                      signal_tau=200.0, bias="none", covariate_coefficient=0.2)
+
+
 def run_covariate(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """Preset ``covariate`` with the reference given: coefficient and bias cover."""
-    sim = dict(n=_N, channels=("x",), trusted=(), noise=0.1, signal="gauss_markov", signal_level=1.0,
-               signal_tau=200.0, bias="none", covariate_coefficient=0.2)
+    sim = _COVARIATE_SIM
     return _run("covariate, reference given", n_seeds, seed0, sim,
                 lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0,
                                           covariate_reference=20.0),
@@ -141,8 +145,7 @@ def run_covariate(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 def run_reference_defaulted(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """Issue 14 item 5: the reference left to default (the covariate mean)."""
-    sim = dict(n=_N, channels=("x",), trusted=(), noise=0.1, signal="gauss_markov", signal_level=1.0,
-               signal_tau=200.0, bias="none", covariate_coefficient=0.2)
+    sim = _COVARIATE_SIM
     return _run("covariate, reference defaulted", n_seeds, seed0, sim,
                 lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0),
                 "bias zero at 20 degC, reference not given", warn=("covariate-reference-defaulted",),
@@ -151,8 +154,7 @@ def run_reference_defaulted(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 def run_wrong_tau(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """Issue 14 item 2: a Gauss-Markov quantity fitted with a tau 10x too short."""
-    sim = dict(n=_N, channels=("x",), trusted=(), noise=0.1, signal="gauss_markov", signal_level=1.0,
-               signal_tau=200.0, bias="none", covariate_coefficient=0.2)
+    sim = _COVARIATE_SIM
     return _run("covariate, wrong signal tau", n_seeds, seed0, sim,
                 lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=20.0,
                                           covariate_reference=20.0),
