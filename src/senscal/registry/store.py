@@ -22,6 +22,7 @@ from senscal.registry import db
 from senscal.registry.chain import GENESIS, ChainReport, canonical_content, link
 from senscal.registry.db import UTC, calibrations, quantities, registry_chain, sensors
 from senscal.registry.drift import DAYS_PER_YEAR, DriftFit, DueDate, due_time, fit_drift
+from senscal.quantity import Quantity, check_text as _check_text
 
 __all__ = [
     "Registry", "open_registry", "Sensor", "Quantity", "Calibration", "HistoryPoint", "DriftReport",
@@ -74,44 +75,6 @@ class Sensor(ResultMixin):
         d = super().to_dict()
         d["created_at"] = _iso(self.created_at)
         return d
-
-
-@dataclass(frozen=True)
-class Quantity(ResultMixin):
-    """One quoted quantity of a calibration.
-
-    Attributes
-    ----------
-    name : str
-        e.g. ``sensitivity@80Hz``, ``ch1.amplitude``.
-    value : float
-        Unit ``unit``.
-    uncertainty : float
-        Standard uncertainty (k=1), unit ``unit``.
-    unit : str
-    k : float
-        Coverage factor the quantity is quoted with (expanded U = k * uncertainty).
-    """
-
-    name: str
-    value: float
-    uncertainty: float
-    unit: str = ""
-    k: float = 2.0
-
-    def __post_init__(self):
-        if not str(self.name).strip():
-            raise InputError("a calibrated quantity needs a name")
-        _check_text(str(self.name), "quantity name")
-        _check_text(str(self.unit), "unit")
-        if not math.isfinite(float(self.value)):
-            raise DataError(f"quantity {self.name!r}: value must be finite, got {self.value}")
-        u = float(self.uncertainty)
-        if not (math.isfinite(u) and u > 0):
-            raise DataError(f"quantity {self.name!r}: standard uncertainty must be positive and finite, got {self.uncertainty}; "
-                            "the drift fit weights records by their uncertainties")
-        if not (math.isfinite(float(self.k)) and float(self.k) > 0):
-            raise InputError(f"quantity {self.name!r}: coverage factor k must be positive, got {self.k}")
 
 
 @dataclass(frozen=True)
@@ -875,19 +838,6 @@ class Registry:
 def _too_few(serial: str, quantity: str, n: int) -> TooFewSamplesError:
     return TooFewSamplesError(f"sensor {serial!r} has {n} record{'s' if n != 1 else ''} of {quantity!r}; a drift "
                               "and a due date need at least two calibrations at different dates")
-
-
-def _check_text(text: str, what: str, *, free: bool = False) -> None:
-    """Refuse text no database can store faithfully (control characters, lone surrogates).
-
-    ``free`` text (notes) may hold line breaks and tabs, but never NUL.
-    """
-    if any(ord(ch) < 32 and not (free and ch in "\n\r\t") for ch in text):
-        raise InputError(f"{what} must not contain control characters, got {text!r}")
-    try:
-        text.encode("utf-8")
-    except UnicodeEncodeError:
-        raise InputError(f"{what} is not valid Unicode text (lone surrogate), got {text!r}") from None
 
 
 def _check_free(**fields: str | None) -> None:

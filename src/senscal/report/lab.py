@@ -1,0 +1,280 @@
+"""The laboratory profile and the per-run certificate fields (ISO/IEC 17025:2017, 7.8).
+
+A lab writes its profile once (``lab.toml`` or ``lab.yaml``): name,
+address, accreditation, logo, approvers, reference standards, procedures.
+Each calibration run adds its own fields (customer, item, dates, location,
+environmental conditions ...) on the command line or in a ``[run]`` table of
+the same file. Missing required fields never print as "not stated": the
+certificate is marked DRAFT and :func:`missing_fields` names them, which the
+command turns into the ``certificate-draft`` warning (``--strict`` exits 3).
+
+Contract shared by the HTML/PDF certificate and the DCC XML writer: both take
+a :class:`CertificateInfo` (lab + run) and never read files themselves.
+
+References
+----------
+.. [1] ISO/IEC 17025:2017, 7.8.2 (common requirements for reports) and
+   7.8.4 (specific requirements for calibration certificates).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field, fields, replace
+from pathlib import Path
+from typing import Any, Mapping
+
+from senscal._result import ResultMixin
+from senscal.errors import InputError
+
+__all__ = ["Person", "Standard", "Condition", "LabProfile", "RunInfo", "CertificateInfo", "load_lab_profile",
+           "run_info_from", "merge_run", "missing_fields", "default_lab_path", "REQUIRED_LAB", "REQUIRED_RUN"]
+
+
+@dataclass(frozen=True)
+class Person(ResultMixin):
+    """An approver: who authorises the certificate (7.8.2.1 o)."""
+
+    name: str
+    role: str = ""
+
+
+@dataclass(frozen=True)
+class Standard(ResultMixin):
+    """A reference standard used in the calibration, with its own traceability (7.8.4.1 c, 6.5).
+
+    Attributes
+    ----------
+    name : str
+        e.g. "Reference accelerometer B&K 8305".
+    serial : str
+    certificate : str
+        Id of the standard's own calibration certificate.
+    traceability : str
+        To which national standard / NMI, e.g. "PTB, DKD-K-12345".
+    due : str
+        Date its calibration is due (ISO 8601), may be empty.
+    u_relative : float or None
+        Its own relative standard uncertainty (k=1) where it applies, used by
+        the budget sanity check (a result cannot be better than its reference).
+    """
+
+    name: str
+    serial: str = ""
+    certificate: str = ""
+    traceability: str = ""
+    due: str = ""
+    u_relative: float | None = None
+
+
+@dataclass(frozen=True)
+class Condition(ResultMixin):
+    """An environmental condition with its uncertainty (7.8.4.1 a), e.g. temperature 23.1 +- 0.5 degC."""
+
+    name: str
+    value: float
+    uncertainty: float | None = None
+    unit: str = ""
+
+
+@dataclass(frozen=True)
+class LabProfile(ResultMixin):
+    """What a laboratory states on every certificate (7.8.2.1 a, o; 7.8.4)."""
+
+    name: str = ""
+    address: str = ""
+    accreditation: str = ""          # accreditation body and number, e.g. "DAkkS D-K-12345-01-00"
+    logo: str = ""                   # path to an image file, resolved against the profile's folder
+    approvers: tuple[Person, ...] = ()
+    standards: tuple[Standard, ...] = ()
+    procedure: str = ""              # procedure id, e.g. "QP-VIB-07 rev 3"
+    phone: str = ""
+    email: str = ""
+    source: str = ""                 # the profile file this came from (for messages)
+
+
+@dataclass(frozen=True)
+class RunInfo(ResultMixin):
+    """The fields of one calibration (7.8.2.1 b-n, 7.8.4.1).
+
+    Dates are ISO 8601 strings; ``issue_date`` defaults to the day the
+    certificate is written.
+    """
+
+    certificate_id: str = ""
+    customer: str = ""
+    customer_address: str = ""
+    item: str = ""                   # description, e.g. "piezoelectric accelerometer"
+    manufacturer: str = ""
+    model: str = ""
+    serial: str = ""
+    calibration_date: str = ""
+    issue_date: str = ""
+    location: str = ""               # where the calibration was done (lab, or the customer's site)
+    conditions: tuple[Condition, ...] = ()
+    deviations: str = ""             # deviations from, additions to or exclusions from the method
+    conformity: str = ""             # statement of conformity, when the customer asked for one
+    decision_rule: str = ""          # the decision rule used for the statement of conformity
+    remarks: str = ""
+
+
+@dataclass(frozen=True)
+class CertificateInfo(ResultMixin):
+    """Lab profile plus run fields: everything a certificate states besides the results."""
+
+    lab: LabProfile = field(default_factory=LabProfile)
+    run: RunInfo = field(default_factory=RunInfo)
+
+    @property
+    def draft(self) -> bool:
+        """True when a required field is missing (the certificate says DRAFT on every page)."""
+        return bool(missing_fields(self))
+
+
+# Fields 17025 requires of a calibration certificate; missing -> DRAFT.
+REQUIRED_LAB = ("name", "address", "approvers", "standards")
+REQUIRED_RUN = ("customer", "item", "serial", "calibration_date", "location")
+
+
+def missing_fields(info: CertificateInfo) -> list[str]:
+    """Required fields that are empty, as ``lab.name`` / ``run.customer`` / ``run.conformity.decision_rule``."""
+    out = [f"lab.{n}" for n in REQUIRED_LAB if not getattr(info.lab, n)]
+    out += [f"run.{n}" for n in REQUIRED_RUN if not getattr(info.run, n)]
+    if info.run.conformity and not info.run.decision_rule:
+        out.append("run.decision_rule")
+    return out
+
+
+def default_lab_path() -> Path | None:
+    """``$SENSCAL_LAB`` if set, else ``lab.toml``/``lab.yaml`` in the user config folder, if it exists."""
+    env = os.environ.get("SENSCAL_LAB")
+    if env:
+        return Path(env)
+    base = Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config") / "senscal"
+    for name in ("lab.toml", "lab.yaml", "lab.yml"):
+        if (base / name).is_file():
+            return base / name
+    return None
+
+
+def _text(doc: Mapping[str, Any], key: str, where: str) -> str:
+    v = doc.get(key, "")
+    if v is None:
+        return ""
+    if isinstance(v, (dict, list)):
+        raise InputError(f"{where}: '{key}' must be text, got a {type(v).__name__}")
+    return str(v).strip()
+
+
+def _known(doc: Mapping[str, Any], allowed: set[str], where: str) -> None:
+    unknown = sorted(set(doc) - allowed)
+    if unknown:
+        raise InputError(f"{where}: unknown field(s) {', '.join(map(repr, unknown))}; known: {', '.join(sorted(allowed))}")
+
+
+def _float_or_none(v: Any, what: str) -> float | None:
+    if v is None or v == "":
+        return None
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        raise InputError(f"{what} must be a number, got {v!r}") from None
+
+
+def _conditions(items: Any, where: str) -> tuple[Condition, ...]:
+    if items in (None, ""):
+        return ()
+    if isinstance(items, Mapping):  # {"temperature": {"value": 23.1, "u": 0.5, "unit": "degC"}} or {"temperature": 23.1}
+        items = [{"name": k, **(v if isinstance(v, Mapping) else {"value": v})} for k, v in items.items()]
+    if not isinstance(items, list):
+        raise InputError(f"{where}: 'conditions' must be a table or a list of tables")
+    out = []
+    for c in items:
+        if not isinstance(c, Mapping) or "name" not in c or "value" not in c:
+            raise InputError(f"{where}: each condition needs 'name' and 'value' (and optional 'u', 'unit')")
+        _known(c, {"name", "value", "u", "uncertainty", "unit"}, f"{where} condition {c.get('name')!r}")
+        value = _float_or_none(c["value"], f"{where}: condition {c['name']!r} value")
+        u = _float_or_none(c.get("u", c.get("uncertainty")), f"{where}: condition {c['name']!r} u")
+        out.append(Condition(str(c["name"]), value if value is not None else float("nan"), u, str(c.get("unit", ""))))
+    return tuple(out)
+
+
+def _lab_from(doc: Mapping[str, Any], where: str, source: str) -> LabProfile:
+    allowed = {f.name for f in fields(LabProfile)} - {"source"}
+    _known(doc, allowed, where)
+    approvers = []
+    for a in doc.get("approvers") or []:
+        if isinstance(a, str):
+            approvers.append(Person(a.strip()))
+        elif isinstance(a, Mapping) and "name" in a:
+            _known(a, {"name", "role"}, f"{where} approver")
+            approvers.append(Person(str(a["name"]).strip(), str(a.get("role", "")).strip()))
+        else:
+            raise InputError(f"{where}: each approver is a name or a table with 'name' (and 'role')")
+    standards = []
+    for s in doc.get("standards") or []:
+        if not isinstance(s, Mapping) or "name" not in s:
+            raise InputError(f"{where}: each reference standard is a table with at least 'name'")
+        allowed_s = {f.name for f in fields(Standard)}
+        _known(s, allowed_s, f"{where} standard {s.get('name')!r}")
+        standards.append(Standard(**{k: (str(v).strip() if k != "u_relative" else
+                                         _float_or_none(v, f"{where}: standard {s['name']!r} u_relative"))
+                                     for k, v in s.items()}))
+    logo = _text(doc, "logo", where)
+    if logo and source and not Path(logo).is_absolute():
+        logo = str(Path(source).parent / logo)
+    return LabProfile(name=_text(doc, "name", where), address=_text(doc, "address", where),
+                      accreditation=_text(doc, "accreditation", where), logo=logo, approvers=tuple(approvers),
+                      standards=tuple(standards), procedure=_text(doc, "procedure", where),
+                      phone=_text(doc, "phone", where), email=_text(doc, "email", where), source=source)
+
+
+def run_info_from(doc: Mapping[str, Any] | None, where: str = "run") -> RunInfo:
+    """A :class:`RunInfo` from a mapping (the ``[run]`` table, or CLI options collected into one)."""
+    doc = dict(doc or {})
+    allowed = {f.name for f in fields(RunInfo)}
+    _known(doc, allowed, where)
+    conds = _conditions(doc.pop("conditions", None), where)
+    return RunInfo(**{k: _text(doc, k, where) for k in doc}, conditions=conds)
+
+
+def load_lab_profile(path: str | os.PathLike) -> tuple[LabProfile, RunInfo]:
+    """Read a lab profile (TOML or YAML by suffix): the lab, and the ``[run]`` defaults it may carry.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, bad syntax, unknown field or wrong type: one line naming the file and the field.
+    """
+    p = Path(path)
+    where = str(p)
+    suffix = p.suffix.lower()
+    if suffix == ".toml":
+        import tomllib
+
+        from senscal.io.sidefiles import read_text
+
+        text = read_text(p, "lab profile")
+        try:
+            doc = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise InputError(f"lab profile {p} is not valid TOML ({exc}); fix the file") from None
+    elif suffix in (".yaml", ".yml"):
+        from senscal.io.sidefiles import read_yaml
+
+        doc = read_yaml(p, "lab profile")
+    else:
+        raise InputError(f"lab profile {p}: use a .toml or .yaml file")
+    if not isinstance(doc, Mapping):
+        raise InputError(f"lab profile {p} must hold a table of fields")
+    run = doc.get("run") or {}
+    lab_doc = doc.get("lab", {k: v for k, v in doc.items() if k != "run"})
+    if not isinstance(lab_doc, Mapping) or not isinstance(run, Mapping):
+        raise InputError(f"lab profile {p}: 'lab' and 'run' must be tables")
+    return _lab_from(lab_doc, where, str(p)), run_info_from(run, f"{where} [run]")
+
+
+def merge_run(base: RunInfo, **given: Any) -> RunInfo:
+    """``base`` with the non-empty values in ``given`` (command-line options win over the profile)."""
+    vals = {k: v for k, v in given.items() if v not in (None, "", ())}
+    return replace(base, **vals)
