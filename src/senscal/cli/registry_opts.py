@@ -2,20 +2,20 @@
 
 A calibration command records its result in the sensor registry by adding
 the option aliases below to its signature and calling
-:func:`save_if_requested` once with its JSON document::
+:func:`save_if_requested` once with the job's result
+(:class:`senscal.jobs.JobResult`): the registry stores
+``result.quantities()`` and keeps ``result.to_dict()`` as the full result::
 
     from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt,
-                                           SensorOpt, quoted, save_if_requested)
+                                           SensorOpt, save_if_requested)
 
     @app.command("velocity")
     def velocity_cmd(file: ..., save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None,
                      create_sensor: CreateSensorOpt = None, date: DateOpt = None,
                      operator: OperatorOpt = None) -> None:
-        doc = ...  # the command's JSON result
-        save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
-                          operator=operator, job="velocity", method="sine-approximation",
-                          quantities=[quoted(doc, "sensitivity", "sensitivity", "u_sensitivity", "V/(m/s)")],
-                          input_files=[file])
+        result = jobs.velocity(file, options)
+        save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
+                          operator=operator, method="sine-approximation", input_files=[file])
 
 Nothing happens without ``--save``; the confirmation goes to stderr so
 ``--json`` output stays clean.
@@ -57,6 +57,9 @@ OperatorOpt = Annotated[Optional[str], typer.Option("--operator", help="Who cali
 def quoted(doc: Mapping[str, Any], name: str, value_path: str, u_path: str, unit: str = "", *, k: float = 2.0):
     """A :class:`~senscal.registry.Quantity` read from a result document.
 
+    For commands not yet on the job layer; a job result's ``quantities()``
+    replaces it.
+
     Parameters
     ----------
     doc : mapping
@@ -91,15 +94,25 @@ def quoted(doc: Mapping[str, Any], name: str, value_path: str, u_path: str, unit
     return Quantity(name, get(value_path), get(u_path), unit, k)
 
 
-def save_if_requested(doc: Mapping[str, Any], *, save: bool, sensor: str | None, db: str | None = None,
+def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | None = None,
                       create_sensor: str | None = None, date: str | None = None, operator: str | None = None,
-                      job: str, method: str | None, quantities: Sequence[Any] | None = None,
+                      job: str | None = None, method: str | None, quantities: Sequence[Any] | None = None,
                       input_files: Iterable[str | Path] = (), conditions: Mapping[str, Any] | None = None,
                       certificate: str | Path | None = None, note: str | None = None):
     """Record a calibration command's result if ``--save`` was given.
 
-    ``quantities`` may be a sequence of Quantity or a callable returning one
-    (so that reading them from ``doc`` only happens when saving).
+    Parameters
+    ----------
+    result : JobResult or mapping
+        The job's result: the registry stores ``result.quantities()`` and
+        keeps ``result.to_dict()`` (the ``--json`` document) as the full
+        result.  A plain JSON document is still accepted (with
+        ``quantities``) for commands not yet on the job layer.
+    job : str, optional
+        Job name recorded with the calibration (default ``result.job``).
+    quantities : sequence of Quantity or callable, optional
+        Overrides ``result.quantities()``; a callable is only called when
+        saving.
 
     Returns
     -------
@@ -124,7 +137,11 @@ def save_if_requested(doc: Mapping[str, Any], *, save: bool, sensor: str | None,
     from senscal.registry import open_registry, parse_date
 
     when = parse_date(date)  # checked before opening the database: a typo costs nothing
+    if quantities is None and hasattr(result, "quantities"):
+        quantities = result.quantities
     qs = list(quantities() if callable(quantities) else (quantities or []))
+    doc = result.to_dict() if hasattr(result, "to_dict") else result
+    job = job or getattr(result, "job", "") or None
     with open_registry(db) as reg:
         rec = reg.record(sensor, qs, performed_at=when, job=job, method=method, conditions=conditions,
                          result=doc, certificate=certificate, input_files=input_files, operator=operator,
