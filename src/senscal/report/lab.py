@@ -90,6 +90,7 @@ class LabProfile(ResultMixin):
     procedure: str = ""              # procedure id, e.g. "QP-VIB-07 rev 3"
     phone: str = ""
     email: str = ""
+    country: str = ""                # ISO 3166-1 alpha-2 code of the lab, e.g. "DE" (the DCC needs it)
     source: str = ""                 # the profile file this came from (for messages)
 
 
@@ -104,11 +105,13 @@ class RunInfo(ResultMixin):
     certificate_id: str = ""
     customer: str = ""
     customer_address: str = ""
+    customer_email: str = ""         # the DCC schema requires a customer e-mail
     item: str = ""                   # description, e.g. "piezoelectric accelerometer"
     manufacturer: str = ""
     model: str = ""
     serial: str = ""
-    calibration_date: str = ""
+    calibration_date: str = ""       # YYYY-MM-DD, or YYYY-MM-DD/YYYY-MM-DD for a calibration over several days
+    receipt_date: str = ""           # when the item was received (DCC receiptDate), may be empty
     issue_date: str = ""
     location: str = ""               # where the calibration was done (lab, or the customer's site)
     conditions: tuple[Condition, ...] = ()
@@ -226,7 +229,8 @@ def _lab_from(doc: Mapping[str, Any], where: str, source: str) -> LabProfile:
     return LabProfile(name=_text(doc, "name", where), address=_text(doc, "address", where),
                       accreditation=_text(doc, "accreditation", where), logo=logo, approvers=tuple(approvers),
                       standards=tuple(standards), procedure=_text(doc, "procedure", where),
-                      phone=_text(doc, "phone", where), email=_text(doc, "email", where), source=source)
+                      phone=_text(doc, "phone", where), email=_text(doc, "email", where),
+                      country=_text(doc, "country", where), source=source)
 
 
 def run_info_from(doc: Mapping[str, Any] | None, where: str = "run") -> RunInfo:
