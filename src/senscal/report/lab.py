@@ -19,6 +19,7 @@ References
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
@@ -28,7 +29,8 @@ from senscal._result import ResultMixin
 from senscal.errors import InputError
 
 __all__ = ["Person", "Standard", "Condition", "LabProfile", "RunInfo", "CertificateInfo", "load_lab_profile",
-           "run_info_from", "merge_run", "missing_fields", "default_lab_path", "REQUIRED_LAB", "REQUIRED_RUN"]
+           "load_run_file", "parse_condition", "run_info_from", "merge_run", "missing_fields", "default_lab_path",
+           "REQUIRED_LAB", "REQUIRED_RUN"]
 
 
 @dataclass(frozen=True)
@@ -69,7 +71,20 @@ class Standard(ResultMixin):
 
 @dataclass(frozen=True)
 class Condition(ResultMixin):
-    """An environmental condition with its uncertainty (7.8.4.1 a), e.g. temperature 23.1 +- 0.5 degC."""
+    """An environmental condition with its uncertainty (7.8.4.1 a), e.g. temperature 23.1 +- 0.5 degC.
+
+    Attributes
+    ----------
+    name : str
+        e.g. "temperature".
+    value : float
+        In ``unit``.
+    uncertainty : float or None
+        Standard uncertainty (k=1) in ``unit``, as every uncertainty in
+        senscal; certificates print the expanded ``U = 2u``.
+    unit : str
+        e.g. "degC", "%RH".
+    """
 
     name: str
     value: float
@@ -119,6 +134,7 @@ class RunInfo(ResultMixin):
     conformity: str = ""             # statement of conformity, when the customer asked for one
     decision_rule: str = ""          # the decision rule used for the statement of conformity
     remarks: str = ""
+    approver: str = ""               # who authorises this certificate: one of the lab's approvers (default: all listed)
 
 
 @dataclass(frozen=True)
@@ -136,7 +152,7 @@ class CertificateInfo(ResultMixin):
 
 # Fields 17025 requires of a calibration certificate; missing -> DRAFT.
 REQUIRED_LAB = ("name", "address", "approvers", "standards")
-REQUIRED_RUN = ("customer", "item", "serial", "calibration_date", "location")
+REQUIRED_RUN = ("customer", "item", "serial", "calibration_date", "location", "conditions")
 
 
 def missing_fields(info: CertificateInfo) -> list[str]:
@@ -242,6 +258,29 @@ def run_info_from(doc: Mapping[str, Any] | None, where: str = "run") -> RunInfo:
     return RunInfo(**{k: _text(doc, k, where) for k in doc}, conditions=conds)
 
 
+def _read_doc(p: Path, what: str) -> Mapping[str, Any]:
+    """A TOML or YAML file (by suffix) as a mapping; one-line errors naming the file."""
+    suffix = p.suffix.lower()
+    if suffix == ".toml":
+        import tomllib
+
+        from senscal.io.sidefiles import read_text
+
+        try:
+            doc = tomllib.loads(read_text(p, what))
+        except tomllib.TOMLDecodeError as exc:
+            raise InputError(f"{what} {p} is not valid TOML ({exc}); fix the file") from None
+    elif suffix in (".yaml", ".yml"):
+        from senscal.io.sidefiles import read_yaml
+
+        doc = read_yaml(p, what)
+    else:
+        raise InputError(f"{what} {p}: use a .toml or .yaml file")
+    if not isinstance(doc, Mapping):
+        raise InputError(f"{what} {p} must hold a table of fields")
+    return doc
+
+
 def load_lab_profile(path: str | os.PathLike) -> tuple[LabProfile, RunInfo]:
     """Read a lab profile (TOML or YAML by suffix): the lab, and the ``[run]`` defaults it may carry.
 
@@ -252,25 +291,7 @@ def load_lab_profile(path: str | os.PathLike) -> tuple[LabProfile, RunInfo]:
     """
     p = Path(path)
     where = str(p)
-    suffix = p.suffix.lower()
-    if suffix == ".toml":
-        import tomllib
-
-        from senscal.io.sidefiles import read_text
-
-        text = read_text(p, "lab profile")
-        try:
-            doc = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError(f"lab profile {p} is not valid TOML ({exc}); fix the file") from None
-    elif suffix in (".yaml", ".yml"):
-        from senscal.io.sidefiles import read_yaml
-
-        doc = read_yaml(p, "lab profile")
-    else:
-        raise InputError(f"lab profile {p}: use a .toml or .yaml file")
-    if not isinstance(doc, Mapping):
-        raise InputError(f"lab profile {p} must hold a table of fields")
+    doc = _read_doc(p, "lab profile")
     run = doc.get("run") or {}
     lab_doc = doc.get("lab", {k: v for k, v in doc.items() if k != "run"})
     if not isinstance(lab_doc, Mapping) or not isinstance(run, Mapping):
@@ -282,3 +303,44 @@ def merge_run(base: RunInfo, **given: Any) -> RunInfo:
     """``base`` with the non-empty values in ``given`` (command-line options win over the profile)."""
     vals = {k: v for k, v in given.items() if v not in (None, "", ())}
     return replace(base, **vals)
+
+
+def parse_condition(text: str, where: str = "--env") -> Condition:
+    """An environmental condition from ``NAME=VALUE[+-U] [UNIT]``, e.g. ``temperature=23.1+-0.5 degC``.
+
+    ``U`` after ``+-`` (or ``±``) is the standard uncertainty (k=1) in the same unit.
+
+    Raises
+    ------
+    InputError
+        Not of that form, or a value that is not a number.
+    """
+    import re
+
+    name, sep, rest = str(text).partition("=")
+    num = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+    m = re.fullmatch(rf"\s*({num})\s*(?:(?:\+/?-|±)\s*({num}))?\s*(.*?)\s*", rest)
+    if not sep or not name.strip() or m is None:
+        raise InputError(f"{where} must look like NAME=VALUE+-U UNIT (U the standard uncertainty), "
+                         f"e.g. 'temperature=23.1+-0.5 degC'; got {text!r}")
+    value = _float_or_none(m.group(1), f"{where} {name.strip()!r} value")
+    u = _float_or_none(m.group(2), f"{where} {name.strip()!r} uncertainty")
+    if value is None or not math.isfinite(value) or u is not None and not (u >= 0 and math.isfinite(u)):
+        raise InputError(f"{where} {name.strip()!r}: give a value and a non-negative uncertainty, got {text!r}")
+    return Condition(name.strip(), value, u, m.group(3))
+
+
+def load_run_file(path: str | os.PathLike) -> RunInfo:
+    """The run fields of one calibration from a TOML/YAML file: its ``[run]`` table, or its top level.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, bad syntax, unknown field or wrong type.
+    """
+    p = Path(path)
+    doc = _read_doc(p, "run file")
+    run = doc.get("run", doc)
+    if not isinstance(run, Mapping):
+        raise InputError(f"run file {p}: 'run' must be a table")
+    return run_info_from(run, f"{p} [run]" if "run" in doc else str(p))
