@@ -320,7 +320,7 @@ def parse_condition(text: str, where: str = "--env") -> Condition:
     name, sep, rest = str(text).partition("=")
     num = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
     m = re.fullmatch(rf"\s*({num})\s*(?:(?:\+/?-|±)\s*({num}))?\s*(.*?)\s*", rest)
-    if not sep or not name.strip() or m is None:
+    if not sep or not name.strip() or m is None or m.group(3).startswith(("+", "±")):
         raise InputError(f"{where} must look like NAME=VALUE+-U UNIT (U the standard uncertainty), "
                          f"e.g. 'temperature=23.1+-0.5 degC'; got {text!r}")
     value = _float_or_none(m.group(1), f"{where} {name.strip()!r} value")
