@@ -17,7 +17,7 @@ from senscal.drift.model import DriftSetup, augmented_model, check_observable
 from senscal.errors import DataError, InputError, TooFewSamplesError
 from senscal.kalman import fixed_lag_smoother, kalman_filter, rts_smoother
 
-__all__ = ["DriftResult", "correct_drift", "DEFAULT_FALSE_ALARM_RATE"]
+__all__ = ["DriftResult", "correct_drift", "drift_prior", "DEFAULT_FALSE_ALARM_RATE"]
 
 #: Default false-alarm rate of the drift-onset detector [alarms per hour per channel].
 DEFAULT_FALSE_ALARM_RATE = 1e-4
@@ -382,6 +382,59 @@ def _detect(build, setup: DriftSetup, levels: Mapping[str, float], yy: np.ndarra
     return det, onset, alarm
 
 
+def drift_prior(setup: DriftSetup, y: np.ndarray, covariates: Mapping[str, np.ndarray],
+                duration: float) -> tuple[np.ndarray, np.ndarray]:
+    """Prior mean and covariance of the augmented state from the data.
+
+    The quantity near the first samples, biases near zero, both ten times
+    wider than the data's spread so the data dominate, yet not so vague that
+    the first updates lose precision to cancellation.
+
+    Parameters
+    ----------
+    setup : DriftSetup
+    y : ndarray, (m, T)
+        Measurements [unit], already minus the known mean of a
+        ``gauss_markov`` / ``known`` quantity.
+    covariates : mapping of str to ndarray (T,)
+        Referenced covariates (``c - c_ref``) [covariate unit].
+    duration : float
+        Record length [s] (scales a ramp's slope prior).
+
+    Returns
+    -------
+    x0 : ndarray, (n,)
+    P0 : ndarray, (n, n)
+        Diagonal [state units^2].
+    """
+    yy = np.asarray(y, dtype=float)
+    n = len(setup.state_names)
+    ns = setup.signal.n_states
+    T = yy.shape[-1]
+    spread = max(float(np.nanstd(yy)), float(np.nanmax(np.abs(yy))) * 1e-6, 1e-300)
+    duration = duration if duration > 0 else 1.0
+    x0 = np.zeros(n)
+    p0 = np.full(n, (10.0 * spread) ** 2)
+    if setup.signal.kind == "known":
+        p0[:ns] = 0.0
+    elif setup.signal.kind != "matrix":
+        first = yy[:, : min(T, 10)]
+        x0[0] = float(np.nanmedian(first)) if np.isfinite(first).any() else 0.0
+    else:
+        p0[:ns] = (1e3 * max(spread, float(np.nanmax(np.abs(yy))))) ** 2
+    j = ns
+    for b in setup.biases:
+        scale = 1.0
+        if b.covariate is not None:
+            scale = 1.0 / max(float(np.std(covariates[b.covariate])), 1e-300)
+        p0[j] = (10.0 * spread * scale) ** 2
+        if b.dynamics == "ramp":
+            # A slope that moves the bias by ten spreads over the record.
+            p0[j + 1] = (10.0 * spread * scale / duration) ** 2
+        j += len(b.state_names)
+    return x0, np.diag(p0)
+
+
 def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, Any] | None = None, *,
                   window: int | None = None, smooth: bool = False,
                   false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, detect_shift: float = 1.0,
@@ -494,30 +547,7 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
     n = len(names)
     ns = setup.signal.n_states
     duration = float(tt[-1] - tt[0])
-    # Prior: the quantity near the first samples, biases near zero, both
-    # ten times wider than the data's spread so the data dominate, yet not
-    # so vague that the first updates lose precision to cancellation.
-    spread = max(float(np.nanstd(yy)), float(np.nanmax(np.abs(yy))) * 1e-6, 1e-300)
-    x0 = np.zeros(n)
-    p0 = np.full(n, (10.0 * spread) ** 2)
-    if setup.signal.kind == "known":
-        p0[:ns] = 0.0
-    elif setup.signal.kind != "matrix":
-        first = yy[:, : min(T, 10)]
-        x0[0] = float(np.nanmedian(first)) if np.isfinite(first).any() else 0.0
-    else:
-        p0[:ns] = (1e3 * max(spread, float(np.nanmax(np.abs(yy))))) ** 2
-    j = ns
-    for b in setup.biases:
-        scale = 1.0
-        if b.covariate is not None:
-            scale = 1.0 / max(float(np.std(cov[b.covariate])), 1e-300)
-        p0[j] = (10.0 * spread * scale) ** 2
-        if b.dynamics == "ramp":
-            # A slope that moves the bias by ten spreads over the record.
-            p0[j + 1] = (10.0 * spread * scale / duration) ** 2
-        j += len(b.state_names)
-    P0 = np.diag(p0)
+    x0, P0 = drift_prior(setup, yy, cov, duration)
 
     def build(levels: Mapping[str, float], frozen: Sequence[int] = ()):
         P = P0
