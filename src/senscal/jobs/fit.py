@@ -1,0 +1,265 @@
+"""The ``fit`` job: least-squares sine fit of every (or the chosen) channel of a recording.
+
+``senscal fit``, ``senscal batch fit``, the demo and the registry's ``--save``
+all call :func:`fit`; the command line only parses and prints.
+
+Examples
+--------
+>>> from senscal.jobs.fit import FitOptions, fit                 # doctest: +SKIP
+>>> res = fit("sine.csv", FitOptions(freq=12.5))                 # doctest: +SKIP
+>>> res.channels["ch1"].amplitude, res.channels["ch1"].u_amplitude  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar, Mapping
+
+import numpy as np
+
+from senscal.diagnostics import named, warning_name
+from senscal.errors import DataError, InputError, SenscalError
+from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+from senscal.sinefit import SineFit, fit_sine
+
+__all__ = ["NOISE_MODELS", "FitOptions", "FitResult", "fit", "fit_summary", "not_a_signal"]
+
+NOISE_MODELS = ("auto", "white", "coloured")
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    """Options of the ``fit`` job (``senscal fit`` spells them ``--freq`` ...).
+
+    Attributes
+    ----------
+    channels : tuple of str, optional
+        Channels to fit; None fits every channel.
+    freq : float, optional
+        Known frequency in Hz (three-parameter fit); None estimates it
+        (four-parameter fit).
+    harmonics : int
+        Number of harmonics K (1 = the fundamental only).
+    noise_model : {"auto", "white", "coloured"}
+        How the uncertainties treat the residual (see :func:`senscal.fit_sine`).
+    time_column : str
+        Name of the time column (s) when reading a file.
+    fs : float, optional
+        Sample rate in Hz for a file without a time column.
+    names : str, optional
+        Comma-separated column names for a text file without header.
+    """
+
+    channels: tuple[str, ...] | None = None
+    freq: float | None = None
+    harmonics: int = 1
+    noise_model: str = "auto"
+    time_column: str = "t"
+    fs: float | None = None
+    names: str | None = None
+
+    def __post_init__(self):
+        if self.noise_model not in NOISE_MODELS:
+            raise InputError(f"--noise-model must be one of {', '.join(NOISE_MODELS)}, got {self.noise_model!r}")
+        if self.channels is not None and not isinstance(self.channels, tuple):
+            object.__setattr__(self, "channels", tuple(self.channels) or None)
+
+    @property
+    def method(self) -> str:
+        """How the registry describes the fit."""
+        return f"sine-fit, {self.harmonics} harmonic(s), frequency {'known' if self.freq else 'estimated'}"
+
+
+def fit_summary(fit: SineFit) -> dict:
+    """The JSON fields of one channel's fit (the ``senscal fit --json`` contract).
+
+    ``phase_deg`` is the phase at t = 0 (the file's time origin);
+    ``phase_centre_deg`` the phase at ``t_phase_centre_s``, the record's
+    centre, which does not carry the frequency's lever arm.
+    """
+    d = {
+        "frequency_hz": float(fit.frequency),
+        "amplitude": float(fit.amplitude),
+        "phase_deg": math.degrees(fit.phase),
+        "offset": float(fit.offset),
+        "u_frequency_hz": float(fit.u_frequency),
+        "u_amplitude": float(fit.u_amplitude),
+        "u_phase_deg": math.degrees(fit.u_phase),
+        "u_offset": float(fit.u_offset),
+        "residual_rms": float(fit.residual_rms),
+        "snr_db": float(fit.snr_db),
+        "n_samples": int(fit.n_samples),
+        "phase_centre_deg": math.degrees(fit.phase_centre),
+        "u_phase_centre_deg": math.degrees(fit.u_phase_centre),
+        "t_phase_centre_s": float(fit.t_ref),
+        "noise_model": str(fit.noise_model),
+        "dof_effective": float(fit.dof_effective),
+        "residual_lag1": float(fit.residual_lag1),
+    }
+    if fit.thd is not None:
+        d["thd_percent"] = 100.0 * float(fit.thd)
+        d["harmonic_amplitudes"] = np.asarray(fit.harmonic_amplitudes).tolist()
+        d["harmonic_phases_deg"] = np.degrees(fit.harmonic_phases).tolist()
+    return d
+
+
+def not_a_signal(y: np.ndarray) -> str | None:
+    """Why a column cannot hold a sine (None when it might).
+
+    NaN/inf cannot be fitted; a constant column has nothing to fit; a column
+    that changes by the same step every sample is a sample counter or a ramp
+    (a scope's ``Sample`` column), whose spectrum peaks at the lowest bin and
+    whose fit fails with a misleading "record too short".
+    """
+    y = np.asarray(y, dtype=float)
+    bad = np.flatnonzero(~np.isfinite(y))
+    if bad.size:
+        more = f" (and {bad.size - 1} more)" if bad.size > 1 else ""
+        kind = "NaN" if np.isnan(y[bad[0]]) else "inf"
+        return f"it has {kind} at sample {bad[0]}{more}; remove or interpolate the bad samples"
+    if y.size and np.ptp(y) == 0.0:
+        return f"it is constant ({y[0]:g}): there is no signal to fit"
+    if y.size > 2:
+        d = np.diff(y)
+        if d[0] != 0.0 and np.ptp(d) <= 1e-9 * abs(d[0]):
+            return (f"it rises by the same step ({d[0]:g}) every sample: a sample counter or ramp, not a signal; "
+                    f"leave it out with --channel")
+    return None
+
+
+# Registry name suffix, JSON key (its u is "u_" + key), unit as the registry has always stored it.
+_QUANTITIES = (("amplitude", "amplitude", ""), ("phase", "phase_deg", "deg"), ("offset", "offset", ""),
+               ("frequency", "frequency_hz", "Hz"))
+
+
+@dataclass(frozen=True)
+class FitResult(JobResult):
+    """The sine fits of a recording's channels.
+
+    Attributes
+    ----------
+    file : str
+        The recording (path, or the Recording's ``source``).
+    channels : mapping of str to SineFit
+        One fit per fitted channel, in the recording's order (SI units,
+        phase in rad, standard uncertainties k=1).
+    not_fitted : mapping of str to str
+        Channels left out and why (constant, a sample counter, NaN, no sine ...).
+    units : mapping of str to str
+        Unit of each fitted channel ('' when the file gives none).
+    warnings : tuple of str
+        Named warnings (``coloured-noise``, ``channel-not-fitted`` ...).
+    """
+
+    job: ClassVar[str] = "fit"
+
+    file: str
+    channels: Mapping[str, SineFit]
+    not_fitted: Mapping[str, str] = field(default_factory=dict)
+    units: Mapping[str, str] = field(default_factory=dict)
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``senscal fit --json`` document: ``{"file", "channels": {NAME: {...}}, ["not_fitted"], "warnings"}``."""
+        doc: dict[str, Any] = {"file": self.file, "channels": {c: fit_summary(f) for c, f in self.channels.items()}}
+        if self.not_fitted:
+            doc["not_fitted"] = dict(self.not_fitted)
+        doc["warnings"] = list(self.warnings)
+        return doc
+
+    def quantities(self) -> tuple[Quantity, ...]:
+        """``<channel>.amplitude|phase|offset|frequency`` per channel (phase in deg, frequency in Hz).
+
+        Amplitude and offset carry no unit, as the registry has always stored
+        them (the channel's unit is in ``units`` and the kept result).
+        """
+        out = []
+        for ch, f in self.channels.items():
+            doc = fit_summary(f)
+            for suffix, key, unit in _QUANTITIES:
+                out.append(Quantity(f"{ch}.{suffix}", doc[key], doc[f"u_{key}"], unit))
+        return tuple(out)
+
+    def to_dataframe(self):
+        """One row per fitted channel: the JSON fields of the fit (``phase_deg`` ...)."""
+        import pandas as pd
+
+        rows = [{"channel": c, **fit_summary(f)} for c, f in self.channels.items()]
+        return pd.DataFrame.from_records(rows)
+
+
+def fit(source: Any, options: FitOptions | None = None) -> FitResult:
+    """Sine fit of a recording's channels.
+
+    A channel that cannot be fitted (constant, a sample counter, NaN, no
+    sinusoid ...) is left out with a ``channel-not-fitted`` warning naming
+    it and the reason; the job fails only when no channel can be fitted.
+
+    Parameters
+    ----------
+    source : str, Path or Recording
+        The recording.
+    options : FitOptions, optional
+        Defaults: every channel, frequency estimated, one harmonic.
+
+    Returns
+    -------
+    FitResult
+
+    Raises
+    ------
+    SenscalError
+        Unreadable file, unknown channel, a frequency above Nyquist, or no
+        channel that could be fitted (one line, with the fix).
+    """
+    options = FitOptions() if options is None else options
+    # NaN in one channel should not stop the others: checked per channel below.
+    rec = read_source(source, time_column=options.time_column, fs=options.fs, names=options.names,
+                      channels=options.channels, allow_nan=True)
+    name = source_name(source)
+    chans = list(rec.names)
+    y = rec.data(chans)
+    freq, harmonics, noise_model = options.freq, options.harmonics, options.noise_model
+    failed: dict[str, SenscalError] = {}
+    reasons: dict[str, str] = {}
+    for i, c in enumerate(chans):
+        why = not_a_signal(y[i])
+        if why is not None:
+            reasons[c] = why
+            failed[c] = DataError(f"channel {c!r} cannot be fitted: {why}")
+    good = [i for i, c in enumerate(chans) if c not in failed]
+    fits: dict[str, SineFit] = {}
+    if freq is not None and good:
+        try:
+            res = fit_sine(y[good], rec.time, freq=freq, harmonics=harmonics, noise_model=noise_model)
+            fits = {chans[i]: res.channel(j) for j, i in enumerate(good)}
+        except SenscalError:
+            fits = {}  # find out which channel: one by one below
+    if not fits:
+        for i in good:
+            try:
+                fits[chans[i]] = fit_sine(y[i], rec.time, freq=freq, harmonics=harmonics, noise_model=noise_model)
+            except InputError as exc:
+                if "Nyquist" in str(exc) and freq is not None:
+                    raise  # an argument error, the same for every channel
+                failed[chans[i]] = exc
+                reasons[chans[i]] = str(exc)
+            except SenscalError as exc:
+                failed[chans[i]] = exc
+                reasons[chans[i]] = str(exc)
+    if not fits:
+        if len(failed) == 1:
+            raise next(iter(failed.values()))
+        detail = "; ".join(f"{c!r}: {r}" for c, r in reasons.items())
+        raise DataError(f"no channel of {name} could be fitted ({detail})")
+    warnings = []
+    for c, f in fits.items():
+        for w in f.warnings:
+            nm = warning_name(w)
+            warnings.append(named(nm, f"channel {c!r}: {w[len(nm) + 2:]}") if nm else f"channel {c!r}: {w}")
+    for c, r in reasons.items():
+        warnings.append(named("channel-not-fitted", f"channel {c!r} was not fitted: {r}"))
+    ordered = {c: fits[c] for c in chans if c in fits}
+    return FitResult(file=name, channels=ordered, not_fitted=dict(reasons),
+                     units={c: rec.unit(c) for c in ordered}, warnings=tuple(warnings))
