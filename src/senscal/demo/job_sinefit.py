@@ -9,9 +9,9 @@ import numpy as np
 
 from senscal.demo import DemoSection
 from senscal.io import write_recording
+from senscal.jobs.fit import FitOptions, fit
 from senscal.report.plots import new_figure, save_figure
 from senscal.simulate import simulate_sine, write_truth
-from senscal.sinefit import fit_sine
 
 ORDER = 0
 TITLE = "Sine fit (engine)"
@@ -23,9 +23,9 @@ def run(out: Path, seed: int) -> DemoSection:
     write_recording(rec, folder / "sine.csv")
     write_truth(truth, folder / "sine_truth.json")
     y = rec.data()
+    result = fit(rec, FitOptions())  # the fit job, frequency estimated: the four-parameter fit
     rows = []
-    for i, name in enumerate(rec.names):
-        f = fit_sine(y[i], rec.time)  # frequency estimated: the four-parameter fit
+    for name, f in result.channels.items():
         tr = truth["channels"][name]
         rows += [
             {"quantity": f"{name} amplitude", "truth": tr["amplitude"], "estimate": f.amplitude, "uncertainty": f.u_amplitude, "unit": "V"},
@@ -33,7 +33,7 @@ def run(out: Path, seed: int) -> DemoSection:
             {"quantity": f"{name} offset", "truth": tr["offset"], "estimate": f.offset, "uncertainty": f.u_offset, "unit": "V"},
             {"quantity": f"{name} frequency", "truth": truth["frequency_hz"], "estimate": f.frequency, "uncertainty": f.u_frequency, "unit": "Hz"},
         ]
-    f1 = fit_sine(y[0], rec.time)
+    f1 = result.channels[rec.names[0]]
     fig, ax = new_figure(2, 1, height=5.0, sharex=True)
     t = rec.time
     sl = slice(0, 400)
