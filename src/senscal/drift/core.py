@@ -383,7 +383,7 @@ def _detect(build, setup: DriftSetup, levels: Mapping[str, float], yy: np.ndarra
 
 
 def drift_prior(setup: DriftSetup, y: np.ndarray, covariates: Mapping[str, np.ndarray],
-                duration: float) -> tuple[np.ndarray, np.ndarray]:
+                duration: float, *, spread: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Prior mean and covariance of the augmented state from the data.
 
     The quantity near the first samples, biases near zero, both ten times
@@ -400,6 +400,10 @@ def drift_prior(setup: DriftSetup, y: np.ndarray, covariates: Mapping[str, np.nd
         Referenced covariates (``c - c_ref``) [covariate unit].
     duration : float
         Record length [s] (scales a ramp's slope prior).
+    spread : float, optional
+        Typical size of the quantity and biases [unit] that sets the prior
+        widths; default the data's spread (a fleet gives one per channel
+        group, so that its channels share their covariance).
 
     Returns
     -------
@@ -411,7 +415,8 @@ def drift_prior(setup: DriftSetup, y: np.ndarray, covariates: Mapping[str, np.nd
     n = len(setup.state_names)
     ns = setup.signal.n_states
     T = yy.shape[-1]
-    spread = max(float(np.nanstd(yy)), float(np.nanmax(np.abs(yy))) * 1e-6, 1e-300)
+    if spread is None:
+        spread = max(float(np.nanstd(yy)), float(np.nanmax(np.abs(yy))) * 1e-6, 1e-300)
     duration = duration if duration > 0 else 1.0
     x0 = np.zeros(n)
     p0 = np.full(n, (10.0 * spread) ** 2)
