@@ -6,14 +6,13 @@ import math
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, load,
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings,
                                 print_json, progress_bar, table)
-from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted,
+from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.errors import InputError
 
@@ -29,44 +28,37 @@ WindowOpt = Annotated[Optional[float], typer.Option(
     "--window", help="Savitzky-Golay window of the encoder derivatives, s.")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Before/after compensation against angle (PNG).")]
 
-_UNIT_WORDS = {"deg": "deg", "degree": "deg", "degrees": "deg", "°": "deg", "rad": "rad", "radian": "rad",
-               "radians": "rad"}
 
 
-def angle_unit_of(rec, name: str, given: str | None) -> str:
-    """The angle unit: as given, else from the file, else rad; conflicts are errors."""
-    in_file = _UNIT_WORDS.get(rec.unit(name).strip().lower()) if rec.unit(name) else None
-    if given is None:
-        return in_file or "rad"
-    g = given.strip().lower()
-    if g not in ("deg", "rad"):
-        raise InputError(f"--angle-unit must be deg or rad, got {given!r}")
-    if in_file and in_file != g:
-        raise InputError(f"--angle-unit {g} contradicts the file, which says channel '{name}' is in {in_file}; "
-                         "drop --angle-unit or fix the file")
-    return g
+def _calibrate_options(*, angle: str = "angle", accel: str = "accel", angle_unit: str | None = None,
+                       sensitivity: float = 1.0, u_sensitivity: float = 0.0, radius: float | None = None,
+                       ripple_correction: bool = True, g: float = 9.80665, window: float | None = None,
+                       max_speed_variation: str = "10%", time_column: str = "t", fs: float | None = None,
+                       names: str | None = None, **_):
+    """``ShaftCalibrateOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.cli.common import parse_relative
+    from senscal.jobs.shaft import ShaftCalibrateOptions
+
+    return ShaftCalibrateOptions(
+        angle=angle, accel=accel, angle_unit=angle_unit, sensitivity=sensitivity, u_sensitivity=u_sensitivity,
+        radius=radius, ripple_correction=ripple_correction, g=g, window=window,
+        max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"),
+        time_column=time_column, fs=fs, names=names)
 
 
-def calibration_summary(model) -> dict:
-    """The JSON fields of ``senscal shaft calibrate`` (CLI contract)."""
-    d = {
-        "amplitude": model.amplitude, "u_amplitude": model.u_amplitude,
-        "phase_deg": math.degrees(model.phase), "u_phase_deg": math.degrees(model.u_phase),
-        "offset": model.offset, "u_offset": model.u_offset, "residual_rms": model.residual_rms,
-        "tilt_deg": math.degrees(model.tilt), "u_tilt_deg": math.degrees(model.u_tilt),
-        "revolutions": model.revolutions,
-        "bias": model.bias, "u_bias": model.u_bias, "noise": model.noise,
-        "sensitivity": model.sensitivity, "output_unit": model.output_unit,
-        "mean_speed_rps": model.mean_speed / (2 * math.pi), "speed_variation": model.speed_variation,
-        "angular_acceleration_rms": model.angular_acceleration_rms,
-        "ripple_correction": model.ripple_correction, "ripple_coefficient": model.ripple_coefficient,
-        "u_ripple_coefficient": model.u_ripple_coefficient, "ripple_leak": model.ripple_leak,
-        "synchronous_ripple": model.synchronous_ripple, "nuisance": list(model.nuisance),
-        "centripetal_coefficient": model.centripetal_coefficient,
-        "u_centripetal_coefficient": model.u_centripetal_coefficient,
-        "n_samples": model.n_samples, "window_s": model.window, "warnings": list(model.warnings),
-    }
-    return d
+def _compensate_options(*, model_path: Path | str | None = None, radius: float | None = None, angle: str = "angle",
+                        accel: str = "accel", angle_unit: str | None = None, window: float | None = None,
+                        centripetal: bool = False, time_column: str = "t", fs: float | None = None,
+                        names: str | None = None, **_):
+    """``ShaftCompensateOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.jobs.shaft import ShaftCompensateOptions
+
+    return ShaftCompensateOptions(model=model_path, radius=radius, angle=angle, accel=accel, angle_unit=angle_unit,
+                                  window=window, centripetal=centripetal, time_column=time_column, fs=fs, names=names)
+
+
+# What `senscal batch` turns a job's option words into (see senscal.jobs).
+JOB_OPTIONS = {"shaft-calibrate": _calibrate_options, "shaft-compensate": _compensate_options}
 
 
 @shaft_app.command("calibrate")
@@ -97,33 +89,22 @@ def calibrate_cmd(
     date: DateOpt = None, operator: OperatorOpt = None,
 ) -> None:
     """Identify the gravity sinusoid against the encoder angle: amplitude, phase, offset, tilt, bias."""
-    from senscal.cli.common import parse_relative
-    from senscal.shaft import calibrate_gravity
+    from senscal.jobs.shaft import shaft_calibrate
 
-    rec = load(file, time_column=time_column, fs=fs, names=names, channels=[angle, accel])
-    unit = angle_unit_of(rec, angle, angle_unit)
+    opts = _calibrate_options(**locals())
     with progress_bar("gravity fit against the encoder angle", None):
-        model = calibrate_gravity(
-            rec[accel], rec[angle], rec.time, angle_unit=unit, sensitivity=sensitivity, u_sensitivity=u_sensitivity,
-            output_unit=rec.unit(accel), radius=radius, ripple_correction=ripple_correction, g=g,
-            window=0.1 if window is None else window,
-            max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"), source=str(file))
-    doc = calibration_summary(model)
+        result = shaft_calibrate(file, opts)
+    model = result.model
+    doc = result.to_dict()
     if out is not None:
         doc["model"] = str(model.save(out))
     if plot is not None:
-        from senscal.shaft.angle import angle_to_rad
         from senscal.shaft.plotting import plot_compensation
 
-        th = angle_to_rad(rec[angle], unit)
-        a = rec[accel]
-        doc["plot"] = str(plot_compensation(plot, model, th, a, (a - model.gravity(th)) / sensitivity,
-                                            unit=rec.unit(accel), title=f"gravity calibration: {file.name}"))
-    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
-                      job="shaft", method="gravity sine fit against the encoder angle (Yang et al. 2014)",
-                      quantities=lambda: [quoted(doc, "gravity_amplitude", "amplitude", "u_amplitude", model.output_unit),
-                                          quoted(doc, "bias", "offset", "u_offset", model.output_unit)],
-                      input_files=[file])
+        doc["plot"] = str(plot_compensation(plot, model, result.angle, result.accel, result.compensated(),
+                                            unit=result.accel_unit, title=f"gravity calibration: {file.name}"))
+    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
+                      operator=operator, job="shaft", method=result.method, input_files=[file])
     if json_out:
         print_json(doc)
     else:
@@ -142,7 +123,7 @@ def calibrate_cmd(
         for k in ("model", "plot"):
             if k in doc:
                 console.print(f"wrote {doc[k]}")
-    emit_warnings(model.warnings, strict)
+    emit_warnings(result.warnings, strict)
 
 
 @shaft_app.command("compensate")
@@ -167,32 +148,22 @@ def compensate_cmd(
     json_out: JsonOpt = False,
 ) -> None:
     """Remove gravity at the measured angle: tangential and angular acceleration, checked against the encoder."""
-    from senscal.io import Recording, write_recording
-    from senscal.shaft import load_model
-    from senscal.shaft import compensate
+    from senscal.io import write_recording
+    from senscal.jobs.shaft import shaft_compensate
 
-    model = load_model(model_path)
-    rec = load(file, time_column=time_column, fs=fs, names=names, channels=[angle, accel])
-    unit = angle_unit_of(rec, angle, angle_unit)
+    if out is not None and out.resolve() == Path(file).resolve():
+        raise InputError(f"--out {out} would overwrite the input file; choose another name")
     with progress_bar("gravity compensation and encoder check", None):
-        res = compensate(model, rec[accel], rec[angle], rec.time, radius=radius, angle_unit=unit, window=window,
-                         remove_centripetal=centripetal, accel_unit=rec.unit(accel))
-    doc = res.to_dict()
-    doc = {"file": str(file), "model": str(model_path), **doc}
+        result = shaft_compensate(file, _compensate_options(**locals()))
+    res, model = result.compensation, result.model
+    doc = result.to_dict()
     if out is not None:
-        if out.resolve() == Path(file).resolve():
-            raise InputError(f"--out {out} would overwrite the input file; choose another name")
-        outrec = Recording(channels={"tangential_acceleration": res.tangential_acceleration,
-                                     "angular_acceleration": res.angular_acceleration,
-                                     "angular_acceleration_encoder": res.angular_acceleration_encoder},
-                           t=res.t, units={"tangential_acceleration": "m/s^2", "angular_acceleration": "rad/s^2",
-                                           "angular_acceleration_encoder": "rad/s^2"})
-        doc["out"] = str(write_recording(outrec, out))
+        doc["out"] = str(write_recording(result.output_recording(), out))
     if plot is not None:
         from senscal.shaft.plotting import plot_compensation
 
         doc["plot"] = str(plot_compensation(
-            plot, model, res.angle, np.asarray(rec[accel]), res.tangential_acceleration, unit=rec.unit(accel),
+            plot, model, res.angle, result.accel, res.tangential_acceleration, unit=result.accel_unit,
             title=f"gravity compensation: {file.name} (r = {radius:g} m)", t=res.t,
             alphas={"uncompensated (smoothed)": _smoothed(res.uncompensated_angular_acceleration, res),
                     "compensated (smoothed)": res.angular_acceleration_smoothed,
@@ -215,7 +186,7 @@ def compensate_cmd(
         for k in ("out", "plot"):
             if k in doc:
                 console.print(f"wrote {doc[k]}")
-    emit_warnings(res.warnings, strict)
+    emit_warnings(result.warnings, strict)
 
 
 def _smoothed(x, res):

@@ -1,0 +1,386 @@
+"""Shaft jobs: gravity identification (``shaft-calibrate``) and compensation (``shaft-compensate``).
+
+Both read a run with an encoder angle channel and a tangential accelerometer
+channel (Yang et al. 2014, see ``senscal.shaft``).  The jobs load and check
+the recording, call the engines and return frozen results; writing the model
+file, the compensated recording and the plots stays with the caller (the
+CLI), which uses :meth:`ShaftCompensateResult.output_recording` and
+:meth:`senscal.shaft.GravityModel.save`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from senscal.errors import InputError
+from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+
+__all__ = ["ShaftCalibrateOptions", "ShaftCalibrateResult", "shaft_calibrate", "ShaftCompensateOptions",
+           "ShaftCompensateResult", "shaft_compensate", "angle_unit_of", "calibration_summary", "METHOD"]
+
+#: How the registry describes the method of a shaft calibration.
+METHOD = "gravity sine fit against the encoder angle (Yang et al. 2014)"
+
+_UNIT_WORDS = {"deg": "deg", "degree": "deg", "degrees": "deg", "°": "deg", "rad": "rad", "radian": "rad",
+               "radians": "rad"}
+
+
+def angle_unit_of(rec, name: str, given: str | None) -> str:
+    """The unit of the encoder angle channel: as given, else from the file, else rad.
+
+    Parameters
+    ----------
+    rec : Recording
+    name : str
+        Angle channel.
+    given : {"deg", "rad"} or None
+        The user's unit; None takes the file's.
+
+    Raises
+    ------
+    InputError
+        A unit other than deg/rad, or one that contradicts the file.
+    """
+    in_file = _UNIT_WORDS.get(rec.unit(name).strip().lower()) if rec.unit(name) else None
+    if given is None:
+        return in_file or "rad"
+    g = given.strip().lower()
+    if g not in ("deg", "rad"):
+        raise InputError(f"--angle-unit must be deg or rad, got {given!r}")
+    if in_file and in_file != g:
+        raise InputError(f"--angle-unit {g} contradicts the file, which says channel '{name}' is in {in_file}; "
+                         "drop --angle-unit or fix the file")
+    return g
+
+
+def calibration_summary(model) -> dict[str, Any]:
+    """The JSON document of a gravity calibration (the ``senscal shaft calibrate --json`` contract).
+
+    Phases and tilt in degrees, speed in rev/s, the rest in the model's units.
+    """
+    return {
+        "amplitude": model.amplitude, "u_amplitude": model.u_amplitude,
+        "phase_deg": math.degrees(model.phase), "u_phase_deg": math.degrees(model.u_phase),
+        "offset": model.offset, "u_offset": model.u_offset, "residual_rms": model.residual_rms,
+        "tilt_deg": math.degrees(model.tilt), "u_tilt_deg": math.degrees(model.u_tilt),
+        "revolutions": model.revolutions,
+        "bias": model.bias, "u_bias": model.u_bias, "noise": model.noise,
+        "sensitivity": model.sensitivity, "output_unit": model.output_unit,
+        "mean_speed_rps": model.mean_speed / (2 * math.pi), "speed_variation": model.speed_variation,
+        "angular_acceleration_rms": model.angular_acceleration_rms,
+        "ripple_correction": model.ripple_correction, "ripple_coefficient": model.ripple_coefficient,
+        "u_ripple_coefficient": model.u_ripple_coefficient, "ripple_leak": model.ripple_leak,
+        "synchronous_ripple": model.synchronous_ripple, "nuisance": list(model.nuisance),
+        "centripetal_coefficient": model.centripetal_coefficient,
+        "u_centripetal_coefficient": model.u_centripetal_coefficient,
+        "n_samples": model.n_samples, "window_s": model.window, "warnings": list(model.warnings),
+    }
+
+
+def _quantity(name: str, value: float, u: float, unit: str) -> Quantity:
+    from senscal.registry import UnknownQuantityError
+
+    if not (math.isfinite(value) and math.isfinite(u)):
+        raise UnknownQuantityError(f"the result's {name!r} is not finite; nothing to save")
+    return Quantity(name, float(value), float(u), unit)
+
+
+# ---------------------------------------------------------------------------
+# shaft-calibrate
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ShaftCalibrateOptions:
+    """Options of :func:`shaft_calibrate` (the ``senscal shaft calibrate`` options).
+
+    Attributes
+    ----------
+    angle, accel : str
+        Encoder angle channel and tangential accelerometer channel.
+    angle_unit : {"deg", "rad"} or None
+        Unit of the angle channel; None: the file's, else rad.
+    sensitivity : float
+        Accelerometer output per m/s^2 (1: output in m/s^2).
+    u_sensitivity : float
+        Standard uncertainty of ``sensitivity``, same unit.
+    radius : float or None
+        Sensor radius, m: subtract ``S r alpha_encoder`` before the fit.
+    ripple_correction : bool
+        Estimate the response to encoder angular acceleration with the fit.
+    g : float
+        Local gravity, m/s^2.
+    window : float or None
+        Savitzky-Golay window of the encoder derivatives, s (None: 0.1 s).
+    max_speed_variation : float
+        Warn above this speed std/mean (fraction, 0.1 = 10 %).
+    time_column, fs, names
+        How the recording is read (see :func:`senscal.io.read_recording`).
+    """
+
+    angle: str = "angle"
+    accel: str = "accel"
+    angle_unit: str | None = None
+    sensitivity: float = 1.0
+    u_sensitivity: float = 0.0
+    radius: float | None = None
+    ripple_correction: bool = True
+    g: float = 9.80665
+    window: float | None = None
+    max_speed_variation: float = 0.10
+    time_column: str = "t"
+    fs: float | None = None
+    names: str | tuple[str, ...] | None = None
+
+
+@dataclass(frozen=True)
+class ShaftCalibrateResult(JobResult):
+    """Gravity model of a constant-speed run, with the data it was fitted to.
+
+    Attributes
+    ----------
+    model : senscal.shaft.GravityModel
+        Amplitude, phase, offset (output unit), tilt (rad), bias (m/s^2) with
+        standard uncertainties (k=1).
+    source : str
+        The recording (path, or the Recording's ``source``).
+    angle : ndarray, shape (N,)
+        Encoder angle, rad (as recorded, converted from its unit).
+    accel : ndarray, shape (N,)
+        Accelerometer output, output unit.
+    accel_unit : str
+        Unit of the accelerometer channel in the file ('' if unknown).
+    warnings : tuple of str
+        Named warnings (the model's).
+    """
+
+    job: ClassVar[str] = "shaft-calibrate"
+    method: ClassVar[str] = METHOD
+
+    model: Any
+    source: str
+    angle: np.ndarray = field(repr=False)
+    accel: np.ndarray = field(repr=False)
+    accel_unit: str = ""
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``senscal shaft calibrate --json`` document (without the output paths the CLI adds)."""
+        return calibration_summary(self.model)
+
+    def quantities(self) -> tuple[Quantity, ...]:
+        """``gravity_amplitude`` and ``bias`` (the fitted offset), in the output unit, as ``--save`` stores them."""
+        m = self.model
+        return (_quantity("gravity_amplitude", m.amplitude, m.u_amplitude, m.output_unit),
+                _quantity("bias", m.offset, m.u_offset, m.output_unit))
+
+    def to_dataframe(self):
+        """One row per fitted quantity: value, standard u (k=1), unit, k, U = 2u."""
+        import pandas as pd
+
+        m = self.model
+        rows = [("amplitude", m.amplitude, m.u_amplitude, m.output_unit),
+                ("phase", math.degrees(m.phase), math.degrees(m.u_phase), "deg"),
+                ("offset", m.offset, m.u_offset, m.output_unit),
+                ("tilt", math.degrees(m.tilt), math.degrees(m.u_tilt), "deg"),
+                ("bias", m.bias, m.u_bias, "m/s^2")]
+        return pd.DataFrame([{"quantity": n, "value": float(v), "u": float(u), "unit": unit, "k": 2.0,
+                              "U": 2.0 * float(u)} for n, v, u, unit in rows],
+                            columns=["quantity", "value", "u", "unit", "k", "U"])
+
+    def compensated(self) -> np.ndarray:
+        """The calibration run itself with gravity removed, m/s^2 (for the before/after plot)."""
+        return (self.accel - self.model.gravity(self.angle)) / self.model.sensitivity
+
+
+def shaft_calibrate(source, options: ShaftCalibrateOptions = ShaftCalibrateOptions()) -> ShaftCalibrateResult:
+    """Identify the gravity sinusoid of a constant-speed run against the encoder angle.
+
+    Parameters
+    ----------
+    source : str, Path or Recording
+        The calibration run: encoder angle and accelerometer channels.
+    options : ShaftCalibrateOptions
+
+    Returns
+    -------
+    ShaftCalibrateResult
+
+    Raises
+    ------
+    SenscalError
+        Unreadable recording, unknown channel, contradicting angle unit,
+        too short a run ... (one line, with the fix).
+
+    References
+    ----------
+    Yang et al. (2014), gravity compensation of a tangential accelerometer
+    on a rotating shaft (``../shared/METHODS.md``).
+    """
+    from senscal.shaft import calibrate_gravity
+    from senscal.shaft.angle import angle_to_rad
+
+    o = options
+    if not 0 <= o.max_speed_variation < 1e6:
+        raise InputError(f"--max-speed-variation must be a fraction >= 0, got {o.max_speed_variation!r}")
+    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names, channels=[o.angle, o.accel])
+    unit = angle_unit_of(rec, o.angle, o.angle_unit)
+    name = source_name(source)
+    model = calibrate_gravity(
+        rec[o.accel], rec[o.angle], rec.time, angle_unit=unit, sensitivity=o.sensitivity,
+        u_sensitivity=o.u_sensitivity, output_unit=rec.unit(o.accel), radius=o.radius,
+        ripple_correction=o.ripple_correction, g=o.g, window=0.1 if o.window is None else o.window,
+        max_speed_variation=o.max_speed_variation, source=name)
+    return ShaftCalibrateResult(model=model, source=name, angle=angle_to_rad(rec[o.angle], unit),
+                                accel=np.asarray(rec[o.accel], dtype=float), accel_unit=rec.unit(o.accel),
+                                warnings=tuple(model.warnings))
+
+
+# ---------------------------------------------------------------------------
+# shaft-compensate
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ShaftCompensateOptions:
+    """Options of :func:`shaft_compensate` (the ``senscal shaft compensate`` options).
+
+    Attributes
+    ----------
+    model : str, Path or senscal.shaft.GravityModel
+        The gravity model: MODEL.json from ``shaft calibrate --out`` or a
+        model in memory (``ShaftCalibrateResult.model``).
+    radius : float
+        Sensor distance from the axis, m (required).
+    angle, accel : str
+        Encoder angle and accelerometer channels.
+    angle_unit : {"deg", "rad"} or None
+        Unit of the angle channel; None: the file's, else rad.
+    window : float or None
+        Savitzky-Golay window, s (None: the calibration's).
+    centripetal : bool
+        Estimate and remove the centripetal leakage ``k r (w^2 - w_cal^2)``.
+    time_column, fs, names
+        How the recording is read.
+    """
+
+    model: Any = None
+    radius: float | None = None
+    angle: str = "angle"
+    accel: str = "accel"
+    angle_unit: str | None = None
+    window: float | None = None
+    centripetal: bool = False
+    time_column: str = "t"
+    fs: float | None = None
+    names: str | tuple[str, ...] | None = None
+
+
+_OUTPUT_UNITS = {"tangential_acceleration": "m/s^2", "angular_acceleration": "rad/s^2",
+                 "angular_acceleration_encoder": "rad/s^2"}
+
+
+@dataclass(frozen=True)
+class ShaftCompensateResult(JobResult):
+    """A run with gravity removed: tangential and angular acceleration, checked against the encoder.
+
+    Attributes
+    ----------
+    compensation : senscal.shaft.ShaftCompensation
+        Arrays (time, angle rad, tangential m/s^2, angular rad/s^2) and the
+        encoder check (rad/s^2).
+    model : senscal.shaft.GravityModel
+        The model that was applied.
+    source : str
+        The recording.
+    model_source : str
+        Where the model came from (its file, or ``"<model>"``).
+    accel : ndarray, shape (N,)
+        The uncompensated accelerometer output, output unit.
+    accel_unit : str
+    warnings : tuple of str
+    """
+
+    job: ClassVar[str] = "shaft-compensate"
+
+    compensation: Any
+    model: Any
+    source: str
+    model_source: str
+    accel: np.ndarray = field(repr=False)
+    accel_unit: str = ""
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``senscal shaft compensate --json`` document (without the output paths the CLI adds)."""
+        return {"file": self.source, "model": self.model_source, **self.compensation.to_dict()}
+
+    def output_recording(self):
+        """What ``--out`` writes: t, tangential_acceleration (m/s^2), angular_acceleration and the encoder's (rad/s^2)."""
+        from senscal.io import Recording
+
+        c = self.compensation
+        return Recording(channels={"tangential_acceleration": c.tangential_acceleration,
+                                   "angular_acceleration": c.angular_acceleration,
+                                   "angular_acceleration_encoder": c.angular_acceleration_encoder},
+                         t=c.t, units=dict(_OUTPUT_UNITS))
+
+    def to_dataframe(self):
+        """One row per sample: t (s) and the compensated series of :meth:`output_recording`."""
+        import pandas as pd
+
+        c = self.compensation
+        return pd.DataFrame({"t": c.t, "tangential_acceleration": c.tangential_acceleration,
+                             "angular_acceleration": c.angular_acceleration,
+                             "angular_acceleration_encoder": c.angular_acceleration_encoder})
+
+
+def _model_of(model) -> tuple[Any, str]:
+    from senscal.shaft import GravityModel, load_model
+
+    if model is None:
+        raise InputError("shaft compensation needs the gravity model: give --model MODEL.json from "
+                         "'senscal shaft calibrate --out MODEL.json'")
+    if isinstance(model, GravityModel):
+        return model, "<model>"
+    if isinstance(model, (str, Path)):
+        return load_model(model), str(model)
+    raise InputError(f"the shaft model must be a MODEL.json path or a GravityModel, got {type(model).__name__}")
+
+
+def shaft_compensate(source, options: ShaftCompensateOptions = ShaftCompensateOptions()) -> ShaftCompensateResult:
+    """Remove gravity at the measured angle: tangential and angular acceleration of any run.
+
+    Parameters
+    ----------
+    source : str, Path or Recording
+        The run: encoder angle and accelerometer channels.
+    options : ShaftCompensateOptions
+        ``model`` and ``radius`` are required.
+
+    Returns
+    -------
+    ShaftCompensateResult
+
+    Raises
+    ------
+    SenscalError
+        Missing or unreadable model, no radius, unknown channel, units that
+        differ from the calibration's ... (one line, with the fix).
+    """
+    from senscal.shaft import compensate
+
+    o = options
+    if o.radius is None:
+        raise InputError("shaft compensation needs the sensor radius: give --radius R (m, distance from the axis)")
+    model, model_source = _model_of(o.model)
+    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names, channels=[o.angle, o.accel])
+    unit = angle_unit_of(rec, o.angle, o.angle_unit)
+    res = compensate(model, rec[o.accel], rec[o.angle], rec.time, radius=o.radius, angle_unit=unit, window=o.window,
+                     remove_centripetal=o.centripetal, accel_unit=rec.unit(o.accel))
+    return ShaftCompensateResult(compensation=res, model=model, source=source_name(source),
+                                 model_source=model_source, accel=np.asarray(rec[o.accel], dtype=float),
+                                 accel_unit=rec.unit(o.accel), warnings=tuple(res.warnings))
