@@ -1,9 +1,24 @@
-"""Calibration certificates in HTML for the vibration jobs.
+"""Calibration certificates (HTML and PDF) for the vibration jobs.
 
-One self-contained page (plots inlined as SVG, no scripts, no network):
-certificate id, item identification, date, method, conditions, results with
-expanded uncertainties (k=2), the uncertainty budget per point, plots, and the
-statement that the results relate only to the item calibrated.
+One self-contained page (plots inlined as SVG, no scripts, no network) that
+states what ISO/IEC 17025:2017 7.8.2.1 and 7.8.4.1 require: title, the
+laboratory's name and address, where the calibration was done, a unique id
+and "page x of y" on every page (PDF), the customer, the method and
+procedure, the item (description, manufacturer, model, serial), the dates of
+calibration and issue, the results with units and expanded uncertainties
+(k=2), the environmental conditions with their uncertainties, the reference
+standards with their own certificates and traceability, deviations from the
+method, a statement of conformity with its decision rule when one was asked
+for, who authorises the certificate, and the statement that the results
+relate only to the item calibrated.  The lab and run fields come from a
+:class:`senscal.report.lab.CertificateInfo`; when a required one is missing
+the certificate says DRAFT on every page and :func:`certificate_warnings`
+returns the ``certificate-draft`` warning naming them.  A field is never
+printed as "not stated".
+
+The PDF (:mod:`senscal.report.pdf`) is rendered from the same HTML by
+WeasyPrint: its ``@page`` rules put the certificate id, "page x of y" and the
+DRAFT mark in the page margins.
 
 References
 ----------
@@ -14,10 +29,12 @@ References
 
 from __future__ import annotations
 
+import base64
 import datetime as _dt
 import hashlib
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
@@ -25,52 +42,100 @@ import jinja2
 import numpy as np
 
 from senscal._result import to_jsonable
+from senscal.errors import InputError
+from senscal.report.lab import CertificateInfo, missing_fields
 from senscal.report.plots import new_figure, svg_inline
 
-__all__ = ["write_certificate", "certificate_html", "response_figure", "linearity_figure", "velocity_figure"]
+__all__ = ["write_certificate", "certificate_html", "certificate_id", "certificate_warnings", "budget_warnings",
+           "REPORT_SUFFIXES", "response_figure", "linearity_figure", "velocity_figure"]
+
+# What --report writes, by suffix.
+REPORT_SUFFIXES = (".html", ".htm", ".pdf")
 
 _TEMPLATE = jinja2.Template(
     """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>Calibration certificate {{ cert_id }}</title>
 <style>
-body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;max-width:960px;margin:2em auto;padding:0 1em;color:#222}
-h1{margin-bottom:.1em}.sub{color:#555;margin-top:0}
-table{border-collapse:collapse;margin:.6em 0 1.2em}td,th{border:1px solid #bbb;padding:.25em .6em;text-align:right}
-th{background:#f0f0f0}td:first-child,th:first-child{text-align:left}
-table.kv td{text-align:left}table.kv td:first-child{font-weight:600;background:#fafafa}
-.plot svg{max-width:100%;height:auto}
-.note{border-top:1px solid #ccc;margin-top:2em;padding-top:.6em;font-size:.92em;color:#333}
+@page{size:A4;margin:20mm 16mm 20mm 16mm;font-family:"DejaVu Sans",Helvetica,Arial,sans-serif;
+ @top-left{content:string(labname);font-size:8pt;color:#555}
+ @top-right{content:string(draftmark);font-size:10pt;font-weight:bold;color:#b00}
+ @bottom-left{content:"Certificate " string(certid);font-size:8pt;color:#333}
+ @bottom-right{content:"Page " counter(page) " of " counter(pages);font-size:8pt;color:#333}}
+body{font-family:"DejaVu Sans",system-ui,Segoe UI,Helvetica,Arial,sans-serif;color:#222;font-size:10pt}
+@media screen{body{max-width:960px;margin:2em auto;padding:0 1em;font-size:11pt}}
+header{display:flex;justify-content:space-between;align-items:flex-start;border-bottom:2px solid #333;padding-bottom:.4em}
+.lab .labname{font-size:13pt;font-weight:700;string-set:labname content()}
+.lab div{white-space:pre-line}
+.logo img{max-height:22mm;max-width:60mm}
+h1{margin:.5em 0 .1em;font-size:18pt}h2{font-size:12pt;margin:1.1em 0 .3em;break-after:avoid}
+.sub{color:#555;margin-top:0}.certid{string-set:certid content();font-weight:700}
+table{border-collapse:collapse;margin:.4em 0 .9em}td,th{border:1px solid #bbb;padding:.2em .5em;text-align:right;vertical-align:top}
+th{background:#f0f0f0}td:first-child,th:first-child{text-align:left}tr{break-inside:avoid}thead{display:table-header-group}
+table.kv{width:100%}table.kv td{text-align:left;white-space:pre-line}table.kv td:first-child{font-weight:600;background:#fafafa;width:32%}
+table.small{font-size:8pt;break-inside:avoid}table.small td,table.small th{padding:.15em .35em}
+.missing{color:#b00;font-weight:700}
+.draft{border:2px solid #b00;color:#b00;padding:.4em .6em;margin:.6em 0;string-set:draftmark "DRAFT"}
+.watermark{position:fixed;top:38%;left:0;width:100%;text-align:center;font-size:110pt;font-weight:700;
+ color:rgba(190,0,0,.13);transform:rotate(-35deg);z-index:-1}
+.plot{break-inside:avoid}.plot svg{width:100%;height:auto}
+.note{border-top:1px solid #ccc;margin-top:1.5em;padding-top:.5em;font-size:.92em;color:#333;break-inside:avoid}
+.sign{margin-top:1em}.sign td{border:none;padding:.2em 1.5em .2em 0;text-align:left}
+.end{text-align:center;color:#555;margin-top:1em}
 </style></head><body>
+{% if draft %}<div class="watermark">DRAFT</div>{% endif %}
+<header><div class="lab"><div class="labname">{{ lab.name or "Laboratory name missing" }}</div>
+<div>{{ lab.address }}</div>
+{% if lab.accreditation %}<div>Accreditation: {{ lab.accreditation }}</div>{% endif %}
+{% if lab.phone or lab.email %}<div>{{ lab.phone }}{% if lab.phone and lab.email %} &middot; {% endif %}{{ lab.email }}</div>{% endif %}
+</div>{% if logo %}<div class="logo"><img alt="logo" src="{{ logo }}"></div>{% endif %}</header>
 <h1>Calibration certificate</h1>
-<p class="sub">{{ title }} &middot; certificate {{ cert_id }}</p>
+<p class="sub">{{ title }} &middot; certificate <span class="certid">{{ cert_id }}</span></p>
+{% if draft %}<div class="draft"><b>DRAFT: not valid as a calibration certificate.</b> Required fields are missing:
+{{ missing | join(", ") }}.</div>{% endif %}
 <table class="kv">
 <tr><td>Certificate id</td><td>{{ cert_id }}</td></tr>
-<tr><td>Item calibrated</td><td>{{ sensor_id }}</td></tr>
-<tr><td>Model</td><td>{{ model }}</td></tr>
-<tr><td>Date of issue</td><td>{{ date }}</td></tr>
-<tr><td>Method</td><td>{{ method }}</td></tr>
-<tr><td>Software</td><td>senscal {{ version }}</td></tr>
-</table>
-<h2>Conditions</h2>
+{% for label, value in admin %}<tr><td>{{ label }}</td><td>{% if value is none %}<span class="missing">MISSING (required)</span>{% else %}{{ value }}{% endif %}</td></tr>
+{% endfor %}</table>
+<h2>Reference standards and traceability</h2>
+{% if lab.standards %}<table class="small"><thead><tr><th>standard</th><th>serial</th><th>its certificate</th><th>traceable to</th><th>calibration due</th><th>u (rel., k=1)</th></tr></thead>
+{% for s in lab.standards %}<tr><td>{{ s.name }}</td><td>{{ s.serial or "-" }}</td><td>{{ s.certificate or "-" }}</td><td>{{ s.traceability or "-" }}</td><td>{{ s.due or "-" }}</td><td>{{ pct(s.u_relative) }}</td></tr>
+{% endfor %}</table>
+<p>The measurements are metrologically traceable to the International System of Units (SI) through the reference
+standards above, whose own calibration certificates are listed.</p>
+{% else %}<p class="missing">MISSING (required): the reference standards and their traceability.</p>{% endif %}
+<h2>Environmental conditions</h2>
+{% if env %}<table><thead><tr><th>quantity</th><th>value</th><th>U (k=2)</th><th>unit</th></tr></thead>
+{% for c in env %}<tr><td>{{ c.name }}</td><td>{{ g(c.value) }}</td><td>{{ "-" if c.uncertainty is none else u(2 * c.uncertainty) }}</td><td>{{ c.unit }}</td></tr>
+{% endfor %}</table>{% else %}<p class="missing">MISSING (required): the environmental conditions of the calibration.</p>{% endif %}
+<h2>Calibration settings</h2>
 <table class="kv">{% for k, v in conditions %}<tr><td>{{ k }}</td><td>{{ v }}</td></tr>{% endfor %}</table>
 <h2>Results</h2>
 {% for s in summary %}<p><b>{{ s[0] }}</b>: {{ s[1] }}</p>{% endfor %}
-<table><tr>{% for c in columns %}<th>{{ c }}</th>{% endfor %}</tr>
+<table><thead><tr>{% for c in columns %}<th>{{ c }}</th>{% endfor %}</tr></thead>
 {% for row in rows %}<tr>{% for v in row %}<td>{{ v }}</td>{% endfor %}</tr>{% endfor %}</table>
 <p>U is the expanded uncertainty with coverage factor k = 2 (about 95 % coverage for a normal
 distribution), evaluated following the GUM (JCGM 100:2008) from the standard uncertainties below;
 where the effective degrees of freedom are few, k is Student's t for the same 95.45 % (shown in the budget).</p>
+{% for p in plots %}<div class="plot">{{ p | safe }}</div>{% endfor %}
+<h2>Deviations from the method</h2>
+<p>{{ run.deviations or "None: the calibration followed the method as stated." }}</p>
+{% if run.conformity %}<h2>Statement of conformity</h2>
+<p>{{ run.conformity }}</p>
+<p>Decision rule: {% if run.decision_rule %}{{ run.decision_rule }}{% else %}<span class="missing">MISSING (required with a statement of conformity)</span>{% endif %}</p>{% endif %}
 {% if warnings %}<h2>Warnings</h2>
 <p>The data depart from the method's model as follows; the uncertainties above do not cover these departures.</p>
 <ul>{% for w in warnings %}<li>{{ w }}</li>{% endfor %}</ul>{% endif %}
+{% if run.remarks %}<h2>Remarks</h2><p>{{ run.remarks }}</p>{% endif %}
 {% if budgets %}<h2>Uncertainty budget (standard uncertainties, k = 1)</h2>{% endif %}
-{% for bcols, brows in budgets %}<table><tr>{% for c in bcols %}<th>{{ c }}</th>{% endfor %}</tr>
+{% for bcols, brows in budgets %}<table class="small"><thead><tr>{% for c in bcols %}<th>{{ c }}</th>{% endfor %}</tr></thead>
 {% for row in brows %}<tr>{% for v in row %}<td>{{ v }}</td>{% endfor %}</tr>{% endfor %}</table>{% endfor %}
-{% for p in plots %}<div class="plot">{{ p | safe }}</div>{% endfor %}
 <div class="note">
 <p>The results relate only to the item calibrated, under the conditions stated above.
-This certificate shall not be reproduced except in full.</p>
-<p>Records: {{ files }}</p>
+This certificate shall not be reproduced except in full without the written approval of the laboratory.</p>
+<p>Records: {{ files }}. Software: senscal {{ version }}.</p>
+<table class="sign"><tr><td><b>Authorised by</b></td>
+{% for a in approvers %}<td>{{ a.name }}{% if a.role %}<br>{{ a.role }}{% endif %}</td>{% else %}<td><span class="missing">MISSING (required): the person who authorises the certificate</span></td>{% endfor %}</tr></table>
+<p class="end">End of certificate {{ cert_id }}</p>
 </div>
 </body></html>
 """,
@@ -93,27 +158,39 @@ def _u(v: Any) -> str:
     return _g(v, 2)
 
 
+def _plain_log_ticks(ax) -> None:
+    """Tick labels 1, 10, 100 on a log axis: the default ones are TeX, which literal (user-safe) text shows raw."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
 def response_figure(resp):
-    """Bode plot: (normalised) sensitivity and phase delay vs log frequency with k=2 bars."""
+    """Bode plot: (normalised) sensitivity and phase delay vs log frequency, with U (k=2) as bars and bands."""
     pts = resp.points
     f = np.array([p.frequency for p in pts])
+    order = np.argsort(f)
     norm = all(p.normalized_sensitivity is not None for p in pts)
     mag = np.array([p.normalized_sensitivity if norm else p.sensitivity for p in pts], dtype=float)
     umag = np.array([p.u_normalized_sensitivity if norm else p.u_sensitivity for p in pts], dtype=float)
     has_ph = all(p.phase_delay is not None for p in pts)
-    fig, ax = new_figure(2 if has_ph else 1, 1, height=5.5 if has_ph else 3.2, sharex=True, squeeze=False)
+    fig, ax = new_figure(2 if has_ph else 1, 1, width=7.0, height=4.8 if has_ph else 2.8, sharex=True, squeeze=False)
     ax = ax[:, 0]
-    ax[0].errorbar(f, mag, yerr=2 * umag, fmt="o-", capsize=3)
-    ax[0].set_xscale("log")
-    ax[0].set_ylabel("S_i / S_0" if norm else f"sensitivity ({resp.unit})")
-    ax[0].grid(True, which="both", alpha=0.3)
-    ax[0].set_title("Frequency response (bars: U, k=2)")
+    series = [(mag, umag, "o-", "C0", "S_i / S_0" if norm else f"sensitivity ({resp.unit})")]
     if has_ph:
-        ph = np.degrees([p.phase_delay for p in pts])
-        uph = np.degrees([p.u_phase_delay for p in pts])
-        ax[1].errorbar(f, ph, yerr=2 * uph, fmt="s-", color="C1", capsize=3)
-        ax[1].set_ylabel("phase delay (deg)")
-        ax[1].grid(True, which="both", alpha=0.3)
+        series.append((np.degrees([p.phase_delay for p in pts]), np.degrees([p.u_phase_delay for p in pts]), "s-",
+                       "C1", "phase delay (deg)"))
+    for a, (y, uy, fmt, colour, label) in zip(ax, series):
+        a.fill_between(f[order], (y - 2 * uy)[order], (y + 2 * uy)[order], color=colour, alpha=0.2, lw=0,
+                       label="U band (k=2)")
+        a.errorbar(f[order], y[order], yerr=2 * uy[order], fmt=fmt, color=colour, capsize=3, ms=4)
+        a.set_xscale("log")
+        a.set_ylabel(label)
+        a.grid(True, which="both", alpha=0.3)
+    ax[0].set_title("Frequency response (bars and bands: U, k=2)")
+    ax[0].legend(loc="best", fontsize="small")
+    _plain_log_ticks(ax[-1])
     ax[-1].set_xlabel("frequency (Hz)")
     return fig
 
@@ -233,8 +310,6 @@ def _tables(kind: str, result: Any, unit: str):
                    ("Intercept", f"{_g(result.intercept)}, U = {_u(k * result.u_intercept)} (k={_g(k, 3)})")]
         figs = [linearity_figure(result)]
     else:
-        from senscal.errors import InputError
-
         raise InputError(f"unknown certificate kind {kind!r}; use response, velocity or linearity")
     return cols, rows, budgets, summary, figs
 
@@ -242,12 +317,161 @@ def _tables(kind: str, result: Any, unit: str):
 _TITLES = {"response": "Accelerometer frequency response", "velocity": "Velocity-sensor sensitivity",
            "linearity": "Accelerometer amplitude linearity"}
 
+# The option that sets each type B component, for the budget-zero-component hint.
+_B_OPTIONS = {"input amplitude": "--u-input", "reference sensitivity": "--u-reference",
+              "static sensitivity S0": "--u-static-sensitivity", "input phase": "--u-initial-phase-deg",
+              "position reference": "--u-position"}
 
-def certificate_html(kind: str, result: Any, *, sensor_id: str = "not stated", model: str = "not stated",
-                     method: str = "", conditions: Mapping[str, Any] | None = None, unit: str = "",
+
+def _budgets(kind: str, result: Any) -> list[tuple[str, Any]]:
+    """Every (label, budget) a certificate of ``kind`` shows."""
+    if kind == "response":
+        return [(f"{p.frequency:g} Hz", b) for p in result.points
+                for b in (p.sensitivity_budget, p.normalized_budget, p.phase_delay_budget) if b is not None]
+    if kind == "velocity":
+        return [(f"{p.frequency:g} Hz", p.budget) for p in result.points] + [("mean", result.budget)]
+    return []
+
+
+def _sensitivity_u(kind: str, result: Any) -> list[tuple[str, float]]:
+    """(label, relative standard uncertainty) of each absolute sensitivity: what a reference standard bounds."""
+    if kind == "linearity":
+        return [("slope", abs(result.u_slope / result.slope))] if result.slope else []
+    return [(f"{b.quantity} at {label}" if label != "mean" else f"mean {b.quantity}", abs(b.combined / b.value))
+            for label, b in _budgets(kind, result) if b.quantity == "sensitivity" and b.value]
+
+
+def budget_warnings(kind: str, result: Any, standards: Sequence[Any] = ()) -> tuple[str, ...]:
+    """Sanity of the uncertainty budget a certificate states.
+
+    Parameters
+    ----------
+    kind : str
+        ``"response"``, ``"velocity"`` or ``"linearity"``.
+    result : object
+        The job's result (FrequencyResponse, VelocityCalibration, AmplitudeLinearity).
+    standards : sequence of Standard
+        The lab's reference standards; those with ``u_relative`` bound the result.
+
+    Returns
+    -------
+    tuple of str
+        ``budget-zero-component`` when a type B component is 0 (the
+        certificate's U then leaves that input out, e.g. an input amplitude
+        taken as exact); ``u-below-reference`` when an absolute sensitivity's
+        combined relative standard uncertainty is below a reference
+        standard's own ``u_relative`` (a calibration cannot be better than
+        the standard it is traced to; the budget misses that standard).
+    """
+    from senscal.diagnostics import named
+
+    out = []
+    zero: dict[str, list[str]] = {}
+    for label, b in _budgets(kind, result):
+        for c in b.components:
+            if c.kind == "B" and c.standard_uncertainty == 0:
+                zero.setdefault(c.source, [])
+                if b.quantity not in zero[c.source]:
+                    zero[c.source].append(b.quantity)
+    for source, quantities in zero.items():
+        hint = f" ({_B_OPTIONS[source]})" if source in _B_OPTIONS else ""
+        out.append(named("budget-zero-component", (
+            f"the type B component '{source}' is 0 in the budget of {', '.join(quantities)}: the stated U treats "
+            f"that input as exact; give its standard uncertainty{hint}, or the certificate understates U")))
+    refs = [s for s in standards if getattr(s, "u_relative", None)]
+    if refs:
+        worst = max(refs, key=lambda s: s.u_relative)
+        below = [(lab, u) for lab, u in _sensitivity_u(kind, result) if u < worst.u_relative]
+        if below:
+            lab, u = min(below, key=lambda x: x[1])
+            out.append(named("u-below-reference", (
+                f"{len(below)} result(s) have a relative standard uncertainty below that of the reference standard "
+                f"'{worst.name}' ({100 * worst.u_relative:.2g} %), e.g. {lab}: {100 * u:.2g} %; a calibration cannot "
+                "be better than its reference: add the reference's uncertainty to the budget (--u-input, "
+                "--u-reference, --u-position)")))
+    return tuple(out)
+
+
+def certificate_warnings(kind: str, result: Any, info: CertificateInfo) -> tuple[str, ...]:
+    """What a lab must hear before it issues the certificate: ``certificate-draft`` and the budget checks.
+
+    ``certificate-draft`` names the required fields that are missing
+    (:func:`senscal.report.lab.missing_fields`): the certificate says DRAFT
+    on every page until they are given.
+    """
+    from senscal.diagnostics import named
+
+    miss = missing_fields(info)
+    out = [named("certificate-draft", (
+        f"the certificate is marked DRAFT: required field(s) missing: {', '.join(miss)}; give them in the lab "
+        "profile (--lab FILE or $SENSCAL_LAB), a run file (--run FILE) or the certificate options"))] if miss else []
+    return tuple(out) + budget_warnings(kind, result, info.lab.standards)
+
+
+def certificate_id(kind: str, result: Any, info: CertificateInfo, date: _dt.datetime) -> str:
+    """The run's ``certificate_id``, else ``SC-YYYYMMDD-XXXXXXXX`` from the date and a digest of result and item."""
+    if info.run.certificate_id:
+        return info.run.certificate_id
+    item = f"{info.run.serial}|{info.run.model}|{kind}"
+    digest = hashlib.sha1(json.dumps(to_jsonable(result), sort_keys=True, default=str).encode()
+                          + item.encode()).hexdigest()[:8].upper()
+    return f"SC-{date.strftime('%Y%m%d')}-{digest}"
+
+
+def _logo_uri(path: str) -> str:
+    """The lab logo as a ``data:`` URI (the certificate stays one self-contained file)."""
+    if not path:
+        return ""
+    mime = {".png": "image/png", ".jpg": "image/jpeg", ".jpeg": "image/jpeg", ".svg": "image/svg+xml",
+            ".gif": "image/gif"}.get(Path(path).suffix.lower())
+    if mime is None:
+        raise InputError(f"lab logo {path}: use a .png, .jpg, .svg or .gif image")
+    try:
+        data = Path(path).read_bytes()
+    except OSError as exc:
+        raise InputError(f"cannot read the lab logo {path} ({exc.strerror or exc}); fix 'logo' in the lab profile") from None
+    return f"data:{mime};base64," + base64.b64encode(data).decode()
+
+
+def _approvers(info: CertificateInfo) -> tuple:
+    if not info.run.approver:
+        return info.lab.approvers
+    chosen = [a for a in info.lab.approvers if a.name == info.run.approver]
+    if not chosen:
+        raise InputError(f"approver {info.run.approver!r} is not among the lab's approvers "
+                         f"({', '.join(a.name for a in info.lab.approvers) or 'none listed'}); "
+                         "add them to the lab profile or choose one of those")
+    return tuple(chosen)
+
+
+def _admin_rows(info: CertificateInfo, method: str, issued: str) -> list[tuple[str, str | None]]:
+    """The administrative fields in print order; ``None`` marks a missing required field."""
+    run, lab = info.run, info.lab
+    miss = set(missing_fields(info))
+
+    def field_(name: str, text: str) -> str | None:
+        return None if name in miss else text
+
+    item = ", ".join(x for x in (run.item, " ".join(x for x in (run.manufacturer, run.model) if x)) if x)
+    rows = [("Customer", field_("run.customer", "\n".join(x for x in (run.customer, run.customer_address,
+                                                                       run.customer_email) if x))),
+            ("Item calibrated", field_("run.item", item)),
+            ("Serial number", field_("run.serial", run.serial)),
+            ("Date(s) of calibration", field_("run.calibration_date", run.calibration_date))]
+    if run.receipt_date:
+        rows.append(("Date of receipt of the item", run.receipt_date))
+    rows += [("Date of issue", issued),
+             ("Location of the calibration", field_("run.location", run.location)),
+             ("Method", "; ".join(x for x in (f"procedure {lab.procedure}" if lab.procedure else "", method) if x)
+              or None)]
+    return rows
+
+
+def certificate_html(kind: str, result: Any, *, info: CertificateInfo | None = None, sensor_id: str = "",
+                     model: str = "", method: str = "", conditions: Mapping[str, Any] | None = None, unit: str = "",
                      files: Sequence[str] = (), date: _dt.datetime | None = None,
                      warnings: Sequence[str] | None = None) -> str:
-    """Render a certificate as one self-contained HTML string.
+    """Render a certificate as one self-contained HTML string (the PDF is printed from it).
 
     Parameters
     ----------
@@ -256,32 +480,46 @@ def certificate_html(kind: str, result: Any, *, sensor_id: str = "not stated", m
         or ``"linearity"`` (AmplitudeLinearity).
     result : object
         The result of that job.
+    info : CertificateInfo, optional
+        Lab profile and run fields. Required fields it lacks are shown as
+        MISSING and the certificate is marked DRAFT on every page.
     sensor_id, model : str
-        Identification of the item calibrated.
+        Serial number and model of the item, used where ``info`` has none.
     method : str
-        Method statement.
+        Method statement (the lab's procedure id is prefixed).
     conditions : mapping
-        Conditions of the calibration (shown as given).
+        Settings of the calibration (shown as given).
     unit : str
         Sensitivity unit.
     files : sequence of str
         Records used.
     date : datetime, optional
-        Date of issue (default: now, UTC).
+        Date of issue (default: the run's ``issue_date``, else now, UTC).
     warnings : sequence of str, optional
         Named warnings to print on the certificate (default: the result's
         own ``warnings``).
     """
     from senscal import __version__
 
+    info = info or CertificateInfo()
+    run = info.run
+    fill = {k: v for k, v in (("serial", sensor_id), ("model", model)) if v and not getattr(run, k)}
+    if fill:
+        info = replace(info, run=replace(run, **fill))
+    if date is None and info.run.issue_date:
+        try:
+            date = _dt.datetime.fromisoformat(info.run.issue_date)
+        except ValueError:
+            raise InputError(f"issue_date {info.run.issue_date!r} is not an ISO 8601 date (YYYY-MM-DD)") from None
     date = date or _dt.datetime.now(_dt.timezone.utc)
     cols, rows, budgets, summary, figs = _tables(kind, result, unit)
-    digest = hashlib.sha1(json.dumps(to_jsonable(result), sort_keys=True, default=str).encode()
-                          + sensor_id.encode()).hexdigest()[:8].upper()
-    cert_id = f"SC-{date.strftime('%Y%m%d')}-{digest}"
+    cert_id = certificate_id(kind, result, info, date)
+    miss = missing_fields(info)
     return _TEMPLATE.render(
-        title=_TITLES.get(kind, kind), cert_id=cert_id, sensor_id=sensor_id, model=model,
-        date=date.strftime("%Y-%m-%d %H:%M UTC"), method=method, version=__version__,
+        title=_TITLES.get(kind, kind), cert_id=cert_id, lab=info.lab, run=info.run, logo=_logo_uri(info.lab.logo),
+        admin=_admin_rows(info, method, date.strftime("%Y-%m-%d")), draft=bool(miss), missing=miss,
+        env=info.run.conditions, approvers=_approvers(info), version=__version__, g=_g, u=_u,
+        pct=lambda v: "-" if v is None else f"{100 * v:.2g} %",
         conditions=[(k, v if isinstance(v, str) else _g(v)) for k, v in (conditions or {}).items()],
         summary=summary, columns=cols, rows=rows, budgets=[b for b in budgets if b[0]],
         plots=[svg_inline(f) for f in figs], files=", ".join(files) or "-",
@@ -290,9 +528,28 @@ def certificate_html(kind: str, result: Any, *, sensor_id: str = "not stated", m
 
 
 def write_certificate(path: str | Path, kind: str, result: Any, **kw: Any) -> Path:
-    """Write :func:`certificate_html` to ``path`` (folders created) and return the path."""
-    from senscal.io.guard import check_output, write_text
+    """Write the certificate to ``path``: PDF for ``.pdf``, HTML for ``.html``; folders created, written atomically.
 
-    path = check_output(path, what="report")
-    write_text(path, certificate_html(kind, result, **kw), what="report")
+    Parameters
+    ----------
+    path : path-like
+        ``*.pdf`` or ``*.html`` (``*.htm``); any other suffix is refused.
+    kind, result, **kw
+        As :func:`certificate_html`.
+
+    Raises
+    ------
+    InputError
+        Another suffix, an unwritable folder, or a path that is an input of the command.
+    """
+    from senscal.io.guard import check_output, write_bytes, write_text
+
+    path = check_output(path, suffixes=REPORT_SUFFIXES, what="report")
+    html = certificate_html(kind, result, **kw)
+    if path.suffix.lower() == ".pdf":
+        from senscal.report.pdf import html_to_pdf
+
+        write_bytes(path, html_to_pdf(html), what="report")
+    else:
+        write_text(path, html, what="report")
     return path
