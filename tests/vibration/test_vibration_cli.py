@@ -10,7 +10,7 @@ import pytest
 
 @pytest.fixture(scope="module")
 def centrifuge_dir(tmp_path_factory):
-    from senscal.cli.cmd_vibration import write_simulation
+    from senscal.simulate.common import write_simulation
     from senscal.simulate.vibration import simulate_centrifuge
 
     d = tmp_path_factory.mktemp("centrifuge")

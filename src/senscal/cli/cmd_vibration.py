@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import math
-import os
 from pathlib import Path
 from typing import List, Optional
 
@@ -12,12 +11,16 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
-from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted,
+from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, err_console,
-                                load, parse_floats, parse_relative, print_json, table, track)
-from senscal.cli.common import TimeUnitOpt, time_checked
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console, emit_warnings,
+                                err_console, parse_floats, parse_relative, print_json, split_names, table, track)
 from senscal.errors import InputError
+from senscal.jobs.vibration import LinearityOptions, ResponseOptions, VelocityOptions
+from senscal.jobs.vibration import linearity as linearity_job
+from senscal.jobs.vibration import response as response_job
+from senscal.jobs.vibration import velocity as velocity_job
+from senscal.simulate.common import write_simulation
 
 FilesArg = Annotated[List[Path], typer.Argument(help="Recording files, one per frequency point / input level.")]
 FreqOpt = Annotated[Optional[List[str]], typer.Option(
@@ -31,35 +34,13 @@ ConditionOpt = Annotated[Optional[List[str]], typer.Option(
 UnitOpt = Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the sensor output (default: from the file, else V).")]
 
 
-def _freqs(values: list[str] | None, n: int) -> list[float | None]:
-    if not values:
-        return [None] * n
-    fl = [f for v in values for f in parse_floats(v, "--freq")]
-    if any(not (f > 0 and math.isfinite(f)) for f in fl):
-        raise InputError("--freq values must be positive numbers of Hz")
-    if len(fl) == 1:
-        return fl * n
-    if len(fl) != n:
-        raise InputError(f"give one --freq for all files or one per file: got {len(fl)} frequencies for {n} files")
-    return fl
-
-
-def _distinct(files) -> None:
-    """Refuse a recording given twice: it would count as two independent points."""
-    seen: dict[str, Path] = {}
-    for f in files:
-        key = os.path.normcase(os.path.realpath(f))
-        if key in seen:
-            raise InputError(f"{f} is given more than once (also as {seen[key]}); each recording is one point")
-        seen[key] = f
-
-
 def _rel(text: str | None, what: str) -> float:
     return 0.0 if text is None else parse_relative(text, what)
 
 
-def _unit(rec, name: str, given: str | None) -> str:
-    return given or (rec.units.get(name) if rec.units.get(name) else "V")
+def _freq_values(values: list[str] | None):
+    """``--freq`` words (repeated or comma-separated) as numbers; the job checks them against the files."""
+    return None if not values else tuple(f for v in values for f in parse_floats(v, "--freq"))
 
 
 def _save_plot(fig, path: Path | None) -> None:
@@ -80,38 +61,54 @@ def _conditions(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-def _response_quantities(doc: dict) -> list:
-    """Registry quantities of a response: per frequency point, with their standard uncertainties."""
-    from senscal.registry import Quantity
-
-    qs = []
-    for p in doc["points"]:
-        tag = f"{p['frequency_hz']:.4g}Hz"
-        qs.append(Quantity(f"sensitivity@{tag}", p["sensitivity"], p["u_sensitivity"], doc["unit"]))
-        if p.get("normalized_sensitivity") is not None:
-            qs.append(Quantity(f"normalized_sensitivity@{tag}", p["normalized_sensitivity"],
-                               p["u_normalized_sensitivity"], "1"))
-        if p.get("phase_delay_deg") is not None:
-            qs.append(Quantity(f"phase_delay@{tag}", p["phase_delay_deg"], p["u_phase_delay_deg"], "deg"))
-    return qs
-
-
-def _k2(u):
-    return None if u is None else 2.0 * u
-
-
-def _expanded(budget):
-    """Expanded uncertainty of a budget (its own k), None without one."""
-    return None if budget is None else budget.expanded
-
-
 def _u2(u) -> str:
     """An uncertainty for a table: 2 significant digits (GUM 7.2.6)."""
     return "-" if u is None else f"{u:.2g}"
 
 
-def _deg(x):
-    return None if x is None else math.degrees(x)
+def _read_words(time_column="t", fs=None, names=None, time_unit=None, output_unit=None) -> dict:
+    """The reading options every vibration command shares, as the jobs' option fields."""
+    listed = split_names(names)
+    return dict(time_column=time_column, fs=fs, names=None if listed is None else tuple(listed), time_unit=time_unit,
+                output_unit=output_unit)
+
+
+def velocity_options(*, position=None, velocity=None, freq=None, u_position=None, drift=True, harmonics=1,
+                     output_unit=None, time_column="t", fs=None, names=None, time_unit=None, **_) -> VelocityOptions:
+    """:class:`~senscal.jobs.vibration.VelocityOptions` from the ``senscal velocity`` parameters."""
+    return VelocityOptions(position=position, velocity=velocity, freq=_freq_values(freq),
+                           u_position=_rel(u_position, "--u-position"), drift=drift, harmonics=harmonics,
+                           **_read_words(time_column, fs, names, time_unit, output_unit))
+
+
+def response_options(*, output=None, input_amplitude=None, reference=None, reference_sensitivity=None, angle=None,
+                     static_sensitivity=None, initial_phase_deg=None, u_initial_phase_deg=0.0, phase_reference=None,
+                     freq=None, u_input=None, u_reference=None, u_static=None, drift=False, harmonics=1,
+                     output_unit=None, time_column="t", fs=None, names=None, time_unit=None, **_) -> ResponseOptions:
+    """:class:`~senscal.jobs.vibration.ResponseOptions` from the ``senscal response`` parameters."""
+    return ResponseOptions(
+        output=output, input_amplitude=input_amplitude, reference=reference,
+        reference_sensitivity=reference_sensitivity, angle=angle, static_sensitivity=static_sensitivity,
+        initial_phase_deg=initial_phase_deg, u_initial_phase_deg=u_initial_phase_deg, phase_reference=phase_reference,
+        freq=_freq_values(freq), u_input=_rel(u_input, "--u-input"), u_reference=_rel(u_reference, "--u-reference"),
+        u_static_sensitivity=_rel(u_static, "--u-static-sensitivity"), drift=drift, harmonics=harmonics,
+        **_read_words(time_column, fs, names, time_unit, output_unit))
+
+
+def linearity_options(*, output=None, input_amplitudes=None, freq=None, angle=None, drift=False, harmonics=1,
+                      u_input=None, output_unit=None, time_column="t", fs=None, names=None, time_unit=None,
+                      **_) -> LinearityOptions:
+    """:class:`~senscal.jobs.vibration.LinearityOptions` from the ``senscal linearity`` parameters."""
+    if input_amplitudes is None:
+        raise InputError("give --input-amplitudes A1,A2,... (peak input of each file, m/s^2)")
+    return LinearityOptions(output=output, input_amplitudes=tuple(parse_floats(input_amplitudes, "--input-amplitudes")),
+                            freq=freq, angle=angle, drift=drift, harmonics=harmonics,
+                            u_input=_rel(u_input, "--u-input"),
+                            **_read_words(time_column, fs, names, time_unit, output_unit))
+
+
+# What `senscal batch` uses to turn a job's option words into its options (without running the command).
+JOB_OPTIONS = {"velocity": velocity_options, "response": response_options, "linearity": linearity_options}
 
 
 # ---------------------------------------------------------------------------
@@ -136,44 +133,24 @@ def velocity_cmd(
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Velocity-sensor sensitivity S = A_s / (w A_p) against a position reference, per file and mean."""
-    from senscal.vibration import velocity_calibration, velocity_point
-
-    ub = _rel(u_position, "--u-position")
-    _distinct(files)
-    freqs = _freqs(freq, len(files))
-    points, unit = [], None
-    for path, f in zip(track(files, "fitting"), freqs):
-        rec = load(path, time_column=time_column, fs=fs, names=names, channels=[position, velocity], time_unit=time_unit)
-        unit = unit or _unit(rec, velocity, output_unit) + "/(m/s)"
-        points.append(time_checked(rec, "velocity", velocity_point(
-            rec[position], rec[velocity], rec.time, freq=f, drift=drift, harmonics=harmonics, u_position=ub,
-            source=str(path), unit=unit), channel=position, known_hz=f))
-    cal = velocity_calibration(points, u_position=ub, unit=unit)
-    doc = {
-        "points": [{"file": p.source, "frequency_hz": p.frequency, "u_frequency_hz": p.u_frequency,
-                    "sensitivity": p.sensitivity, "u_sensitivity": p.u_sensitivity, "U_sensitivity": p.budget.expanded,
-                    "phase_deg": math.degrees(p.phase), "u_phase_deg": math.degrees(p.u_phase),
-                    "position_amplitude_m": p.position_amplitude, "output_amplitude": p.output_amplitude,
-                    "snr_db": p.snr_db, "budget": p.budget} for p in cal.points],
-        "sensitivity": cal.sensitivity, "sensitivity_std": cal.sensitivity_std, "u_sensitivity": cal.u_sensitivity,
-        "U_sensitivity": cal.budget.expanded, "coverage_factor": cal.budget.coverage_factor,
-        "effective_dof": cal.budget.effective_dof, "birge_ratio": cal.birge_ratio, "chi2_p": cal.chi2_p,
-        "unit": unit, "budget": cal.budget, "warnings": list(cal.warnings),
-    }
+    opts = velocity_options(**locals())
+    result = velocity_job(files, opts, progress=track)
+    cal, unit = result.calibration, result.unit
+    doc = result.to_dict()
     if report is not None:
         from senscal.report.certificate import write_certificate
 
         write_certificate(report, "velocity", cal, sensor_id=sensor_id, model=model, unit=unit, files=[str(f) for f in files],
                           method="Sinusoidal excitation against a position reference; least-squares sine fits of "
                                  "position and sensor output at one shared frequency; S = A_s / (w A_p) (Yang et al. 2014).",
-                          conditions={"frequency points": len(points),
+                          conditions={"frequency points": len(cal.points),
                                       "frequencies (Hz)": ", ".join(f"{p.frequency:.4g}" for p in cal.points),
                                       "offset drift fitted": "yes" if drift else "no",
-                                      "position reference u (type B)": f"{100 * ub:g} %", **_conditions(condition)})
+                                      "position reference u (type B)": f"{100 * opts.u_position:g} %",
+                                      **_conditions(condition)})
         doc["report"] = str(report)
-    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
-                      job="velocity", method="sine fit against a position reference (Yang et al. 2014)",
-                      quantities=lambda: [quoted(doc, "sensitivity", "sensitivity", "u_sensitivity", unit)],
+    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      method="sine fit against a position reference (Yang et al. 2014)",
                       input_files=files, certificate=report, conditions=_conditions(condition))
     if plot is not None:
         from senscal.report.certificate import velocity_figure
@@ -190,43 +167,12 @@ def velocity_cmd(
                       f"(k={cal.budget.coverage_factor:.3g}), std over points = {cal.sensitivity_std:.2g}")
         if report is not None:
             console.print(f"certificate written to {report}")
-    emit_warnings(cal.warnings, strict)
+    emit_warnings(result.warnings, strict)
 
 
 # ---------------------------------------------------------------------------
 # response
 # ---------------------------------------------------------------------------
-
-def _response_points(files, freqs, *, output, input_amplitudes, reference, reference_sensitivity, angle, static_sensitivity,
-                     initial_phase_deg, u_input, u_reference, u_static, drift, harmonics, time_column, fs, names,
-                     output_unit, u_initial_phase_deg=0.0, time_unit=None):
-    from senscal.vibration import response_point
-
-    _distinct(files)
-    chans = [output] + ([reference] if reference else []) + ([angle] if angle else [])
-    points, unit = [], None
-    for path, f, a in zip(track(files, "fitting"), freqs, input_amplitudes):
-        rec = load(path, time_column=time_column, fs=fs, names=names, channels=chans, time_unit=time_unit)
-        unit = unit or _unit(rec, output, output_unit) + "/(m/s^2)"
-        points.append(time_checked(rec, "response", response_point(
-            rec[output], rec.time, input_amplitude=a, reference=rec[reference] if reference else None,
-            reference_sensitivity=reference_sensitivity, angle_deg=rec[angle] if angle else None, freq=f,
-            static_sensitivity=static_sensitivity,
-            initial_phase=None if initial_phase_deg is None else math.radians(initial_phase_deg),
-            u_input_phase=math.radians(u_initial_phase_deg),
-            u_input=u_input, u_reference_sensitivity=u_reference, u_static_sensitivity=u_static, drift=drift,
-            harmonics=harmonics, source=str(path), unit=unit), channel=output, known_hz=f))
-    return points, unit
-
-
-def _check_input(input_amplitude, reference, reference_sensitivity, angle):
-    if (input_amplitude is None) == (reference is None):
-        raise InputError("give either --input-amplitude A (m/s^2) or --reference NAME with --reference-sensitivity S")
-    if reference is not None and reference_sensitivity is None:
-        raise InputError("--reference needs --reference-sensitivity (reference output unit per m/s^2)")
-    if reference is not None and angle is not None:
-        raise InputError("--angle applies to a known input (double centrifuge), not to a back-to-back comparison")
-
 
 @app.command("response")
 def response_cmd(
@@ -255,96 +201,21 @@ def response_cmd(
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Accelerometer frequency response: sensitivity, S_i/S0, phase delay with GUM budgets."""
-    from senscal.vibration import combine_repeats, frequency_response
-
-    _check_input(input_amplitude, reference, reference_sensitivity, angle)
-    if initial_phase_deg is not None and reference is not None:
-        raise InputError("--initial-phase-deg is for a known input; with --reference the input phase is the reference channel's")
-    if initial_phase_deg is not None and not math.isfinite(initial_phase_deg):
-        raise InputError(f"--initial-phase-deg must be a finite number of degrees, got {initial_phase_deg!r}")
-    if not (math.isfinite(u_initial_phase_deg) and 0 <= u_initial_phase_deg < 180):
-        raise InputError(f"--u-initial-phase-deg must be a standard uncertainty in [0, 180) deg, got {u_initial_phase_deg!r}")
-    if u_initial_phase_deg > 0 and initial_phase_deg is None:
-        raise InputError("--u-initial-phase-deg is the uncertainty of --initial-phase-deg: give that too")
-    if phase_reference is not None:
-        if angle is None:
-            raise InputError("--phase-reference is a double-centrifuge run fitted against the turntable angle: give --angle")
-        if initial_phase_deg is not None:
-            raise InputError("give either --initial-phase-deg (phi_0 entered) or --phase-reference FILE (phi_0 measured), not both")
-    points, unit = _response_points(
-        files, _freqs(freq, len(files)), output=output, input_amplitudes=[input_amplitude] * len(files),
-        reference=reference, reference_sensitivity=reference_sensitivity, angle=angle,
-        static_sensitivity=static_sensitivity, initial_phase_deg=initial_phase_deg,
-        u_input=_rel(u_input, "--u-input"), u_reference=_rel(u_reference, "--u-reference"),
-        u_static=_rel(u_static, "--u-static-sensitivity"), drift=drift, harmonics=harmonics, time_column=time_column, fs=fs, names=names,
-        output_unit=output_unit, u_initial_phase_deg=u_initial_phase_deg, time_unit=time_unit)
-    phase_ref_text = None
-    if phase_reference is not None:
-        from senscal.vibration import apply_phase_reference, phase_reference_run
-
-        rec = load(phase_reference, time_column=time_column, fs=fs, names=names, channels=[output, angle],
-                   time_unit=time_unit)
-        # The reference may be one of the response records (the lowest-frequency run): same label, one fit.
-        same = [str(f) for f in files if os.path.realpath(f) == os.path.realpath(phase_reference)]
-        ref = phase_reference_run(rec[output], rec.time, rec[angle], harmonics=harmonics, drift=drift,
-                                  source=same[0] if same else str(phase_reference))
-        points = list(apply_phase_reference(points, ref))
-        phase_ref_text = (f"phi_0 = {math.degrees(ref.phase):.4f} deg at encoder zero from the {ref.frequency:.4g} Hz "
-                          f"run {phase_reference} (its own delay extrapolated from the points above it, odd cubic in frequency)")
-    elif initial_phase_deg is not None:
-        phase_ref_text = (f"phi_0 = {initial_phase_deg:g} deg entered (u = {u_initial_phase_deg:g} deg)"
-                          + (" at encoder zero" if angle else " at t = 0"))
-    resp = frequency_response(points, unit=unit, static_sensitivity=static_sensitivity, phase_reference=phase_ref_text)
-    doc = {
-        "points": [{"file": p.source, "frequency_hz": p.frequency, "u_frequency_hz": p.u_frequency,
-                    "input_amplitude": p.input_amplitude, "output_amplitude": p.output_amplitude,
-                    "u_output_amplitude": p.u_output_amplitude,
-                    "sensitivity": p.sensitivity, "u_sensitivity": p.u_sensitivity,
-                    "U_sensitivity": p.sensitivity_budget.expanded,
-                    "normalized_sensitivity": p.normalized_sensitivity, "u_normalized_sensitivity": p.u_normalized_sensitivity,
-                    "U_normalized_sensitivity": _expanded(p.normalized_budget),
-                    "phase_deg": math.degrees(p.phase), "u_phase_deg": math.degrees(p.u_phase),
-                    "phase_delay_deg": _deg(p.phase_delay), "u_phase_delay_deg": _deg(p.u_phase_delay),
-                    "U_phase_delay_deg": _deg(_expanded(p.phase_delay_budget)), "phase_reference": p.phase_reference,
-                    "warnings": list(p.warnings),
-                    "revolutions": p.sync.revolutions if p.sync else None, "n_samples": p.n_samples,
-                    "snr_db": p.snr_db, "method": p.method,
-                    "sensitivity_budget": p.sensitivity_budget, "normalized_budget": p.normalized_budget,
-                    "phase_delay_budget": p.phase_delay_budget} for p in resp.points],
-        "unit": unit, "static_sensitivity": static_sensitivity,
-        "coverage_factor": max(b.coverage_factor for p in resp.points
-                               for b in (p.sensitivity_budget, p.normalized_budget, p.phase_delay_budget) if b is not None),
-        "method": resp.points[0].method, "phase_reference": resp.phase_reference,
-    }
-    warns = list(resp.warnings)
-    reps = combine_repeats(resp.points)
-    if len(reps) < len(resp.points):
-        doc["repeats"] = [{"frequency_hz": g.frequency, "n_repeats": g.n_repeats, "files": list(g.sources),
-                           "sensitivity": g.sensitivity, "u_sensitivity": g.u_sensitivity,
-                           "U_sensitivity": g.sensitivity_budget.expanded,
-                           "sensitivity_std": g.sensitivity_std, "normalized_sensitivity": g.normalized_sensitivity,
-                           "u_normalized_sensitivity": g.u_normalized_sensitivity,
-                           "U_normalized_sensitivity": _expanded(g.normalized_budget),
-                           "phase_delay_deg": _deg(g.phase_delay), "u_phase_delay_deg": _deg(g.u_phase_delay),
-                           "U_phase_delay_deg": _deg(_expanded(g.phase_delay_budget)),
-                           "coverage_factor": g.sensitivity_budget.coverage_factor,
-                           "sensitivity_budget": g.sensitivity_budget, "normalized_budget": g.normalized_budget,
-                           "phase_delay_budget": g.phase_delay_budget, "warnings": list(g.warnings)} for g in reps]
-        from senscal.vibration.budget import unique_warnings
-
-        warns = list(unique_warnings(warns, *(g.warnings for g in reps)))
-    doc["warnings"] = warns
+    opts = response_options(**locals())
+    result = response_job(files, opts, progress=track)
+    resp, unit = result.response, result.unit
+    doc = result.to_dict()
     if report is not None:
         from senscal.report.certificate import write_certificate
 
-        cond = {"frequency points": len(points), "method": resp.points[0].method}
+        cond = {"frequency points": len(resp.points), "method": resp.points[0].method}
         if input_amplitude is not None:
             cond["peak input acceleration (m/s^2)"] = input_amplitude
-            cond["input amplitude u (type B)"] = f"{100 * _rel(u_input, '--u-input'):g} %"
+            cond["input amplitude u (type B)"] = f"{100 * opts.u_input:g} %"
         else:
-            cond["reference sensitivity"] = f"{reference_sensitivity:g} (u = {100 * _rel(u_reference, '--u-reference'):g} %)"
+            cond["reference sensitivity"] = f"{reference_sensitivity:g} (u = {100 * opts.u_reference:g} %)"
         if static_sensitivity is not None:
-            cond["static sensitivity S0"] = f"{static_sensitivity:g} {unit} (u = {100 * _rel(u_static, '--u-static-sensitivity'):g} %)"
+            cond["static sensitivity S0"] = f"{static_sensitivity:g} {unit} (u = {100 * opts.u_static_sensitivity:g} %)"
         if angle:
             cond["turntable angle synchronisation"] = "records cut to whole revolutions from a 360 deg crossing"
         cond["input phase phi_0"] = resp.phase_reference
@@ -355,15 +226,14 @@ def response_cmd(
         write_certificate(report, "response", resp, sensor_id=sensor_id, model=model, unit=unit, method=meth,
                           conditions=cond, files=[str(f) for f in files]
                           + ([f"{phase_reference} (phase reference)"] if phase_reference is not None else []),
-                          warnings=warns)
+                          warnings=result.warnings)
         doc["report"] = str(report)
     if save_response_to is not None:
         from senscal.vibration import save_response
 
         doc["saved"] = str(save_response(resp, save_response_to))
-    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
-                      job="response", method=doc["method"], quantities=lambda: _response_quantities(doc),
-                      input_files=files, certificate=report, conditions=_conditions(condition))
+    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      method=doc["method"], input_files=files, certificate=report, conditions=_conditions(condition))
     if plot is not None:
         from senscal.report.certificate import response_figure
 
@@ -386,7 +256,7 @@ def response_cmd(
                                 ["f (Hz)", "n", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)", "k"], rows))
         if report is not None:
             console.print(f"certificate written to {report}")
-    emit_warnings(warns, strict)
+    emit_warnings(result.warnings, strict)
 
 
 # ---------------------------------------------------------------------------
@@ -411,36 +281,10 @@ def linearity_cmd(
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Amplitude linearity at a fixed frequency: best straight line, deviations, linearity in % of full scale."""
-    from senscal.vibration import amplitude_linearity
-
-    amps = parse_floats(input_amplitudes, "--input-amplitudes")
-    if len(amps) != len(files):
-        raise InputError(f"give one input amplitude per file: {len(amps)} amplitudes for {len(files)} files")
-    if any(not a > 0 for a in amps):
-        raise InputError("--input-amplitudes must be positive (m/s^2)")
-    points, unit = _response_points(
-        files, [freq] * len(files), output=output, input_amplitudes=amps, reference=None, reference_sensitivity=None,
-        angle=angle, static_sensitivity=None, initial_phase_deg=None, u_input=0.0, u_reference=0.0, u_static=0.0,
-        drift=drift, harmonics=harmonics, time_column=time_column, fs=fs, names=names, output_unit=output_unit,
-        time_unit=time_unit)
-    u_in = _rel(u_input, "--u-input")
-    lin = amplitude_linearity(amps, [p.output_amplitude for p in points], [p.u_output_amplitude for p in points],
-                              [p.source for p in points], u_input=u_in)
-    warns = list(lin.warnings) + [w for w in dict.fromkeys(w for p in points for w in p.warnings)
-                                  if not w.startswith("phase-reference-unknown:")]
-    out_unit = unit.split("/(m/s^2)")[0]
-    doc = {"points": [{"file": p.source, "input_amplitude": p.input_amplitude, "output_amplitude": p.output_amplitude,
-                       "u_output_amplitude": p.u_output_amplitude, "deviation": p.deviation,
-                       "deviation_percent": p.deviation_percent, "frequency_hz": rp.frequency}
-                      for p, rp in zip(lin.points, points)],
-           "slope": lin.slope, "u_slope": lin.u_slope, "U_slope": lin.coverage_factor * lin.u_slope,
-           "intercept": lin.intercept, "u_intercept": lin.u_intercept,
-           "U_intercept": lin.coverage_factor * lin.u_intercept, "coverage_factor": lin.coverage_factor,
-           "dof": lin.dof, "birge_ratio": lin.birge_ratio, "chi2_p": lin.chi2_p,
-           "linearity_percent": lin.linearity_percent, "u_linearity_percent": lin.u_linearity_percent,
-           "U_linearity_percent": 2 * lin.u_linearity_percent, "linearity_resolved": lin.linearity_resolved,
-           "linearity_bound_percent": lin.linearity_bound_percent,
-           "full_scale_output": lin.full_scale_output, "unit": unit, "output_unit": out_unit, "warnings": warns}
+    opts = linearity_options(**locals())
+    result = linearity_job(files, opts, progress=track)
+    lin, unit, out_unit, amps = result.linearity, result.unit, result.output_unit, opts.input_amplitudes
+    doc = result.to_dict()
     if report is not None:
         from senscal.report.certificate import write_certificate
 
@@ -449,16 +293,14 @@ def linearity_cmd(
                           method="Fixed frequency, input amplitude stepped; least-squares sine fit of each record; "
                                  "best straight line through (input, output amplitude) (Qin, seed 003)",
                           conditions={"input levels": len(files),
-                                      "frequency (Hz)": f"{sum(p.frequency for p in points) / len(points):.4g}",
+                                      "frequency (Hz)": f"{sum(p.frequency for p in result.points) / len(result.points):.4g}",
                                       "input range (m/s^2)": f"{min(amps):g} .. {max(amps):g}",
-                                      "input level u (random per level)": f"{100 * u_in:g} %",
+                                      "input level u (random per level)": f"{100 * opts.u_input:g} %",
                                       "angle synchronisation": "yes" if angle else "no", **_conditions(condition)},
-                          warnings=warns)
+                          warnings=result.warnings)
         doc["report"] = str(report)
-    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
-                      job="linearity", method="amplitude linearity, best straight line (Qin, seed 003)",
-                      quantities=lambda: [quoted(doc, "linearity_slope", "slope", "u_slope", unit),
-                                          quoted(doc, "linearity_percent", "linearity_percent", "u_linearity_percent", "%")],
+    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
+                      method="amplitude linearity, best straight line (Qin, seed 003)",
                       input_files=files, certificate=report, conditions=_conditions(condition))
     if plot is not None:
         from senscal.report.certificate import linearity_figure
@@ -482,7 +324,7 @@ def linearity_cmd(
                           f"(U = {2 * lin.u_linearity_percent:.2g} %, k=2, Monte Carlo)")
         if report is not None:
             console.print(f"certificate written to {report}")
-    emit_warnings(warns, strict)
+    emit_warnings(result.warnings, strict)
 
 
 # ---------------------------------------------------------------------------
@@ -491,20 +333,6 @@ def linearity_cmd(
 
 OutOpt = Annotated[Path, typer.Option("--out", help="Output folder.")]
 SeedOpt = Annotated[Optional[int], typer.Option("--seed", help="Random seed.")]
-
-
-def write_simulation(recs, truth, out: Path, stem: str) -> list[Path]:
-    """Write recordings ``<stem>_NN.csv`` and ``<stem>_truth.json`` (file names added to the truth points)."""
-    from senscal.io import write_recording
-    from senscal.simulate.common import write_truth
-
-    paths = []
-    for i, (rec, pt) in enumerate(zip(recs, truth["points"]), start=1):
-        p = write_recording(rec, Path(out) / f"{stem}_{i:02d}.csv")
-        pt["file"] = p.name
-        paths.append(p)
-    write_truth(truth, Path(out) / f"{stem}_truth.json")
-    return paths
 
 
 def _opt_floats(text: str | None, what: str):
