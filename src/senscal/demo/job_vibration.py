@@ -5,34 +5,33 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+from dataclasses import replace
+
 from senscal.demo import DemoSection
+from senscal.jobs.vibration import ResponseOptions, VelocityOptions, response, velocity
 from senscal.report.certificate import response_figure, write_certificate
 from senscal.report.plots import save_figure
+from senscal.simulate.common import write_simulation
 from senscal.simulate.vibration import simulate_centrifuge, simulate_hydraulic
-from senscal.vibration import (apply_phase_reference, frequency_response, phase_reference_run, response_point,
-                               velocity_calibration, velocity_point)
 
 ORDER = 10
 TITLE = "Vibration calibration (double centrifuge, hydraulic rig)"
 
 
 def run(out: Path, seed: int) -> DemoSection:
-    from senscal.cli.cmd_vibration import write_simulation
-
     folder = out / "vibration"
     # Double centrifuge: a0 = 100 m/s^2, turntable at 0.1, 1, 5, 10 Hz; records cut to whole revolutions.
     recs, truth = simulate_centrifuge(seed=seed)
     paths = write_simulation(recs, truth, folder / "centrifuge", "centrifuge")
     s0 = truth["static_sensitivity"]
-    pts = [response_point(r["output"], r.time, input_amplitude=tp["acceleration"], angle_deg=r["angle"],
-                          static_sensitivity=s0, u_input=0.001, source=p.name)
-           for r, tp, p in zip(recs, truth["points"], paths)]
+    (a0,) = {tp["acceleration"] for tp in truth["points"]}
     # phi_0 from a start-up run at 0.05 Hz (the paper's procedure); without it the phase delays would
     # rest on encoder zero lying along the field and carry the phase-reference-unknown warning
     srecs, _ = simulate_centrifuge(frequencies=(0.05,), min_duration=0.0, revolutions=2.2, seed=seed + 1)
-    ref = phase_reference_run(srecs[0]["output"], srecs[0].time, srecs[0]["angle"], source="startup.csv")
-    pts = list(apply_phase_reference(pts, ref))
-    resp = frequency_response(pts, static_sensitivity=s0)
+    # the simulated recordings themselves (not their CSV copies), labelled with the file names the certificate lists
+    resp = response([replace(r, source=p.name) for r, p in zip(recs, paths)],
+                    ResponseOptions(output="output", angle="angle", input_amplitude=a0, static_sensitivity=s0,
+                                    u_input=0.001, phase_reference=replace(srecs[0], source="startup.csv"))).response
     write_certificate(folder / "centrifuge_certificate.html", "response", resp, sensor_id="DEMO-ACC-001",
                       model="simulated servo accelerometer (fn 40 Hz, damping 0.6)", unit=resp.unit,
                       method="Double centrifuge, angle-synchronised least-squares sine fit (Qin, seed 003)",
@@ -54,12 +53,12 @@ def run(out: Path, seed: int) -> DemoSection:
     # Hydraulic rig: velocity sensor against the position reference at 10 frequencies.
     hrecs, htruth = simulate_hydraulic(seed=seed)
     hpaths = write_simulation(hrecs, htruth, folder / "hydraulic", "hydraulic")
-    vpts = [velocity_point(r["position"], r["velocity"], r.time, source=p.name) for r, p in zip(hrecs, hpaths)]
-    cal = velocity_calibration(vpts)
+    cal = velocity([replace(r, source=p.name) for r, p in zip(hrecs, hpaths)],
+                   VelocityOptions(position="position", velocity="velocity")).calibration
     write_certificate(folder / "velocity_certificate.html", "velocity", cal, sensor_id="DEMO-VEL-001",
                       model="simulated moving-coil velocity sensor", unit=cal.unit,
                       method="Hydraulic rig, position reference, sine fits at a shared frequency (Yang et al. 2014)",
-                      conditions={"frequency points": len(vpts), "peak displacement (m)": htruth["position_amplitude_m"]},
+                      conditions={"frequency points": len(cal.points), "peak displacement (m)": htruth["position_amplitude_m"]},
                       files=[p.name for p in hpaths])
     rows.append({"quantity": "velocity sensor mean sensitivity", "truth": htruth["sensitivity"],
                  "estimate": cal.sensitivity, "uncertainty": cal.u_sensitivity, "unit": cal.unit})
