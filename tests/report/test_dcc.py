@@ -398,3 +398,37 @@ def test_dsi_units(unit, dsi):
 def test_units_without_a_dsi_form_are_refused(unit, needle):
     with pytest.raises(DccError, match=needle):
         dsi_unit(unit)
+
+
+# ---------------------------------------------------------------------------
+# senscal.jobs results
+
+
+def test_job_results_with_repeats(tmp_path):
+    from senscal import jobs
+
+    a, _ = simulate_centrifuge(frequencies=(1.0, 5.0), seed=4, min_duration=5.0)
+    b, _ = simulate_centrifuge(frequencies=(5.0,), seed=5, min_duration=5.0)
+    opts = jobs.options("response", output="output", input_amplitude=100.0, angle="angle", static_sensitivity=0.05,
+                        initial_phase_deg=0.0)
+    res = jobs.run("response", [*a, *b], opts)
+    assert len(res.repeats) == 2 < len(res.response.points) == 3
+    q = read_dcc_quantities(dcc_xml("response", res, _info()))
+    _exact(q["senscal_sensitivity"]["value"], [p.sensitivity for p in res.response.points])
+    _exact(q["senscal_sensitivityRepeats"]["value"], [g.sensitivity for g in res.repeats])
+    _exact(q["senscal_sensitivityRepeats"]["U"], [g.sensitivity_budget.expanded for g in res.repeats])
+    _exact(q["senscal_phaseDelayRepeats@\\radian"]["U"], [g.phase_delay_budget.expanded for g in res.repeats])
+    assert "senscal_frequencyRepeats" in q and not q["senscal_frequencyRepeats"]["U"]  # no u of a mean frequency
+
+
+def test_linearity_job_result_takes_its_output_unit():
+    from senscal import jobs
+
+    levels = (20.0, 60.0, 100.0)
+    recs, _ = simulate_centrifuge(frequencies=(1.0,), accelerations=levels, seed=6, min_duration=5.0)
+    res = jobs.run("linearity", recs, jobs.options("linearity", output="output", input_amplitudes=levels,
+                                                    angle="angle", output_unit="mV"))
+    q = read_dcc_quantities(dcc_xml("linearity", res, _info()))
+    assert q["senscal_sensitivity"]["unit"] == ["\\milli\\volt\\metre\\tothe{-1}\\second\\tothe{2}"]
+    assert q["senscal_outputAmplitude"]["unit"] == ["\\milli\\volt"] * 3
+    assert q["senscal_sensitivity"]["value"] == [res.linearity.slope]

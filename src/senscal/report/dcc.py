@@ -540,30 +540,41 @@ def _output_unit(unit: str) -> str:
     raise DccError(f"sensitivity unit {unit!r} is not 'output unit per m/s^2' (e.g. V/(m/s^2)); give unit= so")
 
 
-def _response_results(b: _Builder, results: ET.Element, resp: Any, unit: str) -> None:
-    pts = resp.points
-    data = _result(b, results, "Frequency response", "senscal_frequencyResponse",
-                   f"Input phase reference: {resp.phase_reference}" if getattr(resp, "phase_reference", "") else "")
-    lst = _point_list(b, data, "Calibration points")
+def _response_points(b: _Builder, results: ET.Element, pts: Sequence[Any], unit: str, name: str, ref: str,
+                     description: str) -> None:
+    """One result with the point lists; quantity refTypes are ``senscal_<ref>`` + the quantity's name."""
+    lst = _point_list(b, _result(b, results, name, f"senscal_{ref}", description), "Calibration points")
+    tag = ref[0].upper() + ref[1:] if ref != "frequencyResponse" else ""
     f = [p.frequency for p in pts]
     uf = [getattr(p, "u_frequency", None) for p in pts]
     has_uf = all(u is not None for u in uf)
-    _list_quantity(b, lst, "Frequency", "senscal_frequency", f, "Hz",
+    _list_quantity(b, lst, "Frequency", f"senscal_frequency{tag}", f, "Hz",
                    [2.0 * u for u in uf] if has_uf else None, [2.0] * len(f) if has_uf else None)
     U, k = _budget_U([p.sensitivity_budget for p in pts], [p.u_sensitivity for p in pts], "sensitivity")
-    _list_quantity(b, lst, "Sensitivity", "senscal_sensitivity", [p.sensitivity for p in pts], unit, U, k)
+    _list_quantity(b, lst, "Sensitivity", f"senscal_sensitivity{tag}", [p.sensitivity for p in pts], unit, U, k)
     if all(p.normalized_sensitivity is not None for p in pts):
         U, k = _budget_U([p.normalized_budget for p in pts], [p.u_normalized_sensitivity for p in pts],
                          "normalised sensitivity")
-        _list_quantity(b, lst, "Normalised sensitivity S_i/S_0", "senscal_normalizedSensitivity",
+        _list_quantity(b, lst, "Normalised sensitivity S_i/S_0", f"senscal_normalizedSensitivity{tag}",
                        [p.normalized_sensitivity for p in pts], "1", U, k)
     if all(p.phase_delay is not None for p in pts):
         U, k = _budget_U([p.phase_delay_budget for p in pts], [p.u_phase_delay for p in pts], "phase delay")
-        _phase_quantity(b, lst, "Phase delay (output minus input)", "senscal_phaseDelay",
+        _phase_quantity(b, lst, "Phase delay (output minus input)", f"senscal_phaseDelay{tag}",
                         [p.phase_delay for p in pts], U, k)
 
 
-def _velocity_results(b: _Builder, results: ET.Element, cal: Any, unit: str) -> None:
+def _response_results(b: _Builder, results: ET.Element, resp: Any, unit: str, job: Any = None) -> None:
+    ref = getattr(resp, "phase_reference", "")
+    _response_points(b, results, resp.points, unit, "Frequency response", "frequencyResponse",
+                     f"Input phase reference: {ref}" if ref else "")
+    repeats = tuple(getattr(job, "repeats", ()) or ())
+    if repeats and len(repeats) < len(resp.points):
+        # some frequency was recorded more than once: the per-frequency means are the values to quote
+        _response_points(b, results, repeats, unit, "Frequency response, repeated records combined", "repeats",
+                         "Mean per frequency of the records above, with the spread between them in U")
+
+
+def _velocity_results(b: _Builder, results: ET.Element, cal: Any, unit: str, job: Any = None) -> None:
     data = _result(b, results, "Sensitivity", "senscal_velocitySensitivity",
                    f"Weighted mean over {len(cal.points)} frequencies")
     bud = cal.budget
@@ -580,8 +591,8 @@ def _velocity_results(b: _Builder, results: ET.Element, cal: Any, unit: str) -> 
                     [p.phase for p in pts], [2.0 * p.u_phase for p in pts], [2.0] * len(pts))
 
 
-def _linearity_results(b: _Builder, results: ET.Element, lin: Any, unit: str) -> None:
-    out_unit = _output_unit(unit)
+def _linearity_results(b: _Builder, results: ET.Element, lin: Any, unit: str, job: Any = None) -> None:
+    out_unit = getattr(job, "output_unit", "") or _output_unit(unit)
     k = getattr(lin, "coverage_factor", 2.0)
     resolved = getattr(lin, "linearity_resolved", None)
     desc = "Largest deviation from the best straight line, relative to the full-scale output"
@@ -613,10 +624,12 @@ def _linearity_results(b: _Builder, results: ET.Element, lin: Any, unit: str) ->
 
 
 _RESULTS = {"response": _response_results, "velocity": _velocity_results, "linearity": _linearity_results}
+# attribute of the senscal.jobs result that holds the engine result
+_ENGINE = {"response": "response", "velocity": "calibration", "linearity": "linearity"}
 
 
 def _measurement(b: _Builder, root: ET.Element, kind: str, result: Any, info: CertificateInfo, unit: str,
-                 method: str, files: Sequence[str], warnings: Sequence[str]) -> None:
+                 method: str, files: Sequence[str], warnings: Sequence[str], job: Any) -> None:
     from senscal import __version__
 
     mr = b.el(b.el(root, "measurementResults"), "measurementResult")
@@ -665,7 +678,7 @@ def _measurement(b: _Builder, root: ET.Element, kind: str, result: Any, info: Ce
             _real(b, q, re.sub(r"\s+", "_", c.name), c.value, c.unit,
                   None if c.uncertainty is None else 2.0 * c.uncertainty, 2.0)
     results = b.el(mr, "results")
-    _RESULTS[kind](b, results, result, unit)
+    _RESULTS[kind](b, results, result, unit, job)
     if warnings:
         md = b.el(mr, "measurementMetaData")
         for w in warnings:
@@ -681,9 +694,12 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
     Parameters
     ----------
     kind : str
-        ``"response"`` (:class:`~senscal.vibration.FrequencyResponse`),
-        ``"velocity"`` (:class:`~senscal.vibration.VelocityCalibration`) or
-        ``"linearity"`` (:class:`~senscal.vibration.AmplitudeLinearity`).
+        ``"response"`` (:class:`~senscal.vibration.FrequencyResponse` or the
+        job's ``ResponseResult``: repeated frequencies then add a result with
+        the per-frequency means), ``"velocity"``
+        (:class:`~senscal.vibration.VelocityCalibration` or ``VelocityResult``)
+        or ``"linearity"`` (:class:`~senscal.vibration.AmplitudeLinearity` or
+        ``LinearityResult``).
     result : object
         The result of that calibration (SI units; phases in rad; standard
         uncertainties, k=1, with their budgets).
@@ -731,15 +747,18 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
                        f"add them (a DCC has no DRAFT mark, so it is never written with fields missing)")
     if not re.fullmatch(r"[a-z]{2}", language):
         raise DccError(f"language {language!r} is not an ISO 639-1 code; use two lower-case letters, e.g. en")
-    unit = unit or getattr(result, "unit", "")
+    job = result if hasattr(result, _ENGINE[kind]) else None
+    if job is not None:  # a senscal.jobs result: the engine result inside, its unit and warnings around it
+        result = getattr(job, _ENGINE[kind])
+    unit = unit or getattr(job, "unit", "") or getattr(result, "unit", "")
     if not unit:
         raise DccError(f"the {kind} result carries no sensitivity unit; give unit=, e.g. 'V/(m/s^2)'")
     today = today or _dt.datetime.now(_dt.timezone.utc).date()
     b = _Builder(language)
     root = b.el(None, "digitalCalibrationCertificate", schemaVersion=SCHEMA_VERSION)
     _administrative(b, root, info, today.isoformat())
-    warns = list(getattr(result, "warnings", ()) if warnings is None else warnings)
-    _measurement(b, root, kind, result, info, unit, method, files, warns)
+    warns = list(getattr(job or result, "warnings", ()) if warnings is None else warnings)
+    _measurement(b, root, kind, result, info, unit, method, files, warns, job)
     ET.indent(root)
     data = ET.tostring(root, encoding="utf-8", xml_declaration=True)
     validate_dcc(data)
