@@ -10,147 +10,40 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings,
-                                err_console, load, parse_floats, print_json, table)
-from senscal.cli.common import TimeUnitOpt, time_checked
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console,
+                                emit_warnings, err_console, parse_floats, print_json, table)
 from senscal.errors import InputError
-from senscal.gfimu import (DEFAULT_BIAS_STD, METHODS, OBSERVATIONS, UNKNOWNS, angular_velocity, attitude_error, error_statistics,
-                           integrate_attitude, paper_layout, read_layout)
-from senscal.io import Recording, write_recording
 
 _AXES = ("wx", "wy", "wz")
 
 
-def _truth_on(rec_t: np.ndarray, path: Path, need_q: bool) -> tuple[np.ndarray, np.ndarray | None]:
-    """Truth ``w`` (3, T) and, if present, ``q`` (4, T) on the recording's time base."""
-    tr = load(path)
-    missing = [c for c in _AXES if c not in tr]
-    if missing:
-        raise InputError(f"truth file {path} lacks column(s) {', '.join(missing)}; it needs t, wx, wy, wz in rad/s")
-    tt = tr.time
-    if tt.size == rec_t.size and np.allclose(tt, rec_t, rtol=0, atol=1e-9 * max(1.0, float(np.abs(rec_t).max()))):
-        w = tr.data(list(_AXES))
-        q = tr.data(["qw", "qx", "qy", "qz"]) if need_q and all(c in tr for c in ("qw", "qx", "qy", "qz")) else None
-        return w, q
-    if tt[0] > rec_t[0] or tt[-1] < rec_t[-1]:
-        raise InputError(f"truth file {path} spans t={tt[0]:g}..{tt[-1]:g} s but the recording "
-                         f"{rec_t[0]:g}..{rec_t[-1]:g} s; give a truth that covers the recording")
-    w = np.stack([np.interp(rec_t, tt, tr[c]) for c in _AXES])
-    return w, None
+def _options(*, layout_file: Path | str | None = None, distance: float | None = None, method: str = "kalman",
+             observation: str = "quadratic", initial_omega: str | None = None, truth: Path | str | None = None,
+             attitude: bool = False, lag: int = 1, noise_std: float | None = None, bias_std: float | None = None,
+             plain: bool = False, rest: str | None = None, differential_max_u: float | None = None,
+             smooth: bool = False, time_column: str = "t", fs: float | None = None, names: str | None = None,
+             time_unit: str | None = None, **_):
+    """``GfimuOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.jobs.gfimu import GfimuOptions
 
-
-def _rate_checked(est, y, layout):
-    """``est`` plus a time-unit-suspect warning when its rates are physically impossible for the array."""
-    from dataclasses import replace
-
-    from senscal.io.plausibility import TIME_UNIT_WARNING, check_angular_rate
-
-    if any(w.startswith(TIME_UNIT_WARNING) for w in est.warnings):
-        return est
-    pos = np.asarray(layout.positions, dtype=float)
-    radius = float(np.max(np.linalg.norm(pos - pos.mean(axis=0), axis=1))) if pos.size else float("nan")
-    # NaN rates (samples a method rejected) are skipped without numpy's all-NaN warnings.  The
-    # differential method is left out: its gross errors where the increment is small (1e5 rad/s on an
-    # axis that hardly turns) are the method's, not a sign of a wrong time unit.
-    norms = [np.linalg.norm(np.asarray(w, dtype=float), axis=0) for m, w in est.omega.items() if m != "differential"]
-    rates = [float(n[np.isfinite(n)].max()) for n in norms if np.isfinite(n).any()]
-    ay = np.abs(np.asarray(y, dtype=float))
-    found = check_angular_rate(max(rates, default=float("nan")),
-                               float(ay[np.isfinite(ay)].max()) if np.isfinite(ay).any() else float("nan"), radius)
-    return replace(est, warnings=tuple(est.warnings) + found) if found else est
-
-
-def run_gfimu(file: Path, *, layout_file: Path | None, distance: float | None, method: str, observation: str,
-              initial_omega: str | None, truth: Path | None, attitude: bool, lag: int, noise_std: float | None,
-              time_column: str, fs: float | None, names: str | None, bias_std: float | None = None,
-              smooth: bool = False, plain: bool = False, rest: str | None = None,
-              differential_max_u: float | None = None, time_unit: str | None = None):
-    """Run the job; returns (document, recording time, estimate, truth w, quaternion)."""
-    if layout_file is not None and distance is not None:
-        raise InputError("give either --layout or --distance, not both")
-    layout = read_layout(layout_file) if layout_file is not None else paper_layout(0.04 if distance is None else distance)
-    methods = METHODS if method == "all" else (method,)
-    if method not in METHODS + ("all",):
-        raise InputError(f"--method must be one of {', '.join(METHODS)}, all; got {method!r}")
-    if observation not in OBSERVATIONS:
-        raise InputError(f"--observation must be one of {', '.join(OBSERVATIONS)}; got {observation!r}")
     w0 = (0.0, 0.0, 0.0)
     if initial_omega is not None:
-        w0 = parse_floats(initial_omega, "--initial-omega")
+        w0 = tuple(parse_floats(initial_omega, "--initial-omega"))
         if len(w0) != 3:
             raise InputError(f"--initial-omega needs three numbers WX,WY,WZ in rad/s, got {initial_omega!r}")
     span = None
     if rest is not None:
-        span = parse_floats(rest.replace(":", ","), "--rest")
+        span = tuple(parse_floats(rest.replace(":", ","), "--rest"))
         if len(span) != 2:
             raise InputError(f"--rest needs START:END in s (e.g. 0:2), got {rest!r}")
-    rec = load(file, time_column=time_column, fs=fs, names=names, time_unit=time_unit)
-    y = rec.data(list(layout.names))
-    est = time_checked(rec, "gfimu", angular_velocity(
-        y, rec.time, layout, methods=methods, observation=observation, initial=w0, noise_std=noise_std, lag=lag,
-        bias_std=bias_std, smooth=smooth, plain=plain, rest=span, differential_max_u=differential_max_u))
-    est = _rate_checked(est, y, layout)
-    doc: dict = {
-        "file": str(file), "n_samples": int(rec.n_samples), "sample_rate_hz": rec.sample_rate,
-        "layout": {"channels": list(layout.names), "condition_number": est.condition_number,
-                   "source": str(layout_file) if layout_file else f"paper, L = {0.04 if distance is None else distance} m"},
-        "methods": list(est.omega), "observation": observation if "kalman" in est.omega else None,
-        "initial_omega": list(w0),
-        "noise_std_m_s2": dict(zip(layout.names, est.noise_std.tolist())),
-        "differential_rejected": est.differential_rejected if "differential" in est.omega else None,
-        "differential_max_u_rad_s": differential_max_u if "differential" in est.omega else None,
-        "noise_scale": est.noise_scale,
-    }
-    if est.rest is not None:
-        r = est.rest
-        doc["rest"] = {"span_s": list(r.span), "n_samples": r.n, "spread_ratio": r.spread_ratio,
-                       "offsets": {n: {"value": float(v), "u": float(u)}
-                                   for n, v, u in zip(UNKNOWNS[3:], r.offsets, r.u_offsets)}}
-    if est.filter is not None:
-        f = est.filter
-        doc["filter"] = {"observation": f.observation, "n_observed": f.n_observed, "n_dropped": f.n_dropped,
-                         "n_gated": f.n_gated, "passes": f.passes, "smoothed": f.smoothed,
-                         "constant_error_states": f.offsets is not None,
-                         "median_u_omega": dict(zip(_AXES, np.median(f.u_omega, axis=1).tolist()))}
-        if f.offsets is not None:
-            doc["filter"]["bias_std_m_s2"] = (None if rest is not None else
-                                              DEFAULT_BIAS_STD if bias_std is None else bias_std)
-            doc["filter"]["offsets"] = {n: {"value": float(v), "u": float(u)}
-                                        for n, v, u in zip(UNKNOWNS[3:], f.offsets, f.u_offsets)}
-    w_true = q_true = None
-    if truth is not None:
-        w_true, q_true = _truth_on(rec.time, truth, attitude)
-        stats = error_statistics(est.omega, w_true)
-        doc["errors"] = {m: {ax: s.axis(i) for i, ax in enumerate(_AXES)} for m, s in stats.items()}
-    q = None
-    if attitude:
-        src = "kalman" if "kalman" in est.omega else next(iter(est.omega))
-        q0 = q_true[:, 0] if q_true is not None else (1.0, 0.0, 0.0, 0.0)
-        q = integrate_attitude(est.omega[src], rec.time, q0)
-        doc["attitude"] = {"method": src, "initial_quaternion": list(map(float, q0))}
-        if q_true is not None:
-            ae = attitude_error(q, q_true, rec.time)
-            doc["attitude"].update(max_error_deg=ae.max_deg, final_error_deg=ae.final_deg,
-                                   growth_deg_per_s=ae.growth_deg_per_s, position_drift_m=ae.position_drift_m)
-    doc["warnings"] = list(est.warnings)
-    return doc, rec, est, w_true, q
+    return GfimuOptions(layout=layout_file, distance=distance, method=method, observation=observation,
+                        initial_omega=w0, truth=truth, attitude=attitude, lag=lag, noise_std=noise_std,
+                        bias_std=bias_std, plain=plain, rest=span, differential_max_u=differential_max_u,
+                        smooth=smooth, time_column=time_column, fs=fs, names=names, time_unit=time_unit)
 
 
-def _write_out(path: Path, rec: Recording, est, q) -> Path:
-    chans: dict[str, np.ndarray] = {}
-    single = len(est.omega) == 1
-    for m, w in est.omega.items():
-        for i, ax in enumerate(_AXES):
-            chans[ax if single else f"{m}_{ax}"] = w[i]
-    kin = est.kinematics
-    for i, ax in enumerate("xyz"):
-        chans[f"alpha_{ax}"] = kin.angular_acceleration[i]
-    for i, ax in enumerate("xyz"):
-        chans[f"f_{ax}"] = kin.specific_force[i]
-    if q is not None:
-        chans.update(zip(("qw", "qx", "qy", "qz"), q))
-    out = Recording(channels=chans, t=rec.time, allow_nan=True)
-    return write_recording(out, path)
+# What `senscal batch` turns the job's option words into (see senscal.jobs).
+JOB_OPTIONS = {"gfimu": _options}
 
 
 @app.command("gfimu")
@@ -180,37 +73,21 @@ def gfimu_cmd(
     json_out: JsonOpt = False,
 ) -> None:
     """Angular velocity of a rigid body from an accelerometer array (no gyroscope)."""
-    if lag < 1:
-        raise InputError(f"--lag must be at least 1 sample, got {lag}")
-    # The filter works with variances; beyond 1e100 their products overflow to NaN rates.
-    if noise_std is not None and not 0 < noise_std < 1e100:
-        raise InputError(f"--noise-std must be a positive number in m/s^2 (below 1e100), got {noise_std:g}")
-    if bias_std is not None and not 0 < bias_std < 1e100:
-        raise InputError("--bias-std must be a positive number in m/s^2 (the channels' constant-error uncertainty)")
-    if (bias_std is not None or rest is not None) and observation != "quadratic":
-        raise InputError("--bias-std and --rest need --observation quadratic (the constant errors are states of that "
-                         "filter)")
-    if bias_std is not None and rest is not None:
-        raise InputError("--rest measures the constant errors that --bias-std would only bound: give one of them")
-    if plain and (bias_std is not None or rest is not None):
-        raise InputError("--plain is the filter without constant-error states: drop --bias-std / --rest, or --plain")
-    if differential_max_u is not None and not 0 < differential_max_u < float("inf"):
-        raise InputError(f"--differential-max-u must be a positive rate in rad/s, got {differential_max_u:g}")
-    doc, rec, est, w_true, q = run_gfimu(file, layout_file=layout_file, distance=distance, method=method,
-                                         observation=observation, initial_omega=initial_omega, truth=truth,
-                                         attitude=attitude, lag=lag, noise_std=noise_std,
-                                         time_column=time_column, fs=fs, names=names, bias_std=bias_std,
-                                         smooth=smooth, plain=plain, rest=rest,
-                                         differential_max_u=differential_max_u, time_unit=time_unit)
+    from senscal.io import write_recording
+    from senscal.jobs.gfimu import gfimu
+
+    result = gfimu(file, _options(**locals()))
+    est = result.estimate
+    doc = result.to_dict()
     if out is not None:
-        doc["out"] = str(_write_out(out, rec, est, q))
+        doc["out"] = str(write_recording(result.output_recording(), out))
     if plot is not None:
         from senscal.gfimu.plots import plot_rates
 
-        doc["plot"] = str(plot_rates(rec.time, est.omega, plot, truth=w_true, title=str(file.name)))
+        doc["plot"] = str(plot_rates(result.t, est.omega, plot, truth=result.truth_omega, title=str(file.name)))
     if json_out:
         print_json(doc)
-        emit_warnings(est.warnings, strict)
+        emit_warnings(result.warnings, strict)
         return
     console.print(f"{file}: {doc['n_samples']} samples at {doc['sample_rate_hz']:.6g} Hz, "
                   f"layout {doc['layout']['source']}, condition number {est.condition_number:.3g}")
@@ -247,7 +124,7 @@ def gfimu_cmd(
     for key in ("out", "plot"):
         if key in doc:
             err_console.print(f"wrote {doc[key]}")
-    emit_warnings(est.warnings, strict)
+    emit_warnings(result.warnings, strict)
 
 
 @simulate_app.command("gfimu")
@@ -270,7 +147,8 @@ def simulate_gfimu_cmd(
     linear_amplitude: Annotated[Optional[float], typer.Option("--linear-amplitude", help="Linear vibration of the rotation centre per axis, m/s^2 (default 0 with --paper, else 2).")] = None,
 ) -> None:
     """An accelerometer array on a moving rigid body: gfimu.csv, gfimu_truth.csv/.json, layout.csv."""
-    from senscal.gfimu import write_layout
+    from senscal.gfimu import paper_layout, write_layout
+    from senscal.io import write_recording
     from senscal.simulate.common import write_truth
     from senscal.simulate.gfimu import simulate_gfimu
 

@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from senscal.demo import DemoSection
-from senscal.gfimu import METHODS, angular_velocity, error_statistics, paper_layout
+from senscal.gfimu import error_statistics
 from senscal.gfimu.plots import plot_rates
 from senscal.io import write_recording
+from senscal.jobs.gfimu import GfimuOptions, gfimu
 from senscal.simulate.common import write_truth
 from senscal.simulate.gfimu import simulate_gfimu
 from senscal.sinefit import fit_sine
@@ -27,10 +28,10 @@ def run(out: Path, seed: int) -> DemoSection:
     t = rec.time
     w_true = truth.data(["wx", "wy", "wz"])
     # The paper's plain filter (no constant-error states) for its Table 2 comparison ...
-    est = angular_velocity(rec.data(), t, paper_layout(0.04), methods=METHODS, plain=True)
+    est = gfimu(rec, GfimuOptions(distance=0.04, method="all", plain=True)).estimate
     stats = error_statistics(est.omega, w_true)
     # ... and the default filter, which also carries the array's nine constant errors as states.
-    aug = angular_velocity(rec.data(), t, paper_layout(0.04), methods=("kalman",))
+    aug = gfimu(rec, GfimuOptions(distance=0.04)).estimate
     st_aug = error_statistics(aug.omega, w_true)["kalman"]
     plot_rates(t, est.omega, folder / "errors.png", truth=w_true,
                title="paper set-up: 30 deg / 2 Hz about z, 10 kHz, 10 s, bias 1e-4 g, noise 1e-3 g")

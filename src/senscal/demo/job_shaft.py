@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from senscal.demo import DemoSection
-from senscal.io import Recording, write_recording
-from senscal.shaft import calibrate_gravity, compensate
+from senscal.io import write_recording
+from senscal.jobs.shaft import ShaftCalibrateOptions, ShaftCompensateOptions, shaft_calibrate, shaft_compensate
 from senscal.shaft.plotting import plot_compensation
 from senscal.simulate.common import write_truth
 from senscal.simulate.shaft import simulate_shaft
@@ -29,17 +29,14 @@ def run(out: Path, seed: int) -> DemoSection:
     write_recording(cal, folder / "shaft_cal.csv", units_in_header=True)
     write_recording(test, folder / "shaft_test.csv", units_in_header=True)
     write_truth(truth, folder / "shaft_truth.json")
-    model = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", source="shaft_cal.csv")
+    # The jobs read the files as a user's command would: the angle unit (deg) comes from the CSV header.
+    model = shaft_calibrate(folder / "shaft_cal.csv", ShaftCalibrateOptions(angle="angle", accel="accel")).model
     model.save(folder / "model.json")
     r = truth["radius"]
-    res = compensate(model, test["accel"], test["angle"], test.time, radius=r, angle_unit="deg",
-                     remove_centripetal=True)
-    write_recording(Recording(channels={"tangential_acceleration": res.tangential_acceleration,
-                                        "angular_acceleration": res.angular_acceleration,
-                                        "angular_acceleration_encoder": res.angular_acceleration_encoder},
-                              t=res.t, units={"tangential_acceleration": "m/s^2", "angular_acceleration": "rad/s^2",
-                                              "angular_acceleration_encoder": "rad/s^2"}),
-                    folder / "compensated.csv")
+    compensated = shaft_compensate(folder / "shaft_test.csv",
+                                   ShaftCompensateOptions(model=model, radius=r, centripetal=True))
+    res = compensated.compensation
+    write_recording(compensated.output_recording(), folder / "compensated.csv")
     plot_compensation(folder / "compensation.png", model, res.angle, np.asarray(test["accel"]),
                       res.tangential_acceleration, unit=truth["output_unit"],
                       title=f"test run, r = {r} m: before/after gravity compensation", t=res.t,
