@@ -10,10 +10,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from senscal.batch import expand_files, flatten, job_argv, run_batch, run_one
+from senscal.batch import check_job, expand_files, flatten, run_batch, run_one
 from senscal.batch.arrays import fit_hdf5_dataset, fit_sine_dask
 from senscal.errors import InputError
 from senscal.io import Recording, write_recording
+from senscal.jobs.fit import FitOptions
 
 
 @pytest.fixture(scope="module")
@@ -33,9 +34,9 @@ def recordings(tmp_path_factory):
 
 
 def test_job_names():
-    assert job_argv("fit") == ["fit"]
+    assert check_job("fit") == "fit"
     with pytest.raises(InputError, match="unknown batch job 'nope'"):
-        job_argv("nope")
+        check_job("nope")
 
 
 def test_expand_files(recordings):
@@ -48,15 +49,27 @@ def test_expand_files(recordings):
 
 def test_run_one_failure_is_a_row(recordings):
     _, _, bad = recordings
-    row = run_one(["fit"], bad, ["--freq", "10"])
+    row = run_one("fit", bad, FitOptions(freq=10.0))
     assert not row.ok and "NaN at sample 1" in row.error and "\n" not in row.error
+
+
+def test_run_one_strict_fails_a_recording_with_warnings(tmp_path):
+    # A constant column is skipped with a channel-not-fitted warning: fine alone, a failure under --strict.
+    t = np.arange(500) / 500.0
+    noise = np.random.default_rng(4).normal(0, 0.01, t.size)
+    rec = Recording(channels={"x": np.sin(2 * math.pi * 10 * t) + noise, "c": np.ones(t.size)}, t=t)
+    p = str(write_recording(rec, tmp_path / "w.csv"))
+    ok = run_one("fit", p, FitOptions(freq=10.0))
+    assert ok.ok and [w.split(":")[0] for w in ok.result["warnings"]] == ["channel-not-fitted"]
+    row = run_one("fit", p, FitOptions(freq=10.0), strict=True)
+    assert not row.ok and row.error.startswith("--strict: channel-not-fitted")
 
 
 def test_local_cluster_two_workers(recordings):
     d, truth, bad = recordings
     files = sorted(truth) + [bad]
     done = []
-    summary = run_batch("fit", files, ["--freq", "10"], workers=2, on_done=done.append)
+    summary = run_batch("fit", files, FitOptions(freq=10.0), workers=2, on_done=done.append)
     assert summary.workers == 2
     assert summary.n_ok == 5 and summary.n_failed == 1
     assert len(done) == 6
@@ -80,6 +93,52 @@ def test_cli_batch_exit_codes_and_table(cli, recordings, tmp_path):
     r = cli("batch", "fit", str(d / "r*.csv"), "--freq", "10", "--workers", "1", "--files-per-task", "4")
     assert r.code == 4
     assert "1 of 6 recordings failed" in r.err
+
+
+def _no_cluster(monkeypatch):
+    """Make starting a cluster fail loudly: the checks below must refuse before that."""
+    import dask.distributed
+    import distributed
+
+    def boom(*a, **k):
+        raise AssertionError("a cluster was started for input that should have been refused")
+
+    for mod in (distributed, dask.distributed):
+        monkeypatch.setattr(mod, "LocalCluster", boom)
+        monkeypatch.setattr(mod, "Client", boom)
+
+
+@pytest.mark.parametrize("words, pattern", [
+    (["--save", "--sensor", "SN-1"], "--save applies to a single run of 'senscal fit'"),
+    (["--db", "reg.db"], "--db applies to a single run"),
+    (["--bogus"], "No such option: --bogus"),
+])
+def test_cli_batch_refuses_single_run_and_unknown_options(cli, recordings, monkeypatch, words, pattern):
+    _no_cluster(monkeypatch)
+    d, truth, _ = recordings
+    r = cli("batch", "fit", *sorted(truth), "--freq", "10", *words)
+    assert r.code == 2 and pattern in r.err and len(r.err.strip().splitlines()) == 1, r.err
+
+
+def test_cli_batch_job_without_options_builder_is_one_line(cli, recordings, monkeypatch):
+    import senscal.cli.cmd_fit as cmd_fit
+
+    _no_cluster(monkeypatch)
+    monkeypatch.setattr(cmd_fit, "JOB_OPTIONS", {})
+    d, truth, _ = recordings
+    r = cli("batch", "fit", *sorted(truth), "--freq", "10")
+    assert r.code == 2 and "cannot run 'fit' yet" in r.err and len(r.err.strip().splitlines()) == 1
+
+
+def test_cli_batch_options_equal_the_commands_own(recordings):
+    # The batch parses a job's words with the command's own parser and builder: same Options as the command.
+    from senscal.cli.cmd_batch import job_options
+
+    d, truth, _ = recordings
+    f = sorted(truth)[0]
+    opts, strict = job_options("fit", f, ["--freq", "10", "-c", "x", "--harmonics", "2", "--strict"])
+    assert opts == FitOptions(channels=("x",), freq=10.0, harmonics=2) and strict
+    assert job_options("fit", f, [])[0] == FitOptions()
 
 
 def test_flatten():
@@ -121,6 +180,23 @@ def test_cli_fit_array(cli, tmp_path):
     assert len(pd.read_csv(tmp_path / "o.csv")) == 20
     r = cli("fit-array", path, "--dataset", "d", "--out", tmp_path / "o.csv")
     assert r.code == 2 and "sample rate" in r.err
+
+
+@pytest.mark.parametrize("args, pattern", [
+    (["--dataset", "nope", "--fs", "200"], "no dataset 'nope'"),
+    (["--dataset", "d", "--fs", "200", "--freq", "150"], "Nyquist"),
+    (["--dataset", "d"], "sample rate"),
+    (["--dataset", "d", "--fs", "200", "--chunk", "0"], "--chunk"),
+])
+def test_cli_fit_array_checks_input_before_a_cluster(cli, tmp_path, monkeypatch, args, pattern):
+    _no_cluster(monkeypatch)
+    path = tmp_path / "a.h5"
+    with h5py.File(path, "w") as fh:
+        fh.create_dataset("d", data=np.zeros((3, 100)))
+    r = cli("fit-array", path, *args, "--workers", "2", "--out", tmp_path / "o.csv")
+    assert r.code == 2 and pattern in r.err and len(r.err.strip().splitlines()) == 1, r.err
+    r = cli("fit-array", tmp_path / "missing.h5", "--dataset", "d", "--workers", "2", "--out", tmp_path / "o.csv")
+    assert r.code == 2 and "not found" in r.err
 
 
 def test_zarr_store_equals_hdf5(tmp_path):

@@ -125,8 +125,19 @@ def test_run_one_protects_the_recording_of_its_job(tmp_path):
     # Inside a worker the job's own input is protected too.
     from senscal.batch.core import run_one
 
+    import senscal.jobs
+    from senscal.io.guard import check_output, write_text
+
+    def job_writing_onto_its_input(name, source, opts=None):
+        write_text(check_output(source), "overwritten")  # a job that writes an output onto its recording
+
     a = _sine(tmp_path / "a.csv")
     before = _digest(a)
-    row = run_one(["velocity"], str(a), ["--position", "position", "--velocity", "velocity", "--report", str(a)])
+    mp = pytest.MonkeyPatch()
+    mp.setattr(senscal.jobs, "run", job_writing_onto_its_input)
+    try:
+        row = run_one("velocity", str(a))
+    finally:
+        mp.undo()
     assert not row.ok and "input" in row.error
     assert _digest(a) == before

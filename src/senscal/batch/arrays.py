@@ -18,7 +18,7 @@ from senscal._result import ResultMixin
 from senscal.errors import FileFormatError, InputError, SenscalError
 from senscal.io.recording import check_time
 
-__all__ = ["ArrayFit", "SUMMARY_FIELDS", "fit_sine_dask", "fit_stored_array", "fit_hdf5_dataset"]
+__all__ = ["ArrayFit", "SUMMARY_FIELDS", "check_stored_array", "fit_sine_dask", "fit_stored_array", "fit_hdf5_dataset"]
 
 SUMMARY_FIELDS = ("frequency", "amplitude", "phase", "offset", "u_frequency", "u_amplitude", "u_phase",
                   "u_offset", "residual_rms", "snr_db")
@@ -201,6 +201,51 @@ def _hdf5_info(path: str, dataset: str, time_dataset: str | None):
         return ds.shape, ds.dtype, fs_attr, t
 
 
+def check_stored_array(path: str | Path, dataset: str, *, fs: float | None = None, time_dataset: str | None = None,
+                       freq: float | None = None, harmonics: int = 1, chunk_channels: int = 256):
+    """Check a stored array and the fit's options before any work starts (no cluster needed).
+
+    The file must exist and open, ``dataset`` must be a 2-D numeric array,
+    a sample rate must come from ``fs``, the ``fs`` attribute or
+    ``time_dataset``, and ``freq`` (with its harmonics) must lie below the
+    Nyquist frequency.
+
+    Returns
+    -------
+    (shape, fs, t)
+        Shape (n_channels, n_samples), sample rate in Hz (None with time
+        stamps), time stamps in s (None with a sample rate).
+
+    Raises
+    ------
+    InputError, FileFormatError
+        One line naming the problem and the fix.
+    """
+    path = str(path)
+    if not Path(path).exists():
+        raise FileFormatError(f"file not found: {path}")
+    if fs is not None and not (math.isfinite(fs) and fs > 0):
+        raise InputError(f"--fs must be a positive, finite sample rate in Hz, got {fs!r}")
+    if freq is not None and not (math.isfinite(freq) and freq > 0):
+        raise InputError(f"--freq must be a positive, finite frequency in Hz, got {freq!r}")
+    if isinstance(harmonics, bool) or int(harmonics) != harmonics or harmonics < 1:
+        raise InputError(f"--harmonics must be a whole number >= 1, got {harmonics!r}")
+    if isinstance(chunk_channels, bool) or int(chunk_channels) != chunk_channels or chunk_channels < 1:
+        raise InputError(f"--chunk must be a whole number >= 1, got {chunk_channels!r}")
+    shape, fs_attr, t = _store_info(path, dataset, time_dataset)
+    if fs is None and t is None and fs_attr is not None:
+        fs = fs_attr
+    if fs is None and t is None:
+        raise InputError(f"no sample rate for '{dataset}': give --fs or a time dataset")
+    if freq is not None and (fs is not None or t.size > 1):
+        # The mean rate of irregular stamps is what the fit's Nyquist check uses too.
+        rate = fs if fs is not None else (t.size - 1) / (t[-1] - t[0])
+        if harmonics * freq >= rate / 2:
+            raise InputError(f"--freq {freq:g} Hz{f' x {harmonics} harmonics' if harmonics > 1 else ''} is at or "
+                             f"above the Nyquist frequency {rate / 2:g} Hz of '{dataset}'; check --freq and --fs")
+    return shape, fs, t
+
+
 def fit_stored_array(path: str | Path, dataset: str, *, fs: float | None = None, time_dataset: str | None = None,
                      freq: float | None = None, harmonics: int = 1, chunk_channels: int = 256,
                      progress: Any = None) -> ArrayFit:
@@ -232,21 +277,8 @@ def fit_stored_array(path: str | Path, dataset: str, *, fs: float | None = None,
     import dask
 
     path = str(path)
-    if not Path(path).exists():
-        raise FileFormatError(f"file not found: {path}")
-    if fs is not None and not (math.isfinite(fs) and fs > 0):
-        raise InputError(f"--fs must be a positive, finite sample rate in Hz, got {fs!r}")
-    if freq is not None and not (math.isfinite(freq) and freq > 0):
-        raise InputError(f"--freq must be a positive, finite frequency in Hz, got {freq!r}")
-    if isinstance(harmonics, bool) or int(harmonics) != harmonics or harmonics < 1:
-        raise InputError(f"--harmonics must be a whole number >= 1, got {harmonics!r}")
-    if isinstance(chunk_channels, bool) or int(chunk_channels) != chunk_channels or chunk_channels < 1:
-        raise InputError(f"--chunk must be a whole number >= 1, got {chunk_channels!r}")
-    shape, fs_attr, t = _store_info(path, dataset, time_dataset)
-    if fs is None and t is None and fs_attr is not None:
-        fs = fs_attr
-    if fs is None and t is None:
-        raise InputError(f"no sample rate for '{dataset}': give --fs or a time dataset")
+    shape, fs, t = check_stored_array(path, dataset, fs=fs, time_dataset=time_dataset, freq=freq,
+                                      harmonics=harmonics, chunk_channels=chunk_channels)
     tasks = [dask.delayed(_fit_rows)(path, dataset, c0, min(c0 + chunk_channels, shape[0]), t, fs, freq, harmonics)
              for c0 in range(0, shape[0], chunk_channels)]
     try:

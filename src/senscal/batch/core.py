@@ -1,11 +1,13 @@
-"""Batch execution of per-recording jobs on a Dask cluster."""
+"""Batch execution of per-recording jobs on a Dask cluster.
+
+Each worker calls the job function (:func:`senscal.jobs.run`) with the
+job's typed options; a row holds ``result.to_dict()``, the document
+``senscal JOB --json`` prints.  Nothing here imports the command line.
+"""
 
 from __future__ import annotations
 
-import contextlib
-import functools
 import glob
-import io
 import json
 import time
 from dataclasses import dataclass, field
@@ -15,12 +17,13 @@ from typing import Any, Callable, Iterable, Sequence
 from senscal._result import ResultMixin
 from senscal.errors import InputError, SenscalError
 
-__all__ = ["BatchRow", "BatchSummary", "expand_files", "flatten", "job_argv", "run_one", "run_batch"]
+__all__ = ["BatchRow", "BatchSummary", "batch_jobs", "check_job", "expand_files", "flatten", "run_one", "run_many",
+           "run_batch", "rows_table", "write_rows"]
 
 
 @dataclass(frozen=True)
 class BatchRow(ResultMixin):
-    """One recording's outcome: ``ok`` with the job's JSON, or its one-line error."""
+    """One recording's outcome: ``ok`` with the job's JSON document, or its one-line error."""
 
     file: str
     ok: bool
@@ -65,117 +68,74 @@ def expand_files(patterns: Iterable[str]) -> list[str]:
     return out
 
 
-def job_argv(job: str) -> list[str]:
-    """Command words of a job name: ``shaft-calibrate`` -> ``["shaft", "calibrate"]``.
+def batch_jobs() -> list[str]:
+    """Names of the per-recording jobs ``senscal batch`` can run (the job table of :mod:`senscal.jobs`)."""
+    from senscal import jobs
+
+    return jobs.names()
+
+
+def check_job(job: str) -> str:
+    """``job`` if it names a job of :mod:`senscal.jobs`.
 
     Raises
     ------
     InputError
-        For a name that is not a per-recording command of ``senscal``.
+        For a name that is not a job, listing the jobs.
     """
-    root = _root_command()
-    words = job.split("-")
-    # Longest prefix that names a group, then the command inside it.
-    cmd = root
-    path: list[str] = []
-    i = 0
-    while i < len(words):
-        if not _is_group(cmd):
-            break
-        found = None
-        for j in range(len(words), i, -1):
-            name = "-".join(words[i:j])
-            if name in cmd.commands:  # type: ignore[attr-defined]
-                found = (name, j)
-                break
-        if found is None:
-            break
-        path.append(found[0])
-        cmd = cmd.commands[found[0]]  # type: ignore[attr-defined]
-        i = found[1]
     jobs = batch_jobs()
-    if i != len(words) or _is_group(cmd) or "-".join(path) not in jobs:
+    if job not in jobs:
         raise InputError(f"unknown batch job '{job}'; jobs are: {', '.join(jobs)}")
-    return path
+    return job
 
 
-def _is_group(cmd) -> bool:
-    # Typer's groups are not click.Group subclasses in every version.
-    return hasattr(cmd, "commands")
-
-
-_NOT_PER_RECORDING = {"demo", "batch", "simulate", "registry"}
-
-
-def batch_jobs() -> list[str]:
-    """Names of the per-recording jobs ``senscal batch`` can run."""
-    root = _root_command()
-    names = []
-    for name, cmd in sorted(root.commands.items()):  # type: ignore[attr-defined]
-        if name in _NOT_PER_RECORDING:
-            continue
-        if _is_group(cmd):
-            names += [f"{name}-{sub}" for sub in sorted(cmd.commands)
-                      if any(p.name == "json_out" or "--json" in getattr(p, "opts", ()) for p in cmd.commands[sub].params)]
-        elif any("--json" in getattr(p, "opts", ()) for p in cmd.params):
-            names.append(name)
-    return names
-
-
-@functools.lru_cache(maxsize=1)
-def _root_command():
-    import typer
-
-    from senscal.cli import load_commands
-
-    return typer.main.get_command(load_commands())
-
-
-def run_one(command: Sequence[str], file: str, options: Sequence[str]) -> BatchRow:
-    """Run one job on one file in this process; never raises for a job failure.
+def run_one(job: str, file: str, options: Any = None, *, strict: bool = False) -> BatchRow:
+    """Run one job on one recording in this process; never raises for a job failure.
 
     Parameters
     ----------
-    command : sequence of str
-        Command words, e.g. ``["shaft", "calibrate"]``.
+    job : str
+        Job name (``fit``, ``shaft-calibrate`` ...).
     file : str
         The recording.
-    options : sequence of str
-        The job's own options (as on its command line), ``--json`` added here.
-    """
-    t0 = time.perf_counter()
-    root = _root_command()
-    args = [*command, file, *options, "--json"]
-    out = io.StringIO()
-    err = io.StringIO()
-    try:
-        from senscal.io.guard import protect_inputs
+    options : dataclass, optional
+        The job's options (``FitOptions(freq=10.0)`` ...); None for its defaults.
+    strict : bool
+        A recording whose result carries named warnings fails (as ``--strict``
+        makes the single command exit 3), its row naming the first warning.
 
-        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err), protect_inputs():
-            rv = root.main(args=args, prog_name="senscal", standalone_mode=False)
-        if isinstance(rv, int) and rv != 0:
-            raise SenscalError(f"job exited with code {rv}")
-        text = out.getvalue()
-        start = text.find("{")
-        if start < 0:
-            raise SenscalError("job printed no JSON result")
-        doc = json.loads(text[start:])
-        return BatchRow(file=file, ok=True, error=None, result=doc, seconds=time.perf_counter() - t0)
+    Returns
+    -------
+    BatchRow
+        ``ok`` with ``result.to_dict()``, or the one-line error.
+    """
+    from senscal import jobs
+    from senscal.errors import DiagnosticError
+    from senscal.io.guard import note_input, protect_inputs
+
+    t0 = time.perf_counter()
+    try:
+        # The recording is an input of the job: nothing the job writes may replace it.
+        with protect_inputs():
+            note_input(file)
+            result = jobs.run(job, file, options)
+        if strict and result.warnings:
+            more = f" (and {len(result.warnings) - 1} more)" if len(result.warnings) > 1 else ""
+            raise DiagnosticError(f"--strict: {result.warnings[0]}{more}")
+        return BatchRow(file=file, ok=True, error=None, result=result.to_dict(), seconds=time.perf_counter() - t0)
     except SenscalError as exc:
         msg = str(exc)
-    except Exception as exc:  # click usage errors and bugs: one line in the row, the batch goes on
-        from senscal.cli import _clickcompat as cx
-
-        if isinstance(exc, cx.ClickException):
-            msg = exc.format_message()
-        else:
-            msg = f"internal error ({type(exc).__name__}: {exc}); please report it"
+    except OSError as exc:
+        # An unreadable recording (permission, vanished file) is that recording's problem, not a bug.
+        msg = f"{exc.filename}: {(exc.strerror or type(exc).__name__).lower()}" if exc.filename else str(exc)
+    except Exception as exc:  # a bug in one job: one line in its row, the batch goes on
+        msg = f"internal error ({type(exc).__name__}: {exc}); please report it"
     return BatchRow(file=file, ok=False, error=" ".join(msg.split()), result=None, seconds=time.perf_counter() - t0)
 
 
-def run_many(command: Sequence[str], files: Sequence[str], options: Sequence[str]) -> list[BatchRow]:
+def run_many(job: str, files: Sequence[str], options: Any = None, strict: bool = False) -> list[BatchRow]:
     """:func:`run_one` over several files in one task (amortises per-task scheduling)."""
-    return [run_one(command, f, options) for f in files]
+    return [run_one(job, f, options, strict=strict) for f in files]
 
 
 def flatten(doc: Any, prefix: str = "") -> dict[str, Any]:
@@ -195,8 +155,8 @@ def flatten(doc: Any, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def run_batch(job: str, files: Sequence[str], options: Sequence[str] = (), *, workers: int = 2,
-              scheduler: str | None = None, client: Any = None, files_per_task: int = 1,
+def run_batch(job: str, files: Sequence[str], options: Any = None, *, workers: int = 2,
+              scheduler: str | None = None, client: Any = None, files_per_task: int = 1, strict: bool = False,
               on_done: Callable[[BatchRow], None] | None = None) -> BatchSummary:
     """Run ``job`` on every file, one Dask task per recording.
 
@@ -206,8 +166,10 @@ def run_batch(job: str, files: Sequence[str], options: Sequence[str] = (), *, wo
         Job name (``fit``, ``shaft-calibrate``, ``triaxial-calibrate``, ...).
     files : sequence of str
         Recordings (already expanded).
-    options : sequence of str
-        The job's options, as on its command line.
+    options : dataclass, optional
+        The job's options (``senscal.jobs.options("fit", freq=10.0)``); None
+        for its defaults.  Every worker calls ``senscal.jobs.run(job, file,
+        options)``.
     workers : int
         Worker processes of the local cluster (ignored with ``scheduler``).
     scheduler : str, optional
@@ -218,12 +180,23 @@ def run_batch(job: str, files: Sequence[str], options: Sequence[str] = (), *, wo
         Recordings per Dask task (default 1: one task per recording).  Dask
         costs a few milliseconds per task; for thousands of recordings that
         each take about as long, grouping them amortises that cost.
+    strict : bool
+        Fail the recordings whose results carry named warnings.
     on_done : callable, optional
         Called with each row as it completes (progress).
+
+    Raises
+    ------
+    InputError
+        Unknown job, bad ``workers`` / ``files_per_task``, unreachable scheduler.
     """
     from dask.distributed import Client, LocalCluster, as_completed
 
-    command = job_argv(job)
+    from senscal import jobs
+
+    check_job(job)
+    if options is None:
+        options = jobs.options(job)  # also: a job whose module is not there yet fails here, not in every worker
     if workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
     if files_per_task < 1:
@@ -247,8 +220,8 @@ def run_batch(job: str, files: Sequence[str], options: Sequence[str] = (), *, wo
         try:
             n_workers = len(client.scheduler_info().get("workers", {})) or workers
             groups = [list(files[i:i + files_per_task]) for i in range(0, len(files), files_per_task)]
-            futures = client.map(run_many, [command] * len(groups), groups, [list(options)] * len(groups),
-                                 pure=False)
+            futures = client.map(run_many, [job] * len(groups), groups, [options] * len(groups),
+                                 [strict] * len(groups), pure=False)
             rows: dict[str, BatchRow] = {}
             # with_results gathers finished results in batches instead of one
             # round trip per task.

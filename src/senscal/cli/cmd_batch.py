@@ -3,34 +3,94 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Any, Optional
 
 import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app
 from senscal.cli.common import console, err_console, print_json, progress_bar, table
+from senscal.errors import InputError
 from senscal.io.guard import atomic_output, check_output, note_input
 
 
-# Job options that name a file the job writes (--out always belongs to batch itself).
-_JOB_OUTPUTS = ("--plot", "--report", "--save-response")
+# Parameters of a job's command that only make sense for one interactive run: files it writes next to its
+# result, and the registry (a batch row keeps each recording's result; the rows go to batch's own --out).
+_SINGLE_RUN = {"plot", "report", "out", "save_response", "pdf", "dcc", "certificate", "save", "sensor", "db",
+               "create_sensor", "date", "operator"}
+# Accepted and handled by batch itself: --json (rows are JSON already), --strict (fails the rows with warnings).
+_BATCH_HANDLED = {"json_out", "strict"}
 
 
-def _check_job_outputs(options: list[str], n_files: int) -> None:
-    """Refuse a job output file that every recording would overwrite, or that is a recording."""
-    from senscal.errors import InputError
+def _job_command(job: str) -> tuple[list[str], str]:
+    """Command words and ``cmd_*`` module of a job: ``shaft-calibrate`` -> (["shaft", "calibrate"], "cmd_shaft")."""
+    from senscal.cli._manifest_data import COMMANDS
 
-    for i, opt in enumerate(options):
-        name, eq, value = opt.partition("=")
-        if name not in _JOB_OUTPUTS:
+    if job in COMMANDS:
+        return [job], COMMANDS[job][0]
+    for name, (module, _) in COMMANDS.items():
+        if job.startswith(name + "-"):
+            return [name, job[len(name) + 1:]], module
+    raise InputError(f"job '{job}' has no command of its own in this version of senscal")
+
+
+def job_options(job: str, first_file: str, words: list[str]) -> tuple[Any, bool]:
+    """The job's Options from its option words, parsed by the job command's own parser.
+
+    Parameters
+    ----------
+    job : str
+        Job name (``fit``, ``shaft-calibrate`` ...).
+    first_file : str
+        A recording of the batch: the command's file argument while parsing.
+    words : list of str
+        The job's options as on its command line (``["--freq", "10"]``).
+
+    Returns
+    -------
+    (options, strict)
+        ``JOB_OPTIONS[job](**params)`` of the command's module, and whether
+        ``--strict`` was given.
+
+    Raises
+    ------
+    InputError
+        Unknown job, a job whose command does not yet hand its options to the
+        job layer, or an option that only makes sense for a single run.
+    click.UsageError
+        An option the job's command does not know (one line via ``senscal.cli.main``).
+    """
+    import importlib
+    import inspect
+
+    from senscal.batch import check_job
+
+    check_job(job)
+    cmd_words, module = _job_command(job)
+    spelled = "senscal " + " ".join(cmd_words)
+    mod = importlib.import_module(f"senscal.cli.{module}")
+    builder = getattr(mod, "JOB_OPTIONS", {}).get(job)
+    if builder is None:
+        raise InputError(f"senscal batch cannot run '{job}' yet: its command does not hand its options to the job "
+                         f"layer (no JOB_OPTIONS in senscal.cli.{module}); run '{spelled}' on each file")
+    cmd = typer.main.get_command(app)
+    for w in cmd_words:
+        cmd = cmd.commands[w]  # type: ignore[attr-defined]
+    ctx = cmd.make_context(spelled, [first_file, *words], resilient_parsing=False)
+    sig = inspect.signature(builder).parameters.values()
+    explicit = {p.name for p in sig if p.kind is not p.VAR_KEYWORD}
+    for param in cmd.params:
+        # Typer may vendor its own Click: classes and enums are compared by name.
+        if param.param_type_name == "argument" or param.name in _BATCH_HANDLED:
             continue
-        if not eq:
-            value = options[i + 1] if i + 1 < len(options) else ""
-        if n_files > 1:
-            raise InputError(f"{name} {value} would be written by each of the {n_files} recordings in turn; "
-                             f"run the job per file for its {name}")
-        check_output(value)
+        source = ctx.get_parameter_source(param.name)
+        if getattr(source, "name", None) not in ("COMMANDLINE", "ENVIRONMENT"):
+            continue
+        if param.name in _SINGLE_RUN or (explicit and param.name not in explicit):
+            opt = param.opts[0]
+            raise InputError(f"{opt} applies to a single run of '{spelled}', not to a batch (each recording's "
+                             f"result is a row of batch's --out table); run '{spelled} FILE {opt} ...' for it")
+    return builder(**ctx.params), bool(ctx.params.get("strict"))
 
 
 @app.command(
@@ -50,12 +110,11 @@ def batch_cmd(
     """Run a job over many recordings on Dask; failed recordings get their error in their row.
 
     Arguments after JOB that do not start with '-' are files or glob patterns;
-    everything from the first option on is passed to the job. Exit code 0
-    when every recording succeeded, 4 when some failed.
+    everything from the first option on is the job's options (as its own
+    command takes them; plots, reports and --save are for single runs).
+    Exit code 0 when every recording succeeded, 4 when some failed.
     """
-    from senscal.batch import expand_files, run_batch
-    from senscal.batch.core import write_rows
-    from senscal.errors import InputError
+    from senscal.batch import expand_files, run_batch, write_rows
 
     extra = list(ctx.args)
     files_part: list[str] = []
@@ -69,10 +128,11 @@ def batch_cmd(
         note_input(f)
     if out is not None:
         check_output(out)
-    _check_job_outputs(extra, len(files))
+    # Parsed here, once: a typo fails before a cluster starts, and workers get typed options, not words.
+    options, strict = job_options(job, files[0], extra)
     with progress_bar(f"{job} on {len(files)} recordings", len(files)) as advance:
-        summary = run_batch(job, files, extra, workers=workers, scheduler=scheduler, files_per_task=files_per_task,
-                            on_done=lambda r: advance())
+        summary = run_batch(job, files, options, workers=workers, scheduler=scheduler, files_per_task=files_per_task,
+                            strict=strict, on_done=lambda r: advance())
     if out is not None:
         write_rows(summary, out)
     if json_out:
@@ -112,13 +172,17 @@ def fit_array_cmd(
     import numpy as np
     import pandas as pd
 
-    from senscal.batch.arrays import SUMMARY_FIELDS, _store_info, fit_stored_array
-    from senscal.errors import InputError
+    from senscal.batch.arrays import SUMMARY_FIELDS, check_stored_array, fit_stored_array
 
-    if chunk < 1:
-        raise InputError(f"--chunk must be at least 1, got {chunk}")
     if out.suffix.lower() not in (".parquet", ".pq", ".csv"):
         raise InputError(f"--out must end in .parquet or .csv, got {out.name}")
+    if workers < 0:
+        raise InputError(f"--workers must be 0 (threads in this process) or more, got {workers}")
+    note_input(file)
+    out = check_output(out)
+    # Everything about the input is checked before a cluster starts (seconds, and workers that would all fail).
+    shape = check_stored_array(file, dataset, fs=fs, time_dataset=time_dataset, freq=freq, harmonics=harmonics,
+                               chunk_channels=chunk)[0]
     stack = contextlib.ExitStack()
     with stack:
         if scheduler or workers > 0:
@@ -135,7 +199,7 @@ def fit_array_cmd(
                 cluster = stack.enter_context(LocalCluster(n_workers=workers, threads_per_worker=1,
                                                            dashboard_address=None, silence_logs=50))
                 stack.enter_context(Client(cluster))
-        total = _store_info(str(file), dataset, None)[0][0] if file.exists() else None
+        total = shape[0]
         with progress_bar(f"fitting {dataset}", total) as advance:
             res = fit_stored_array(file, dataset, fs=fs, time_dataset=time_dataset, freq=freq,
                                    harmonics=harmonics, chunk_channels=chunk, progress=advance)
@@ -143,8 +207,6 @@ def fit_array_cmd(
                        **{f: getattr(res, f) for f in SUMMARY_FIELDS}})
     df["phase_deg"] = np.degrees(df["phase"])
     df["u_phase_deg"] = np.degrees(df["u_phase"])
-    note_input(file)
-    out = check_output(out)
     with atomic_output(out, what="results table") as tmp:
         df.to_parquet(tmp, index=False) if out.suffix.lower() in (".parquet", ".pq") else df.to_csv(tmp, index=False)
     summary = {"file": str(file), "dataset": dataset, "n_channels": res.n_channels, "n_samples": res.n_samples,
