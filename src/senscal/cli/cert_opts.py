@@ -1,0 +1,176 @@
+"""``--report FILE.pdf|.html --dcc FILE.xml --lab FILE --run FILE --customer ...`` for calibration commands.
+
+A command that issues a certificate adds the option aliases below to its
+signature and calls :func:`certify` once with its result; ``certify``
+returns the certificate's named warnings (``certificate-draft``,
+``budget-zero-component``, ``u-below-reference``) for the command to add to
+its own before :func:`~senscal.cli.common.emit_warnings`::
+
+    from senscal.cli.cert_opts import (CertIdOpt, CustomerOpt, DccOpt, EnvOpt, ItemOpt, LabOpt, LocationOpt,
+                                       ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt, SensorIdOpt, certify)
+
+    warns += certify("response", resp, report=report, dcc=dcc, lab=lab, run_file=run_file, customer=customer,
+                     item=item, manufacturer=manufacturer, model=model, serial=sensor_id, location=location,
+                     certificate_id=certificate_id, env=env, date=date, unit=unit, method=meth,
+                     conditions=cond, files=files, warnings=warns)
+
+Where the fields come from (later wins): the lab profile's ``[run]`` table
+(``--lab FILE``, default ``$SENSCAL_LAB`` or ``~/.config/senscal/lab.toml``),
+then the run file (``--run FILE``: a ``[run]`` table or top-level fields, for
+what has no option of its own: customer address, deviations, statement of
+conformity and decision rule, approver, issue date, remarks), then the
+options.  The calibration date is the registry's ``--date`` when given.
+Nothing happens without ``--report`` or ``--dcc``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+from dataclasses import replace
+from pathlib import Path
+from typing import Any, List, Mapping, Optional, Sequence
+
+import typer
+from typing_extensions import Annotated
+
+from senscal.cli.common import err_console
+from senscal.errors import InputError
+
+__all__ = ["ReportOpt", "DccOpt", "LabOpt", "RunFileOpt", "CustomerOpt", "ItemOpt", "ManufacturerOpt", "ModelOpt",
+           "SensorIdOpt", "LocationOpt", "CertIdOpt", "EnvOpt", "certificate_info", "certify"]
+
+_PANEL = "Certificate"
+
+ReportOpt = Annotated[Optional[Path], typer.Option(
+    "--report", metavar="FILE.pdf|FILE.html", help="Write the calibration certificate: PDF (A4) for .pdf, HTML for .html.",
+    rich_help_panel=_PANEL)]
+DccOpt = Annotated[Optional[Path], typer.Option(
+    "--dcc", metavar="FILE.xml", help="Write the Digital Calibration Certificate (PTB DCC XML, validated against its "
+                                      "schema).", rich_help_panel=_PANEL)]
+LabOpt = Annotated[Optional[Path], typer.Option(
+    "--lab", metavar="FILE", help="Lab profile, TOML or YAML (default: $SENSCAL_LAB, else lab.toml in "
+                                  "~/.config/senscal).", rich_help_panel=_PANEL)]
+RunFileOpt = Annotated[Optional[Path], typer.Option(
+    "--run", metavar="FILE", help="Certificate fields of this calibration, TOML or YAML ([run] table); options win.",
+    rich_help_panel=_PANEL)]
+CustomerOpt = Annotated[Optional[str], typer.Option("--customer", help="Customer name (certificate).",
+                                                    rich_help_panel=_PANEL)]
+ItemOpt = Annotated[Optional[str], typer.Option(
+    "--item", help="Description of the item calibrated, e.g. 'piezoelectric accelerometer'.", rich_help_panel=_PANEL)]
+ManufacturerOpt = Annotated[Optional[str], typer.Option("--manufacturer", help="Manufacturer of the item.",
+                                                        rich_help_panel=_PANEL)]
+ModelOpt = Annotated[Optional[str], typer.Option("--model", help="Model (type) of the item.", rich_help_panel=_PANEL)]
+SensorIdOpt = Annotated[Optional[str], typer.Option("--serial", "--sensor-id", help="Serial number of the item.",
+                                                    rich_help_panel=_PANEL)]
+LocationOpt = Annotated[Optional[str], typer.Option(
+    "--location", help="Where the calibration was done (the lab, or the customer's site).", rich_help_panel=_PANEL)]
+CertIdOpt = Annotated[Optional[str], typer.Option(
+    "--certificate-id", help="Certificate number (default SC-YYYYMMDD-<digest of result and item>).",
+    rich_help_panel=_PANEL)]
+EnvOpt = Annotated[Optional[List[str]], typer.Option(
+    "--env", metavar="NAME=VALUE+-U UNIT", help="Environmental condition with its standard uncertainty (repeatable), "
+                                                "e.g. 'temperature=23.1+-0.5 degC'.", rich_help_panel=_PANEL)]
+
+
+def _date_part(text: str | None) -> str:
+    """The date of an ISO 8601 date or date-time (the registry's ``--date``)."""
+    if not text:
+        return ""
+    try:
+        return _dt.datetime.fromisoformat(text).date().isoformat()
+    except ValueError:
+        raise InputError(f"--date {text!r} is not an ISO 8601 date (YYYY-MM-DD[THH:MM])") from None
+
+
+def certificate_info(*, lab: Path | None = None, run_file: Path | None = None, customer: str | None = None,
+                     item: str | None = None, manufacturer: str | None = None, model: str | None = None,
+                     serial: str | None = None, location: str | None = None, certificate_id: str | None = None,
+                     env: Sequence[str] | None = None, date: str | None = None):
+    """The :class:`~senscal.report.lab.CertificateInfo` from the profile, the run file and the options.
+
+    Raises
+    ------
+    InputError
+        An unreadable or invalid profile or run file, a malformed ``--env``.
+    """
+    from senscal.report.lab import (CertificateInfo, LabProfile, RunInfo, default_lab_path, load_lab_profile,
+                                    load_run_file, merge_run, parse_condition)
+
+    path = lab if lab is not None else default_lab_path()
+    profile, run = load_lab_profile(path) if path is not None else (LabProfile(), RunInfo())
+    if run_file is not None:
+        given = load_run_file(run_file)
+        run = merge_run(run, **{k: getattr(given, k) for k in given.__dataclass_fields__})
+    conds = tuple(parse_condition(e) for e in env or ())
+    run = merge_run(run, customer=customer, item=item, manufacturer=manufacturer, model=model, serial=serial,
+                    location=location, certificate_id=certificate_id, calibration_date=_date_part(date),
+                    conditions=conds)
+    return CertificateInfo(profile, run)
+
+
+def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, unit: str, method: str,
+            conditions: Mapping[str, Any], files: Sequence[str], warnings: Sequence[str] = (),
+            **fields: Any) -> list[str]:
+    """Write the certificate (``--report``) and the DCC (``--dcc``) of one result; return their warnings.
+
+    Parameters
+    ----------
+    kind : str
+        ``"response"``, ``"velocity"`` or ``"linearity"``.
+    result : object
+        The engine result the certificate reports (FrequencyResponse, VelocityCalibration, AmplitudeLinearity).
+    report, dcc : Path or None
+        Where to write them; nothing is done when both are None.
+    unit, method : str
+        Sensitivity unit; method statement.
+    conditions : mapping
+        Settings of the calibration shown on the certificate.
+    files : sequence of str
+        Records used.
+    warnings : sequence of str
+        The command's named warnings (printed on the certificate with the certificate's own).
+    **fields
+        The certificate options: ``lab``, ``run_file``, ``customer``, ``item``, ``manufacturer``, ``model``,
+        ``serial``, ``location``, ``certificate_id``, ``env``, ``date`` (see :func:`certificate_info`).
+
+    Returns
+    -------
+    list of str
+        ``certificate-draft`` (a required field is missing: DRAFT on every page), ``budget-zero-component``,
+        ``u-below-reference``; empty when nothing was written.
+    """
+    if report is None and dcc is None:
+        return []
+    from senscal.io.guard import check_output
+    from senscal.report.certificate import REPORT_SUFFIXES, certificate_id, certificate_warnings, write_certificate
+
+    # Refuse a bad path before anything is written: a PDF without its DCC (or the reverse) is half an issue.
+    if report is not None:
+        check_output(report, suffixes=REPORT_SUFFIXES, what="--report")
+    if dcc is not None:
+        check_output(dcc, suffixes=(".xml",), what="--dcc")
+    info = certificate_info(**fields)
+    now = _dt.datetime.now(_dt.timezone.utc)
+    # The PDF/HTML and the DCC carry the same id and issue date.
+    run = replace(info.run, issue_date=info.run.issue_date or now.date().isoformat())
+    info = replace(info, run=replace(run, certificate_id=certificate_id(kind, result, replace(info, run=run), now)))
+    warns = list(certificate_warnings(kind, result, info))
+    shown = [*warnings, *warns]
+    if dcc is not None:  # first: it refuses missing fields, and then nothing is written
+        _write_dcc(dcc, kind, result, info, unit=unit, method=method, files=files, warnings=shown)
+        err_console.print(f"DCC {info.run.certificate_id} written to {dcc}")
+    if report is not None:
+        write_certificate(report, kind, result, info=info, unit=unit, method=method, conditions=conditions,
+                          files=files, warnings=shown)
+        err_console.print(f"certificate {info.run.certificate_id} written to {report}")
+    return warns
+
+
+def _write_dcc(path: Path, kind: str, result: Any, info: Any, **kw: Any) -> None:
+    try:
+        from senscal.report.dcc import write_dcc
+    except ModuleNotFoundError as exc:
+        if exc.name != "senscal.report.dcc":
+            raise
+        raise InputError("--dcc: this senscal has no DCC writer (senscal.report.dcc); write --report only") from None
+    write_dcc(path, kind, result, info, **kw)
