@@ -30,7 +30,7 @@ from senscal.errors import InputError
 
 __all__ = ["Person", "Standard", "Condition", "LabProfile", "RunInfo", "CertificateInfo", "load_lab_profile",
            "load_run_file", "parse_condition", "run_info_from", "merge_run", "missing_fields", "default_lab_path",
-           "REQUIRED_LAB", "REQUIRED_RUN"]
+           "REQUIRED_LAB", "REQUIRED_RUN", "signing_approvers"]
 
 
 @dataclass(frozen=True)
@@ -344,3 +344,23 @@ def load_run_file(path: str | os.PathLike) -> RunInfo:
     if not isinstance(run, Mapping):
         raise InputError(f"run file {p}: 'run' must be a table")
     return run_info_from(run, f"{p} [run]" if "run" in doc else str(p))
+
+
+def signing_approvers(info: CertificateInfo) -> tuple[Person, ...]:
+    """Who authorises this certificate: the run's ``approver`` (one of the lab's), else every approver listed.
+
+    Shared by the HTML/PDF certificate and the DCC so both name the same people.
+
+    Raises
+    ------
+    InputError
+        ``run.approver`` is not among the lab's approvers.
+    """
+    if not info.run.approver:
+        return info.lab.approvers
+    chosen = tuple(a for a in info.lab.approvers if a.name == info.run.approver)
+    if not chosen:
+        raise InputError(f"approver {info.run.approver!r} is not among the lab's approvers "
+                         f"({', '.join(a.name for a in info.lab.approvers) or 'none listed'}); "
+                         "add them to the lab profile or choose one of those")
+    return chosen
