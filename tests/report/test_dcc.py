@@ -432,3 +432,72 @@ def test_linearity_job_result_takes_its_output_unit():
     assert q["senscal_sensitivity"]["unit"] == ["\\milli\\volt\\metre\\tothe{-1}\\second\\tothe{2}"]
     assert q["senscal_outputAmplitude"]["unit"] == ["\\milli\\volt"] * 3
     assert q["senscal_sensitivity"]["value"] == [res.linearity.slope]
+
+
+def test_certificate_id_and_approver_from_the_run(response):
+    root = ET.fromstring(dcc_xml("response", response, _info(certificate_id="", approver="B. Deputy"),
+                                 certificate_id="SC-20260305-ABCDEF12"))
+    assert root.findtext(".//dcc:uniqueIdentifier", namespaces=NS) == "SC-20260305-ABCDEF12"
+    names = [e.text for e in root.findall(".//dcc:respPerson/dcc:person/dcc:name/dcc:content", NS)]
+    assert names == ["B. Deputy"]
+    with pytest.raises(DccError, match="run.certificate_id"):
+        dcc_xml("response", response, _info(certificate_id=""))
+
+
+# ---------------------------------------------------------------------------
+# triaxial and shaft calibrations
+
+
+def test_triaxial_parameters_round_trip():
+    from senscal import jobs
+    from senscal.simulate.triaxial import simulate_magnetometer
+
+    res = jobs.run("triaxial-calibrate", simulate_magnetometer(seed=1)[0])
+    q = read_dcc_quantities(dcc_xml("triaxial", res, _info(item="three-axis magnetometer")))
+    params = res.calibration.parameters
+    assert params, "the simulated sphere determines the parameters"
+    for name, p in params.items():
+        if p["unit"] == "rad":
+            assert q[f"senscal_{name}@\\radian"]["value"] == [p["value"]]
+            assert q[f"senscal_{name}@\\radian"]["U"] == [2 * p["u"]]
+            assert q[f"senscal_{name}@\\degree"]["value"] == [math.degrees(p["value"])]
+        else:
+            assert q[f"senscal_{name}"]["value"] == [p["value"]] and q[f"senscal_{name}"]["U"] == [2 * p["u"]]
+            assert q[f"senscal_{name}"]["unit"] == [dsi_unit(p["unit"])]
+
+
+def test_undetermined_parameter_is_stated_not_invented():
+    from senscal import jobs
+    from senscal.simulate.triaxial import simulate_magnetometer
+
+    res = jobs.run("triaxial-calibrate", simulate_magnetometer(seed=1)[0])
+    tri = res.calibration
+    first = next(iter(tri.parameters))
+    params = {**tri.parameters, first: {**tri.parameters[first], "value": float("nan"), "u": float("nan")}}
+    root = ET.fromstring(dcc_xml("triaxial", replace(tri, parameters=params), _info()))
+    q = root.find(f".//dcc:quantity[@refType='senscal_{first}']", NS)
+    assert q.find("si:real", NS) is None and "not determined" in q.findtext("dcc:noQuantity/dcc:content",
+                                                                             namespaces=NS)
+
+
+def test_shaft_gravity_model_round_trip():
+    from senscal import jobs
+    from senscal.simulate.shaft import simulate_shaft
+
+    res = jobs.run("shaft-calibrate", simulate_shaft(seed=1)[0])
+    m = res.model
+    q = read_dcc_quantities(dcc_xml("shaft", res, _info(item="tangential accelerometer")))
+    assert q["senscal_gravity_amplitude"]["value"] == [m.amplitude]
+    assert q["senscal_gravity_amplitude"]["U"] == [2 * m.u_amplitude]
+    assert q["senscal_offset"]["value"] == [m.offset] and q["senscal_bias"]["value"] == [m.bias]
+    assert q["senscal_tilt@\\radian"]["value"] == [m.tilt] and q["senscal_phase@\\radian"]["U"] == [2 * m.u_phase]
+    assert q["senscal_bias"]["unit"] == ["\\metre\\second\\tothe{-2}"]
+
+
+def test_parameter_without_a_unit_is_refused():
+    from senscal import jobs
+    from senscal.simulate.shaft import simulate_shaft
+
+    res = jobs.run("shaft-calibrate", simulate_shaft(seed=1)[0])
+    with pytest.raises(DccError, match="has no unit"):
+        dcc_xml("shaft", replace(res.model, output_unit=""), _info())

@@ -1,7 +1,8 @@
-"""Digital Calibration Certificate (DCC) XML for the vibration calibrations.
+"""Digital Calibration Certificate (DCC) XML for senscal's calibrations.
 
 Writes the PTB DCC (schema 3.1.2, D-SI 2.1.0) of a frequency response,
-a velocity-sensor sensitivity or an amplitude linearity: administrative data
+a velocity-sensor sensitivity, an amplitude linearity, a three-axis sensor
+calibration or a shaft gravity model: administrative data
 from the lab profile and the run (:class:`senscal.report.lab.CertificateInfo`),
 measurement results as D-SI lists (``si:realListXMLList``, ``si:hybrid`` for
 phases in degrees and radians) with expanded uncertainties, coverage factors
@@ -33,11 +34,12 @@ import math
 import re
 import unicodedata
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Sequence
 
 from senscal.errors import InputError
-from senscal.report.lab import CertificateInfo, missing_fields
+from senscal.report.lab import CertificateInfo, missing_fields, signing_approvers
 
 __all__ = ["DccError", "write_dcc", "dcc_xml", "validate_dcc", "dcc_schema", "dsi_unit", "dcc_missing_fields",
            "read_dcc_quantities", "DCC_NS", "SI_NS", "SCHEMA_VERSION", "COVERAGE_PROBABILITY"]
@@ -61,8 +63,13 @@ DCC_REQUIRED_LAB = ("email", "country")
 DCC_REQUIRED_RUN = ("certificate_id", "customer_address", "customer_email", "manufacturer")
 
 _TITLES = {"response": "Accelerometer frequency response", "velocity": "Velocity-sensor sensitivity",
-           "linearity": "Accelerometer amplitude linearity"}
-_METHODS = {"response": "Sine-excitation calibration: sensitivity and phase delay per frequency, least-squares sine "
+           "linearity": "Accelerometer amplitude linearity", "triaxial": "Three-axis sensor calibration",
+           "shaft": "Tangential accelerometer on a rotating shaft: gravity model"}
+_METHODS = {"triaxial": "Three-axis sensor calibration from readings in many orientations in a field of constant "
+                        "magnitude: scale factors, non-orthogonality angles and offsets (maximum likelihood)",
+            "shaft": "Gravity identification of a tangential accelerometer on a shaft turning at constant speed: "
+                     "amplitude, phase and offset of the gravity term against the encoder angle",
+            "response": "Sine-excitation calibration: sensitivity and phase delay per frequency, least-squares sine "
                         "fits of output and reference (GUM uncertainty budget per point)",
             "velocity": "Sine-excitation calibration of a velocity sensor against a position reference: "
                         "sensitivity and phase per frequency and their weighted mean",
@@ -401,7 +408,7 @@ def _administrative(b: _Builder, root: ET.Element, info: CertificateInfo, today:
     b.contact(cal, "contact", lab.name, lab.email, lab.address, "lab", lab.phone, lab.country)
 
     persons = b.el(adm, "respPersons")
-    for i, a in enumerate(lab.approvers):
+    for i, a in enumerate(signing_approvers(info)):
         rp = b.el(persons, "respPerson")
         b.text(b.el(rp, "person"), "name", a.name, "lab.approvers.name")
         if a.role:
@@ -623,9 +630,57 @@ def _linearity_results(b: _Builder, results: ET.Element, lin: Any, unit: str, jo
                    [p.deviation_percent for p in pts], "%")
 
 
-_RESULTS = {"response": _response_results, "velocity": _velocity_results, "linearity": _linearity_results}
+def _parameter(b: _Builder, data: ET.Element, name: str, value: Any, u: Any, unit: str, k: float = 2.0,
+               why: str = "") -> None:
+    """One identified parameter: si:real with U = k u; angles (rad) as si:hybrid in deg and rad."""
+    q = _quantity(b, data, name, f"senscal_{name}")
+    v = float("nan") if value is None else float(value)
+    uu = float("nan") if u is None else float(u)
+    if not (math.isfinite(v) and math.isfinite(uu)):
+        # the data do not determine it: say so instead of a number
+        b.text(q, "noQuantity", f"{name}: not determined by these data" + (f" ({why})" if why else ""), "parameter")
+        return
+    if not unit:
+        raise DccError(f"parameter {name} has no unit (the recording's channels carry none); give the unit in the "
+                       f"file header, e.g. 'x [nT]', and calibrate again")
+    if unit == "rad":
+        hyb = b.el(q, "hybrid", ns=SI_NS)
+        _real(b, hyb, name, math.degrees(v), "deg", math.degrees(k * uu), k)
+        _real(b, hyb, name, v, "rad", k * uu, k)
+    else:
+        _real(b, q, name, v, unit, k * uu, k)
+
+
+def _triaxial_results(b: _Builder, results: ET.Element, tri: Any, unit: str, job: Any = None) -> None:
+    parts = [("Calibration parameters", "senscal_triaxial", tri)]
+    if getattr(job, "accelerometer", None) is not None:
+        parts.append(("Accelerometer calibration parameters", "senscal_triaxialAccelerometer", job.accelerometer))
+    for title, ref, res in parts:
+        why = "; ".join(str(g.get("reason", "")) for g in getattr(res, "unidentifiable", ()) if g.get("reason"))
+        data = _result(b, results, title, ref, f"Model {res.model}, estimator {res.method}; {res.n_used} of "
+                                               f"{res.n_samples} samples used")
+        for name, p in res.parameters.items():
+            _parameter(b, data, name if ref == "senscal_triaxial" else f"accelerometer_{name}", p.get("value"),
+                       p.get("u"), str(p.get("unit") or ""), why=why)
+
+
+def _shaft_results(b: _Builder, results: ET.Element, m: Any, unit: str, job: Any = None) -> None:
+    out = m.output_unit or getattr(job, "accel_unit", "")
+    data = _result(b, results, "Gravity model", "senscal_gravityModel",
+                   "gravity(theta) = amplitude sin(theta + phase) + offset, theta the encoder angle; "
+                   f"{m.revolutions:.1f} revolutions, {m.n_samples} samples")
+    for name, v, u, un in (("gravity_amplitude", m.amplitude, m.u_amplitude, out), ("phase", m.phase, m.u_phase, "rad"),
+                           ("offset", m.offset, m.u_offset, out), ("tilt", m.tilt, m.u_tilt, "rad"),
+                           ("bias", m.bias, m.u_bias, "m/s^2")):
+        _parameter(b, data, name, v, u, un)
+
+
+_RESULTS = {"response": _response_results, "velocity": _velocity_results, "linearity": _linearity_results,
+            "triaxial": _triaxial_results, "shaft": _shaft_results}
 # attribute of the senscal.jobs result that holds the engine result
-_ENGINE = {"response": "response", "velocity": "calibration", "linearity": "linearity"}
+_ENGINE = {"response": "response", "velocity": "calibration", "linearity": "linearity", "triaxial": "calibration",
+           "shaft": "model"}
+_KIND_ALIASES = {"triaxial-calibrate": "triaxial", "shaft-calibrate": "shaft"}
 
 
 def _measurement(b: _Builder, root: ET.Element, kind: str, result: Any, info: CertificateInfo, unit: str,
@@ -688,7 +743,7 @@ def _measurement(b: _Builder, root: ET.Element, kind: str, result: Any, info: Ce
 
 def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", method: str = "",
             files: Sequence[str] = (), warnings: Sequence[str] | None = None, language: str = "en",
-            today: _dt.date | None = None) -> bytes:
+            today: _dt.date | None = None, certificate_id: str = "") -> bytes:
     """Build and validate the DCC of one calibration.
 
     Parameters
@@ -698,8 +753,13 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
         job's ``ResponseResult``: repeated frequencies then add a result with
         the per-frequency means), ``"velocity"``
         (:class:`~senscal.vibration.VelocityCalibration` or ``VelocityResult``)
-        or ``"linearity"`` (:class:`~senscal.vibration.AmplitudeLinearity` or
-        ``LinearityResult``).
+        , ``"linearity"`` (:class:`~senscal.vibration.AmplitudeLinearity` or
+        ``LinearityResult``), ``"triaxial"`` (``TriaxialResult`` or
+        ``TriaxialCalibrateResult``: scale factors, angles, offsets, field;
+        an accelerometer calibrated alongside adds its own result) or
+        ``"shaft"`` (``GravityModel`` or ``ShaftCalibrateResult``: gravity
+        amplitude, phase, offset, tilt, bias). Parameters are stated with
+        ``U = 2 u``; one the data do not determine is stated as not determined.
     result : object
         The result of that calibration (SI units; phases in rad; standard
         uncertainties, k=1, with their budgets).
@@ -719,6 +779,10 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
         ISO 639-1 code of the text (default ``"en"``).
     today : date, optional
         Date of issue when ``info.run.issue_date`` is empty (default: today, UTC).
+    certificate_id : str, optional
+        The DCC's unique identifier when the run has no ``certificate_id``
+        (pass :func:`senscal.report.certificate.certificate_id` so the DCC and
+        the HTML/PDF certificate of one run carry the same id).
 
     Returns
     -------
@@ -736,10 +800,13 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
         character in a string, a malformed date or country code, a unit
         without a D-SI form, a non-finite value, or a schema violation.
     """
+    kind = _KIND_ALIASES.get(kind, kind)
     if kind not in _RESULTS:
-        raise DccError(f"unknown DCC kind {kind!r}; use response, velocity or linearity")
+        raise DccError(f"unknown DCC kind {kind!r}; use response, velocity, linearity, triaxial or shaft")
     if not isinstance(info, CertificateInfo):
         raise DccError("info must be a CertificateInfo (lab profile + run fields); see senscal.report.lab")
+    if certificate_id and not info.run.certificate_id:
+        info = replace(info, run=replace(info.run, certificate_id=certificate_id))
     missing = dcc_missing_fields(info)
     if missing:
         src = f" ({info.lab.source})" if info.lab.source else ""
@@ -747,11 +814,13 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
                        f"add them (a DCC has no DRAFT mark, so it is never written with fields missing)")
     if not re.fullmatch(r"[a-z]{2}", language):
         raise DccError(f"language {language!r} is not an ISO 639-1 code; use two lower-case letters, e.g. en")
-    job = result if hasattr(result, _ENGINE[kind]) else None
+    from senscal.jobs._base import JobResult
+
+    job = result if isinstance(result, JobResult) else None
     if job is not None:  # a senscal.jobs result: the engine result inside, its unit and warnings around it
         result = getattr(job, _ENGINE[kind])
     unit = unit or getattr(job, "unit", "") or getattr(result, "unit", "")
-    if not unit:
+    if not unit and kind in ("response", "velocity", "linearity"):
         raise DccError(f"the {kind} result carries no sensitivity unit; give unit=, e.g. 'V/(m/s^2)'")
     today = today or _dt.datetime.now(_dt.timezone.utc).date()
     b = _Builder(language)
