@@ -484,18 +484,28 @@ class ResponseResult(JobResult):
         return to_jsonable(doc)
 
     def quantities(self) -> tuple[Quantity, ...]:
-        """Per frequency point: ``sensitivity@<f>Hz`` and, where defined, ``normalized_sensitivity@<f>Hz``
-        (unit 1) and ``phase_delay@<f>Hz`` (deg), f with 4 significant digits."""
+        """Per frequency: ``sensitivity@<f>Hz`` and, where defined, ``normalized_sensitivity@<f>Hz`` (unit 1)
+        and ``phase_delay@<f>Hz`` (deg), f with 4 significant digits.
+
+        A frequency measured more than once is stored once, as its repeats combined (with the coverage
+        factor of their budget: Student's t when the type A part comes from few repeats); single points
+        are quoted with k = 2.
+        """
         qs = []
-        for p in self.response.points:
+        for p in (self.repeats if self.repeated else self.response.points):
             tag = f"{p.frequency:.4g}Hz"
-            qs.append(Quantity(f"sensitivity@{tag}", float(p.sensitivity), float(p.u_sensitivity), self.unit))
+
+            def k_of(budget):
+                return float(budget.coverage_factor) if self.repeated and budget is not None else 2.0
+
+            qs.append(Quantity(f"sensitivity@{tag}", float(p.sensitivity), float(p.u_sensitivity), self.unit,
+                               k_of(p.sensitivity_budget)))
             if _finite_or_none(p.normalized_sensitivity) is not None:
                 qs.append(Quantity(f"normalized_sensitivity@{tag}", float(p.normalized_sensitivity),
-                                   float(p.u_normalized_sensitivity), "1"))
+                                   float(p.u_normalized_sensitivity), "1", k_of(p.normalized_budget)))
             if _finite_or_none(p.phase_delay) is not None:
                 qs.append(Quantity(f"phase_delay@{tag}", math.degrees(p.phase_delay),
-                                   math.degrees(p.u_phase_delay), "deg"))
+                                   math.degrees(p.u_phase_delay), "deg", k_of(p.phase_delay_budget)))
         return tuple(qs)
 
     def to_dataframe(self):
