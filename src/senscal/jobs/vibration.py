@@ -403,7 +403,7 @@ def _measured_phase_reference(srcs, o: ResponseOptions):
         label = same[0] if same else str(ref_src)
     ref = phase_reference_run(rec[o.output], rec.time, rec[o.angle], harmonics=o.harmonics, drift=o.drift,
                               source=label)
-    shown = (ref_src.source or "(recording)") if isinstance(ref_src, Recording) else ref_src
+    shown = (ref_src.source or "(a recording in memory)") if isinstance(ref_src, Recording) else ref_src
     text = (f"phi_0 = {math.degrees(ref.phase):.4f} deg at encoder zero from the {ref.frequency:.4g} Hz "
             f"run {shown} (its own delay extrapolated from the points above it, odd cubic in frequency)")
     return ref, text
