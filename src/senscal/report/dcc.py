@@ -809,9 +809,13 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
         info = replace(info, run=replace(info.run, certificate_id=certificate_id))
     missing = dcc_missing_fields(info)
     if missing:
-        src = f" ({info.lab.source})" if info.lab.source else ""
-        raise DccError(f"cannot write a DCC: the lab profile{src} or the run lacks {', '.join(missing)}; "
-                       f"add them (a DCC has no DRAFT mark, so it is never written with fields missing)")
+        lab = [m for m in missing if m.startswith("lab.")]
+        run = [m for m in missing if not m.startswith("lab.")]
+        where = [f"{', '.join(lab)} (in the lab profile{' ' + info.lab.source if info.lab.source else ''})"] if lab else []
+        where += [f"{', '.join(run)} (the run's fields: certificate options, a run file or the profile's [run] "
+                  f"table)"] if run else []
+        raise DccError(f"cannot write a DCC: missing {'; '.join(where)}; add them (a DCC has no DRAFT mark, so it "
+                       f"is never written with fields missing)")
     if not re.fullmatch(r"[a-z]{2}", language):
         raise DccError(f"language {language!r} is not an ISO 639-1 code; use two lower-case letters, e.g. en")
     from senscal.jobs._base import JobResult
