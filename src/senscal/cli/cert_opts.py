@@ -9,18 +9,26 @@ its own before :func:`~senscal.cli.common.emit_warnings`::
     from senscal.cli.cert_opts import (CertIdOpt, CustomerOpt, DccOpt, EnvOpt, ItemOpt, LabOpt, LocationOpt,
                                        ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt, SensorIdOpt, certify)
 
-    warns += certify("response", resp, report=report, dcc=dcc, lab=lab, run_file=run_file, customer=customer,
-                     item=item, manufacturer=manufacturer, model=model, serial=sensor_id, location=location,
-                     certificate_id=certificate_id, env=env, date=date, unit=unit, method=meth,
-                     conditions=cond, files=files, warnings=warns)
+    @app.command("response")
+    def response_cmd(..., report: ReportOpt = None, dcc: DccOpt = None, lab: LabOpt = None,
+                     run_file: RunFileOpt = None, customer: CustomerOpt = None, item: ItemOpt = None,
+                     manufacturer: ManufacturerOpt = None, model: ModelOpt = None, sensor_id: SensorIdOpt = None,
+                     location: LocationOpt = None, certificate_id: CertIdOpt = None,
+                     calibration_date: CalDateOpt = None, env: EnvOpt = None, sensor: SensorOpt = None,
+                     ...) -> None:
+        ...
+        cert_warns = certify("response", resp, report=report, dcc=dcc, unit=unit, method=meth, conditions=cond,
+                             files=files, warnings=result.warnings, **cert_fields(locals()))
+        emit_warnings([*result.warnings, *cert_warns], strict)
 
 Where the fields come from (later wins): the lab profile's ``[run]`` table
 (``--lab FILE``, default ``$SENSCAL_LAB`` or ``~/.config/senscal/lab.toml``),
 then the run file (``--run FILE``: a ``[run]`` table or top-level fields, for
 what has no option of its own: customer address, deviations, statement of
 conformity and decision rule, approver, issue date, remarks), then the
-options.  The calibration date is the registry's ``--date`` when given.
-Nothing happens without ``--report`` or ``--dcc``.
+options.  The calibration date is ``--calibration-date``, else the registry's ``--date`` (with ``--save``).
+The serial number is ``--serial`` (alias ``--sensor-id``), else the registry's
+``--sensor``.  Nothing happens without ``--report`` or ``--dcc``.
 """
 
 from __future__ import annotations
@@ -37,7 +45,7 @@ from senscal.cli.common import err_console
 from senscal.errors import InputError
 
 __all__ = ["ReportOpt", "DccOpt", "LabOpt", "RunFileOpt", "CustomerOpt", "ItemOpt", "ManufacturerOpt", "ModelOpt",
-           "SensorIdOpt", "LocationOpt", "CertIdOpt", "EnvOpt", "certificate_info", "certify"]
+           "SensorIdOpt", "LocationOpt", "CertIdOpt", "CalDateOpt", "EnvOpt", "certificate_info", "cert_fields", "certify"]
 
 _PANEL = "Certificate"
 
@@ -67,6 +75,9 @@ LocationOpt = Annotated[Optional[str], typer.Option(
 CertIdOpt = Annotated[Optional[str], typer.Option(
     "--certificate-id", help="Certificate number (default SC-YYYYMMDD-<digest of result and item>).",
     rich_help_panel=_PANEL)]
+CalDateOpt = Annotated[Optional[str], typer.Option(
+    "--calibration-date", metavar="YYYY-MM-DD", help="Date of the calibration (default: the registry's --date with "
+                                                     "--save).", rich_help_panel=_PANEL)]
 EnvOpt = Annotated[Optional[List[str]], typer.Option(
     "--env", metavar="NAME=VALUE+-U UNIT", help="Environmental condition with its standard uncertainty (repeatable), "
                                                 "e.g. 'temperature=23.1+-0.5 degC'.", rich_help_panel=_PANEL)]
@@ -79,13 +90,13 @@ def _date_part(text: str | None) -> str:
     try:
         return _dt.datetime.fromisoformat(text).date().isoformat()
     except ValueError:
-        raise InputError(f"--date {text!r} is not an ISO 8601 date (YYYY-MM-DD[THH:MM])") from None
+        raise InputError(f"calibration date {text!r} is not an ISO 8601 date (YYYY-MM-DD[THH:MM])") from None
 
 
 def certificate_info(*, lab: Path | None = None, run_file: Path | None = None, customer: str | None = None,
                      item: str | None = None, manufacturer: str | None = None, model: str | None = None,
                      serial: str | None = None, location: str | None = None, certificate_id: str | None = None,
-                     env: Sequence[str] | None = None, date: str | None = None):
+                     env: Sequence[str] | None = None, calibration_date: str | None = None):
     """The :class:`~senscal.report.lab.CertificateInfo` from the profile, the run file and the options.
 
     Raises
@@ -103,9 +114,18 @@ def certificate_info(*, lab: Path | None = None, run_file: Path | None = None, c
         run = merge_run(run, **{k: getattr(given, k) for k in given.__dataclass_fields__})
     conds = tuple(parse_condition(e) for e in env or ())
     run = merge_run(run, customer=customer, item=item, manufacturer=manufacturer, model=model, serial=serial,
-                    location=location, certificate_id=certificate_id, calibration_date=_date_part(date),
+                    location=location, certificate_id=certificate_id, calibration_date=_date_part(calibration_date),
                     conditions=conds)
     return CertificateInfo(profile, run)
+
+
+def cert_fields(params: Mapping[str, Any]) -> dict[str, Any]:
+    """The certificate options among a command's parameters (``locals()``), as :func:`certify` takes them."""
+    out = {k: params.get(k) for k in ("lab", "run_file", "customer", "item", "manufacturer", "model", "location",
+                                      "certificate_id", "env")}
+    out["serial"] = params.get("sensor_id") or params.get("sensor")
+    out["calibration_date"] = params.get("calibration_date") or params.get("date")
+    return out
 
 
 def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, unit: str, method: str,
@@ -131,7 +151,7 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
         The command's named warnings (printed on the certificate with the certificate's own).
     **fields
         The certificate options: ``lab``, ``run_file``, ``customer``, ``item``, ``manufacturer``, ``model``,
-        ``serial``, ``location``, ``certificate_id``, ``env``, ``date`` (see :func:`certificate_info`).
+        ``serial``, ``location``, ``certificate_id``, ``env``, ``calibration_date`` (see :func:`certificate_info`).
 
     Returns
     -------
@@ -158,11 +178,10 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     shown = [*warnings, *warns]
     if dcc is not None:  # first: it refuses missing fields, and then nothing is written
         _write_dcc(dcc, kind, result, info, unit=unit, method=method, files=files, warnings=shown)
-        err_console.print(f"DCC {info.run.certificate_id} written to {dcc}")
+        err_console.print(f"DCC {info.run.certificate_id} written to {dcc}")  # stdout stays clean for --json
     if report is not None:
         write_certificate(report, kind, result, info=info, unit=unit, method=method, conditions=conditions,
                           files=files, warnings=shown)
-        err_console.print(f"certificate {info.run.certificate_id} written to {report}")
     return warns
 
 

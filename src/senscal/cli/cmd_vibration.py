@@ -11,6 +11,8 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
+from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, CustomerOpt, DccOpt, EnvOpt, ItemOpt, LabOpt, LocationOpt,
+                                   ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt, SensorIdOpt, cert_fields, certify)
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console, emit_warnings,
@@ -25,10 +27,7 @@ from senscal.simulate.common import write_simulation
 FilesArg = Annotated[List[Path], typer.Argument(help="Recording files, one per frequency point / input level.")]
 FreqOpt = Annotated[Optional[List[str]], typer.Option(
     "--freq", help="Known frequency in Hz: one for all files or one per file (repeat or comma-separate); estimated when omitted.")]
-ReportOpt = Annotated[Optional[Path], typer.Option("--report", help="Write an HTML calibration certificate to this file.")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Write the key plot to this PNG file.")]
-SensorIdOpt = Annotated[str, typer.Option("--sensor-id", help="Identification of the item calibrated (certificate).")]
-ModelOpt = Annotated[str, typer.Option("--model", help="Sensor model / manufacturer (certificate).")]
 ConditionOpt = Annotated[Optional[List[str]], typer.Option(
     "--condition", help="Calibration condition for the certificate, KEY=VALUE (repeatable), e.g. 'temperature=23.1 C'.")]
 UnitOpt = Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the sensor output (default: from the file, else V).")]
@@ -128,7 +127,10 @@ def velocity_cmd(
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
+    sensor_id: SensorIdOpt = None, model: ModelOpt = None, condition: ConditionOpt = None,
+    dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,
+    item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
+    certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
@@ -137,17 +139,17 @@ def velocity_cmd(
     result = velocity_job(files, opts, progress=track)
     cal, unit = result.calibration, result.unit
     doc = result.to_dict()
-    if report is not None:
-        from senscal.report.certificate import write_certificate
-
-        write_certificate(report, "velocity", cal, sensor_id=sensor_id, model=model, unit=unit, files=[str(f) for f in files],
+    cert_warns = certify("velocity", cal, report=report, dcc=dcc, unit=unit, files=[str(f) for f in files],
                           method="Sinusoidal excitation against a position reference; least-squares sine fits of "
                                  "position and sensor output at one shared frequency; S = A_s / (w A_p) (Yang et al. 2014).",
                           conditions={"frequency points": len(cal.points),
                                       "frequencies (Hz)": ", ".join(f"{p.frequency:.4g}" for p in cal.points),
                                       "offset drift fitted": "yes" if drift else "no",
                                       "position reference u (type B)": f"{100 * opts.u_position:g} %",
-                                      **_conditions(condition)})
+                                      **_conditions(condition)},
+                         warnings=result.warnings, **cert_fields(locals()))
+    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
+    if report is not None:
         doc["report"] = str(report)
     save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
                       method="sine fit against a position reference (Yang et al. 2014)",
@@ -167,7 +169,7 @@ def velocity_cmd(
                       f"(k={cal.budget.coverage_factor:.3g}), std over points = {cal.sensitivity_std:.2g}")
         if report is not None:
             console.print(f"certificate written to {report}")
-    emit_warnings(result.warnings, strict)
+    emit_warnings([*result.warnings, *cert_warns], strict)
 
 
 # ---------------------------------------------------------------------------
@@ -195,7 +197,10 @@ def response_cmd(
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
+    sensor_id: SensorIdOpt = None, model: ModelOpt = None, condition: ConditionOpt = None,
+    dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,
+    item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
+    certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
     save_response_to: Annotated[Optional[Path], typer.Option("--save-response", help="Save the response (JSON with type and version) for later use.")] = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
@@ -205,9 +210,8 @@ def response_cmd(
     result = response_job(files, opts, progress=track)
     resp, unit = result.response, result.unit
     doc = result.to_dict()
-    if report is not None:
-        from senscal.report.certificate import write_certificate
-
+    cond, meth = {}, ""
+    if report is not None or dcc is not None:
         cond = {"frequency points": len(resp.points), "method": resp.points[0].method}
         if input_amplitude is not None:
             cond["peak input acceleration (m/s^2)"] = input_amplitude
@@ -223,10 +227,12 @@ def response_cmd(
         meth = ("Double-centrifuge / known sinusoidal input; least-squares sine fit of the output "
                 "(against the turntable angle when synchronised; Qin, seed 003)" if input_amplitude is not None
                 else "Back-to-back comparison with a reference accelerometer (ISO 16063-21); sine fits at one shared frequency")
-        write_certificate(report, "response", resp, sensor_id=sensor_id, model=model, unit=unit, method=meth,
-                          conditions=cond, files=[str(f) for f in files]
-                          + ([f"{phase_reference} (phase reference)"] if phase_reference is not None else []),
-                          warnings=result.warnings)
+    cert_warns = certify("response", resp, report=report, dcc=dcc, unit=unit, method=meth, conditions=cond,
+                         files=[str(f) for f in files]
+                         + ([f"{phase_reference} (phase reference)"] if phase_reference is not None else []),
+                         warnings=result.warnings, **cert_fields(locals()))
+    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
+    if report is not None:
         doc["report"] = str(report)
     if save_response_to is not None:
         from senscal.vibration import save_response
@@ -256,7 +262,7 @@ def response_cmd(
                                 ["f (Hz)", "n", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)", "k"], rows))
         if report is not None:
             console.print(f"certificate written to {report}")
-    emit_warnings(result.warnings, strict)
+    emit_warnings([*result.warnings, *cert_warns], strict)
 
 
 # ---------------------------------------------------------------------------
@@ -276,7 +282,10 @@ def linearity_cmd(
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
-    sensor_id: SensorIdOpt = "not stated", model: ModelOpt = "not stated", condition: ConditionOpt = None,
+    sensor_id: SensorIdOpt = None, model: ModelOpt = None, condition: ConditionOpt = None,
+    dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,
+    item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
+    certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
@@ -285,11 +294,7 @@ def linearity_cmd(
     result = linearity_job(files, opts, progress=track)
     lin, unit, out_unit, amps = result.linearity, result.unit, result.output_unit, opts.input_amplitudes
     doc = result.to_dict()
-    if report is not None:
-        from senscal.report.certificate import write_certificate
-
-        write_certificate(report, "linearity", lin, sensor_id=sensor_id, model=model, unit=unit,
-                          files=[str(f) for f in files],
+    cert_warns = certify("linearity", lin, report=report, dcc=dcc, unit=unit, files=[str(f) for f in files],
                           method="Fixed frequency, input amplitude stepped; least-squares sine fit of each record; "
                                  "best straight line through (input, output amplitude) (Qin, seed 003)",
                           conditions={"input levels": len(files),
@@ -297,7 +302,9 @@ def linearity_cmd(
                                       "input range (m/s^2)": f"{min(amps):g} .. {max(amps):g}",
                                       "input level u (random per level)": f"{100 * opts.u_input:g} %",
                                       "angle synchronisation": "yes" if angle else "no", **_conditions(condition)},
-                          warnings=result.warnings)
+                         warnings=result.warnings, **cert_fields(locals()))
+    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
+    if report is not None:
         doc["report"] = str(report)
     save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
                       method="amplitude linearity, best straight line (Qin, seed 003)",
@@ -324,7 +331,7 @@ def linearity_cmd(
                           f"(U = {2 * lin.u_linearity_percent:.2g} %, k=2, Monte Carlo)")
         if report is not None:
             console.print(f"certificate written to {report}")
-    emit_warnings(result.warnings, strict)
+    emit_warnings([*result.warnings, *cert_warns], strict)
 
 
 # ---------------------------------------------------------------------------

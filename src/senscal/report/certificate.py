@@ -452,11 +452,13 @@ def _admin_rows(info: CertificateInfo, method: str, issued: str) -> list[tuple[s
     def field_(name: str, text: str) -> str | None:
         return None if name in miss else text
 
-    item = ", ".join(x for x in (run.item, " ".join(x for x in (run.manufacturer, run.model) if x)) if x)
+    make = " ".join(x for x in (run.manufacturer, run.model) if x)
     rows = [("Customer", field_("run.customer", "\n".join(x for x in (run.customer, run.customer_address,
                                                                        run.customer_email) if x))),
-            ("Item calibrated", field_("run.item", item)),
-            ("Serial number", field_("run.serial", run.serial)),
+            ("Item calibrated", field_("run.item", run.item))]
+    if make:
+        rows.append(("Manufacturer, model", make))
+    rows += [("Serial number", field_("run.serial", run.serial)),
             ("Date(s) of calibration", field_("run.calibration_date", run.calibration_date))]
     if run.receipt_date:
         rows.append(("Date of receipt of the item", run.receipt_date))
