@@ -448,11 +448,24 @@ def test_certificate_id_and_approver_from_the_run(response):
 # triaxial and shaft calibrations
 
 
-def test_triaxial_parameters_round_trip():
+@pytest.fixture(scope="module")
+def triaxial():
     from senscal import jobs
     from senscal.simulate.triaxial import simulate_magnetometer
 
-    res = jobs.run("triaxial-calibrate", simulate_magnetometer(seed=1)[0])
+    return jobs.run("triaxial-calibrate", simulate_magnetometer(seed=1)[0])
+
+
+@pytest.fixture(scope="module")
+def shaft():
+    from senscal import jobs
+    from senscal.simulate.shaft import simulate_shaft
+
+    return jobs.run("shaft-calibrate", simulate_shaft(seed=1)[0])
+
+
+def test_triaxial_parameters_round_trip(triaxial):
+    res = triaxial
     q = read_dcc_quantities(dcc_xml("triaxial", res, _info(item="three-axis magnetometer")))
     params = res.calibration.parameters
     assert params, "the simulated sphere determines the parameters"
@@ -466,12 +479,8 @@ def test_triaxial_parameters_round_trip():
             assert q[f"senscal_{name}"]["unit"] == [dsi_unit(p["unit"])]
 
 
-def test_undetermined_parameter_is_stated_not_invented():
-    from senscal import jobs
-    from senscal.simulate.triaxial import simulate_magnetometer
-
-    res = jobs.run("triaxial-calibrate", simulate_magnetometer(seed=1)[0])
-    tri = res.calibration
+def test_undetermined_parameter_is_stated_not_invented(triaxial):
+    tri = triaxial.calibration
     first = next(iter(tri.parameters))
     params = {**tri.parameters, first: {**tri.parameters[first], "value": float("nan"), "u": float("nan")}}
     root = ET.fromstring(dcc_xml("triaxial", replace(tri, parameters=params), _info()))
@@ -480,11 +489,8 @@ def test_undetermined_parameter_is_stated_not_invented():
                                                                              namespaces=NS)
 
 
-def test_shaft_gravity_model_round_trip():
-    from senscal import jobs
-    from senscal.simulate.shaft import simulate_shaft
-
-    res = jobs.run("shaft-calibrate", simulate_shaft(seed=1)[0])
+def test_shaft_gravity_model_round_trip(shaft):
+    res = shaft
     m = res.model
     q = read_dcc_quantities(dcc_xml("shaft", res, _info(item="tangential accelerometer")))
     assert q["senscal_gravity_amplitude"]["value"] == [m.amplitude]
@@ -494,10 +500,6 @@ def test_shaft_gravity_model_round_trip():
     assert q["senscal_bias"]["unit"] == ["\\metre\\second\\tothe{-2}"]
 
 
-def test_parameter_without_a_unit_is_refused():
-    from senscal import jobs
-    from senscal.simulate.shaft import simulate_shaft
-
-    res = jobs.run("shaft-calibrate", simulate_shaft(seed=1)[0])
+def test_parameter_without_a_unit_is_refused(shaft):
     with pytest.raises(DccError, match="has no unit"):
-        dcc_xml("shaft", replace(res.model, output_unit=""), _info())
+        dcc_xml("shaft", replace(shaft.model, output_unit=""), _info())
