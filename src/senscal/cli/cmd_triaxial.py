@@ -2,21 +2,19 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
-from typing import Any, Optional
+from typing import Optional
 
-import numpy as np
 import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (
-    FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, emit_warnings, TimeColumnOpt, console, err_console, load, print_json, progress_bar, split_names, table,
-    write_json,
+    FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, TimeColumnOpt, console, emit_warnings, err_console, print_json, progress_bar,
+    table, write_json,
 )
 from senscal.cli.registry_opts import (
-    CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, quoted, save_if_requested,
+    CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, save_if_requested,
 )
 from senscal.errors import InputError
 
@@ -24,62 +22,31 @@ triaxial_app = typer.Typer(help="Three-axis magnetometer / accelerometer calibra
                            no_args_is_help=True)
 app.add_typer(triaxial_app, name="triaxial")
 
-ANGLES = ("alpha", "beta", "gamma")
+
+def _calibrate_options(*, channels: str = "x,y,z", field: float | None = None, method: str = "auto",
+                       model: str | None = None, lr: float = 0.01, epochs: int = 50, strict: bool = False,
+                       static: bool = False, static_window: float = 0.5, min_pose: float = 1.0,
+                       outlier_sigma: float = 5.0, accel_channels: str | None = None, time_column: str = "t",
+                       fs: float | None = None, names: str | None = None, skip_rows: int | None = None, **_):
+    """``TriaxialCalibrateOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.jobs.triaxial import TriaxialCalibrateOptions
+
+    return TriaxialCalibrateOptions(
+        channels=channels, field=field, method=method, model=model, lr=lr, epochs=epochs, strict=strict,
+        static=static, static_window=static_window, min_pose=min_pose, outlier_sigma=outlier_sigma,
+        accel_channels=accel_channels, time_column=time_column, fs=fs, names=names, skip_rows=skip_rows)
 
 
-def _channels(text: str) -> list[str]:
-    names = split_names(text) or []
-    if len(names) != 3:
-        raise InputError(f"--channels needs exactly three names X,Y,Z, got {text!r}")
-    return names
+def _apply_options(*, params: Path | str | None = None, channels: str = "x,y,z", time_column: str = "t",
+                   fs: float | None = None, names: str | None = None, **_):
+    """``TriaxialApplyOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.jobs.triaxial import TriaxialApplyOptions
+
+    return TriaxialApplyOptions(params=params, channels=channels, time_column=time_column, fs=fs, names=names)
 
 
-def parameter_table(params: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
-    """Parameters in the seed's terms for JSON: angles in degrees, U = 2u (k=2)."""
-    out = {}
-    for n, p in params.items():
-        v, u = p["value"], p["u"]
-        key, unit = n, p["unit"]
-        if n in ANGLES:
-            key, unit = f"{n}_deg", "deg"
-            v = None if v is None else math.degrees(v)
-            u = None if u is None else math.degrees(u)
-        out[key] = {"value": v, "u": u, "U_k2": None if u is None else 2 * u, "unit": unit}
-    return out
-
-
-def calibrate_document(res, *, file: Path, channels: list[str], static=None) -> dict[str, Any]:
-    """The JSON document of ``senscal triaxial calibrate`` (CLI contract)."""
-    from senscal.triaxial.heading import summary as heading_summary
-
-    doc = {
-        "file": str(file), "channels": channels, "model": res.model, "method": res.method,
-        "field": {"value": res.field,
-                  "u": res.parameters.get("field", res.parameters.get("plane_field", {})).get("u"),
-                  "estimated": res.field_estimated, "note": res.scale_note},
-        "parameters": parameter_table(res.parameters),
-        "unidentifiable": list(res.unidentifiable), "model_choice": list(res.model_choice),
-        "coverage": res.coverage, "planarity": res.planarity, "conditioning": res.conditioning,
-        "noise": res.noise, "norm_error_before": res.norm_error_before, "norm_error_after": res.norm_error_after,
-        "outliers": {"count": len(res.outliers), "indices": list(res.outliers)},
-        "saturated": {"count": len(res.saturated)}, "plausibility": list(res.plausibility),
-        "warnings": list(res.warnings), "lms_vs_least_squares": res.lms_vs_least_squares,
-        "n_samples": res.n_samples, "n_used": res.n_used,
-        "model_evidence": list(res.model_evidence),
-        "heading": heading_summary(res.heading) if res.heading is not None else None,
-        "calibration": res.calibration.to_dict(),
-    }
-    if static is not None:
-        doc["static"] = {"n_poses": static.n_poses, "starts": static.starts.tolist(), "stops": static.stops.tolist(),
-                         "samples_per_pose_min": int(static.counts.min()) if static.n_poses else 0,
-                         "threshold": static.threshold}
-    return doc
-
-
-def triaxial_quantities(doc: dict) -> list:
-    """The registry quantities: every parameter the data determined (unidentifiable ones are left out)."""
-    return [quoted(doc, name, f"parameters.{name}.value", f"parameters.{name}.u", p["unit"])
-            for name, p in doc["parameters"].items() if p["value"] is not None and p["u"] is not None]
+# What `senscal batch` turns a job's option words into (see senscal.jobs).
+JOB_OPTIONS = {"triaxial-calibrate": _calibrate_options, "triaxial-apply": _apply_options}
 
 
 @triaxial_app.command("calibrate")
@@ -112,54 +79,21 @@ def calibrate_cmd(
     operator: OperatorOpt = None,
 ) -> None:
     """Identify non-orthogonality, gains and offsets from readings in a constant field."""
-    from senscal.triaxial import calibrate, detect_static
+    from senscal.jobs.triaxial import triaxial_calibrate
 
-    chans = _channels(channels)
-    extra = _channels(accel_channels) if accel_channels is not None else []
-    # Only --static uses time: a headerless x,y,z file needs no --fs otherwise.
-    rec = load(file, time_column=time_column, fs=fs, names=names, channels=chans + extra, skip_rows=skip_rows,
-               time_required=static)
-    h = rec.data(chans)
-    unit = rec.units.get(chans[0], "")
-    st = None
-    if static:
-        st = detect_static(h, rec.sample_rate, window_s=static_window, min_duration_s=min_pose)
-        if st.n_poses < 5:
-            raise InputError(f"found {st.n_poses} static poses in {file}; a calibration needs many (>= 9 for the "
-                             "full model): hold the sensor still longer in more orientations or adjust --static-window")
-        h = st.means
     with progress_bar("calibrating", None):
-        res = calibrate(h, field=field, method=method, model=model, lr=lr, epochs=epochs, strict=strict,
-                        outlier_sigma=None if outlier_sigma == 0 else outlier_sigma, unit=unit, channels=chans)
-    doc = calibrate_document(res, file=file, channels=chans, static=st)
-    tilt = None
-    if accel_channels is not None:
-        from senscal.triaxial.heading import summary, tilt_heading_report
-
-        achans = _channels(accel_channels)
-        if static:
-            raise InputError("--accel-channels needs the readings themselves, not --static pose means; drop --static")
-        if set(achans) & set(chans):
-            raise InputError("--accel-channels must name the accelerometer's channels, not the calibrated ones")
-        a = rec.data(achans)
-        with progress_bar("calibrating the accelerometer", None):
-            ra = calibrate(a, outlier_sigma=None if outlier_sigma == 0 else outlier_sigma,
-                           unit=rec.units.get(achans[0], ""), channels=achans)
-        tilt = tilt_heading_report(h, res.calibration.apply(h), a, ra.calibration.apply(a))
-        doc["tilt_heading"] = {**summary(tilt), "accelerometer": {
-            "channels": achans, "model": ra.model, "method": ra.method, "norm_error_after": ra.norm_error_after,
-            "warnings": list(ra.warnings), "calibration": ra.calibration.to_dict()}}
+        result = triaxial_calibrate(file, _calibrate_options(**locals()))
+    res, h, unit, tilt = result.calibration, result.readings, result.unit, result.tilt
+    doc = result.to_dict()
     if out is not None:
         write_json(doc, out)
-    save_if_requested(doc, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
-                      job="triaxial", method=f"{res.model} model, {res.method}",
-                      quantities=lambda: triaxial_quantities(doc), input_files=[file],
-                      conditions={"field": res.field, "field_estimated": res.field_estimated,
-                                  "coverage": res.coverage["fraction"]})
+    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
+                      operator=operator, job="triaxial", method=result.method, input_files=[file],
+                      conditions=result.conditions)
     if plot is not None:
         from senscal.triaxial.plots import plot_calibration
 
-        corr = res.calibration.apply(h)
+        corr = result.corrected()
         raw = h
         f = res.field
         if res.model == "planar":
@@ -175,8 +109,7 @@ def calibrate_cmd(
                               title=f"{file.name}: {'tilt-compensated ' if tilt is not None else ''}heading error "
                                     "before / after")
             err_console.print(f"wrote {hp}")
-    # The accelerometer's own warnings count too: a bad tilt spoils the heading.
-    warnings = list(res.warnings) + list(doc.get("tilt_heading", {}).get("accelerometer", {}).get("warnings", []))
+    warnings = result.warnings
     if json_out:
         print_json(doc)
         emit_warnings(warnings, strict)
@@ -220,31 +153,16 @@ def apply_cmd(
     json_out: JsonOpt = False,
 ) -> None:
     """Correct three field channels with saved parameters; other channels are copied."""
-    from senscal.io import Recording, write_recording
-    from senscal.triaxial import load_calibration
+    from senscal.io import write_recording
+    from senscal.jobs.triaxial import triaxial_apply
 
-    cal = load_calibration(params)
-    chans = _channels(channels)
-    rec = load(file, time_column=time_column, fs=fs, names=names)
-    rec.data(chans)  # unknown channel -> one-line error listing the channels
-    for c in chans:
-        u = rec.units.get(c, "")
-        if cal.unit and u and u != cal.unit:
-            raise InputError(f"channel '{c}' is in {u} but the calibration was made from data in {cal.unit}; "
-                             "convert the data or calibrate again")
+    result = triaxial_apply(file, _apply_options(**locals()))
     if Path(out).resolve() == Path(file).resolve():
         raise InputError("--out must differ from the input file; input files are never modified")
-    corr = cal.apply(rec.data(chans))
-    new = dict(rec.channels)
-    for k, c in enumerate(chans):
-        new[c] = corr[k]
-    res = Recording(channels=new, t=rec.t, fs=rec.fs, t0=rec.t0, units=rec.units,
-                    metadata={**rec.metadata, "triaxial_calibration": f"{cal.model}/{cal.method} from {params}"})
-    p = write_recording(res, out)
-    norm = np.linalg.norm(corr, axis=0)
-    summary = {"file": str(file), "out": str(p), "model": cal.model, "method": cal.method,
-               "n_samples": int(norm.size), "corrected_norm_mean": float(norm.mean()),
-               "corrected_norm_std": float(norm.std(ddof=1)) if norm.size > 1 else 0.0, "field": cal.field}
+    p = write_recording(result.recording, out)
+    summary = result.to_dict()
+    summary["out"] = str(p)
+    cal, norm = result.calibration, result.corrected_norm
     if json_out:
         print_json(summary)
     else:

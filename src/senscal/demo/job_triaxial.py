@@ -8,8 +8,8 @@ from pathlib import Path
 from senscal.demo import DemoSection
 from senscal.io import write_recording
 from senscal.simulate.common import write_truth
+from senscal.jobs.triaxial import TriaxialCalibrateOptions, triaxial_calibrate
 from senscal.simulate.triaxial import simulate_magnetometer
-from senscal.triaxial import calibrate
 from senscal.triaxial.plots import plot_calibration
 
 ORDER = 50
@@ -23,7 +23,11 @@ def run(out: Path, seed: int) -> DemoSection:
     write_truth(truth, folder / "magnetometer_truth.json")
     h = rec.data(["x", "y", "z"])
     f = truth["field"]
-    res = calibrate(h, field=f, unit="nT", channels=("x", "y", "z"))
+
+    def calibrate(recording, **options):
+        return triaxial_calibrate(recording, TriaxialCalibrateOptions(channels=("x", "y", "z"), **options)).calibration
+
+    res = calibrate(rec, field=f)
     res.calibration.save(folder / "params.json")
     plot_calibration(h, res.calibration.apply(h), f, folder / "calibration.png", unit="nT",
                      title="Magnetometer: raw and corrected (full model, maximum likelihood)")
@@ -35,8 +39,8 @@ def run(out: Path, seed: int) -> DemoSection:
         else:
             rows.append({"quantity": name, "truth": truth[name], "estimate": p["value"], "uncertainty": p["u"],
                          "unit": "1" if name.startswith("K") else "nT"})
-    lin = calibrate(h, field=f, method="linear")
-    lms = calibrate(h, field=f, method="lms")
+    lin = calibrate(rec, field=f, method="linear")
+    lms = calibrate(rec, field=f, method="lms")
     cmp_rows = []
     for n in ("alpha", "beta", "gamma"):
         cmp_rows.append([f"{n} (deg)", truth[f"{n}_deg"], math.degrees(res.value(n)), math.degrees(lin.value(n)),
@@ -46,7 +50,7 @@ def run(out: Path, seed: int) -> DemoSection:
     for n in ("Bx", "By", "Bz"):
         cmp_rows.append([f"{n} (nT)", truth[n], res.value(n), lin.value(n), lms.value(n)])
     prec, ptruth = simulate_magnetometer(motion="planar", seed=seed)
-    pres = calibrate(prec.data(["x", "y", "z"]), field=f)
+    pres = calibrate(prec, field=f)
     write_recording(prec, folder / "planar_15.csv")
     b, a = res.norm_error_before, res.norm_error_after
     unid = "; ".join(g["reason"] for g in pres.unidentifiable)

@@ -15,6 +15,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from senscal._result import to_jsonable
 from senscal.errors import InputError
 from senscal.jobs._base import JobResult, read_source, source_name
 
@@ -184,7 +185,7 @@ class GfimuResult(JobResult):
                 doc["attitude"].update(max_error_deg=ae.max_deg, final_error_deg=ae.final_deg,
                                        growth_deg_per_s=ae.growth_deg_per_s, position_drift_m=ae.position_drift_m)
         doc["warnings"] = list(est.warnings)
-        return doc
+        return to_jsonable(doc)
 
     def output_recording(self):
         """What ``--out`` writes: t, w per method (rad/s), alpha (rad/s^2), f (m/s^2) and q.

@@ -17,6 +17,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from senscal._result import to_jsonable
 from senscal.errors import InputError
 from senscal.jobs._base import JobResult, Quantity, read_source, source_name
 
@@ -170,7 +171,7 @@ class ShaftCalibrateResult(JobResult):
 
     def to_dict(self) -> dict[str, Any]:
         """The ``senscal shaft calibrate --json`` document (without the output paths the CLI adds)."""
-        return calibration_summary(self.model)
+        return to_jsonable(calibration_summary(self.model))
 
     def quantities(self) -> tuple[Quantity, ...]:
         """``gravity_amplitude`` and ``bias`` (the fitted offset), in the output unit, as ``--save`` stores them."""
@@ -316,7 +317,7 @@ class ShaftCompensateResult(JobResult):
 
     def to_dict(self) -> dict[str, Any]:
         """The ``senscal shaft compensate --json`` document (without the output paths the CLI adds)."""
-        return {"file": self.source, "model": self.model_source, **self.compensation.to_dict()}
+        return to_jsonable({"file": self.source, "model": self.model_source, **self.compensation.to_dict()})
 
     def output_recording(self):
         """What ``--out`` writes: t, tangential_acceleration (m/s^2), angular_acceleration and the encoder's (rad/s^2)."""

@@ -1,0 +1,410 @@
+"""Triaxial jobs: calibration without a reference (``triaxial-calibrate``) and correction (``triaxial-apply``).
+
+``triaxial_calibrate`` identifies non-orthogonality, gains and offsets of a
+three-axis magnetometer (or accelerometer) from readings in a constant field;
+``triaxial_apply`` corrects a recording with a saved calibration.  Writing
+the parameter file and the corrected recording stays with the caller (the
+CLI): the results carry what to write.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from senscal._result import to_jsonable
+from senscal.errors import InputError
+from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+
+__all__ = ["TriaxialCalibrateOptions", "TriaxialCalibrateResult", "triaxial_calibrate", "TriaxialApplyOptions",
+           "TriaxialApplyResult", "triaxial_apply", "parameter_table"]
+
+ANGLES = ("alpha", "beta", "gamma")
+
+
+def _three(names: Any, what: str) -> tuple[str, str, str]:
+    """Three channel names from ``"x,y,z"`` or a sequence."""
+    if isinstance(names, str):
+        text = names
+        names = [s.strip() for s in names.split(",") if s.strip()]
+    else:
+        text = ",".join(map(str, names))
+    if len(names) != 3:
+        raise InputError(f"{what} needs exactly three names X,Y,Z, got {text!r}")
+    return tuple(str(n) for n in names)  # type: ignore[return-value]
+
+
+def parameter_table(params: dict[str, dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Parameters in the seed's terms for JSON: angles in degrees, U = 2u (k=2)."""
+    out = {}
+    for n, p in params.items():
+        v, u = p["value"], p["u"]
+        key, unit = n, p["unit"]
+        if n in ANGLES:
+            key, unit = f"{n}_deg", "deg"
+            v = None if v is None else math.degrees(v)
+            u = None if u is None else math.degrees(u)
+        out[key] = {"value": v, "u": u, "U_k2": None if u is None else 2 * u, "unit": unit}
+    return out
+
+
+def _finite(x: Any) -> bool:
+    return x is not None and math.isfinite(float(x))
+
+
+# ---------------------------------------------------------------------------
+# triaxial-calibrate
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TriaxialCalibrateOptions:
+    """Options of :func:`triaxial_calibrate` (the ``senscal triaxial calibrate`` options).
+
+    Attributes
+    ----------
+    channels : str or tuple of 3 str
+        The X, Y, Z field channels (``"x,y,z"`` or a tuple).
+    field : float or None
+        Field magnitude in the channels' unit (50000 nT, 9.80665 m/s^2);
+        None: estimated (scale then arbitrary).
+    method : str
+        ``auto``, ``ml``, ``ellipsoid``, ``linear`` or ``lms``.
+    model : str or None
+        Force ``full``, ``diagonal``, ``offsets`` or ``planar`` (None: the
+        richest the data support).
+    lr : float
+        LMS learning rate (on field-scaled features).
+    epochs : int
+        LMS passes over the data.
+    strict : bool
+        Insufficient coverage or implausible parameters raise (the engine's strict mode).
+    static : bool
+        Accelerometer session: detect static poses and fit their means.
+    static_window : float
+        Moving-variance window of ``static``, s.
+    min_pose : float
+        Shortest static pose kept, s.
+    outlier_sigma : float
+        Exclude readings this many robust sigma off (0: keep all).
+    accel_channels : str, tuple of 3 str or None
+        An accelerometer recorded alongside: calibrated too, and the
+        tilt-compensated heading is compared before/after.
+    time_column, fs, names, skip_rows
+        How the recording is read.
+    """
+
+    channels: str | tuple[str, str, str] = ("x", "y", "z")
+    field: float | None = None
+    method: str = "auto"
+    model: str | None = None
+    lr: float = 0.01
+    epochs: int = 50
+    strict: bool = False
+    static: bool = False
+    static_window: float = 0.5
+    min_pose: float = 1.0
+    outlier_sigma: float = 5.0
+    accel_channels: str | tuple[str, str, str] | None = None
+    time_column: str = "t"
+    fs: float | None = None
+    names: str | tuple[str, ...] | None = None
+    skip_rows: int | None = None
+
+
+@dataclass(frozen=True)
+class TriaxialCalibrateResult(JobResult):
+    """Calibration of a three-axis sensor, with the readings it came from.
+
+    Attributes
+    ----------
+    calibration : senscal.triaxial.TriaxialResult
+        Parameters with standard uncertainties (angles rad, gains 1, offsets
+        in the channels' unit), diagnostics and the applicable
+        :class:`~senscal.triaxial.TriaxialCalibration` (``.calibration``).
+    source : str
+        The recording.
+    channels : tuple of 3 str
+    unit : str
+        Unit of the field channels ('' if unknown).
+    readings : ndarray, shape (3, N)
+        What was fitted: the readings, or the static pose means.
+    static : senscal.triaxial.StaticPoses or None
+        The detected poses (``static``).
+    accelerometer : senscal.triaxial.TriaxialResult or None
+        Calibration of ``accel_channels``.
+    accel_channels : tuple of 3 str or None
+    tilt : dict or None
+        Tilt-compensated heading before/after (:func:`senscal.triaxial.heading.tilt_heading_report`), deg.
+    warnings : tuple of str
+        The calibration's named warnings, then the accelerometer's (a bad
+        tilt spoils the heading).
+    """
+
+    job: ClassVar[str] = "triaxial-calibrate"
+
+    calibration: Any
+    source: str
+    channels: tuple[str, str, str]
+    unit: str
+    readings: np.ndarray = field(repr=False)
+    static: Any = None
+    accelerometer: Any = None
+    accel_channels: tuple[str, str, str] | None = None
+    tilt: Any = None
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def method(self) -> str:
+        """How the registry describes the method: ``<model> model, <method>``."""
+        return f"{self.calibration.model} model, {self.calibration.method}"
+
+    @property
+    def conditions(self) -> dict[str, Any]:
+        """The calibration conditions the registry keeps: field, whether estimated, coverage fraction."""
+        res = self.calibration
+        return {"field": res.field, "field_estimated": res.field_estimated, "coverage": res.coverage["fraction"]}
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``senscal triaxial calibrate --json`` document (also the ``--out`` parameter file)."""
+        from senscal.triaxial.heading import summary as heading_summary
+
+        res = self.calibration
+        doc = {
+            "file": self.source, "channels": list(self.channels), "model": res.model, "method": res.method,
+            "field": {"value": res.field,
+                      "u": res.parameters.get("field", res.parameters.get("plane_field", {})).get("u"),
+                      "estimated": res.field_estimated, "note": res.scale_note},
+            "parameters": parameter_table(res.parameters),
+            "unidentifiable": list(res.unidentifiable), "model_choice": list(res.model_choice),
+            "coverage": res.coverage, "planarity": res.planarity, "conditioning": res.conditioning,
+            "noise": res.noise, "norm_error_before": res.norm_error_before, "norm_error_after": res.norm_error_after,
+            "outliers": {"count": len(res.outliers), "indices": list(res.outliers)},
+            "saturated": {"count": len(res.saturated)}, "plausibility": list(res.plausibility),
+            "warnings": list(res.warnings), "lms_vs_least_squares": res.lms_vs_least_squares,
+            "n_samples": res.n_samples, "n_used": res.n_used,
+            "model_evidence": list(res.model_evidence),
+            "heading": heading_summary(res.heading) if res.heading is not None else None,
+            "calibration": res.calibration.to_dict(),
+        }
+        st = self.static
+        if st is not None:
+            doc["static"] = {"n_poses": st.n_poses, "starts": st.starts.tolist(), "stops": st.stops.tolist(),
+                             "samples_per_pose_min": int(st.counts.min()) if st.n_poses else 0,
+                             "threshold": st.threshold}
+        if self.tilt is not None:
+            ra = self.accelerometer
+            doc["tilt_heading"] = {**heading_summary(self.tilt), "accelerometer": {
+                "channels": list(self.accel_channels), "model": ra.model, "method": ra.method,
+                "norm_error_after": ra.norm_error_after, "warnings": list(ra.warnings),
+                "calibration": ra.calibration.to_dict()}}
+        return to_jsonable(doc)
+
+    def quantities(self) -> tuple[Quantity, ...]:
+        """Every parameter the data determined (unidentifiable ones are left out), angles in deg."""
+        return tuple(Quantity(name, float(p["value"]), float(p["u"]), p["unit"])
+                     for name, p in parameter_table(self.calibration.parameters).items()
+                     if _finite(p["value"]) and _finite(p["u"]))
+
+    def to_dataframe(self):
+        """One row per parameter: value, standard u (k=1), U (k=2), unit (angles in deg; NaN where unidentifiable)."""
+        import pandas as pd
+
+        rows = [{"parameter": n, "value": np.nan if p["value"] is None else float(p["value"]),
+                 "u": np.nan if p["u"] is None else float(p["u"]),
+                 "U": np.nan if p["U_k2"] is None else float(p["U_k2"]), "unit": p["unit"]}
+                for n, p in parameter_table(self.calibration.parameters).items()]
+        return pd.DataFrame(rows, columns=["parameter", "value", "u", "U", "unit"])
+
+    def corrected(self) -> np.ndarray:
+        """The readings corrected with the calibration, shape (3, N), channels' unit."""
+        return self.calibration.calibration.apply(self.readings)
+
+
+def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalibrateOptions()
+                       ) -> TriaxialCalibrateResult:
+    """Calibrate a three-axis magnetometer or accelerometer from readings in a constant field.
+
+    Parameters
+    ----------
+    source : str, Path or Recording
+        Readings of the three field channels (and ``accel_channels``).
+    options : TriaxialCalibrateOptions
+
+    Returns
+    -------
+    TriaxialCalibrateResult
+
+    Raises
+    ------
+    SenscalError
+        Unreadable recording, unknown channel, too few readings or poses,
+        degenerate coverage (with ``strict``) ... (one line, with the fix).
+    """
+    from senscal.triaxial import calibrate, detect_static
+
+    o = options
+    chans = _three(o.channels, "--channels")
+    extra = _three(o.accel_channels, "--accel-channels") if o.accel_channels is not None else None
+    outlier = None if o.outlier_sigma == 0 else o.outlier_sigma
+    # Only static poses use time: a headerless x,y,z file needs no sample rate otherwise.
+    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names,
+                      channels=list(chans) + list(extra or ()), skip_rows=o.skip_rows, time_required=o.static)
+    h = rec.data(list(chans))
+    unit = rec.units.get(chans[0], "")
+    st = None
+    if o.static:
+        st = detect_static(h, rec.sample_rate, window_s=o.static_window, min_duration_s=o.min_pose)
+        if st.n_poses < 5:
+            raise InputError(f"found {st.n_poses} static poses in {source_name(source)}; a calibration needs many "
+                             "(>= 9 for the full model): hold the sensor still longer in more orientations or adjust "
+                             "--static-window")
+        h = st.means
+    res = calibrate(h, field=o.field, method=o.method, model=o.model, lr=o.lr, epochs=o.epochs, strict=o.strict,
+                    outlier_sigma=outlier, unit=unit, channels=chans)
+    ra = tilt = None
+    if extra is not None:
+        from senscal.triaxial.heading import tilt_heading_report
+
+        if o.static:
+            raise InputError("--accel-channels needs the readings themselves, not --static pose means; drop --static")
+        if set(extra) & set(chans):
+            raise InputError("--accel-channels must name the accelerometer's channels, not the calibrated ones")
+        a = rec.data(list(extra))
+        ra = calibrate(a, outlier_sigma=outlier, unit=rec.units.get(extra[0], ""), channels=extra)
+        tilt = tilt_heading_report(h, res.calibration.apply(h), a, ra.calibration.apply(a))
+    warnings = tuple(res.warnings) + (tuple(ra.warnings) if ra is not None else ())
+    return TriaxialCalibrateResult(calibration=res, source=source_name(source), channels=chans, unit=unit,
+                                   readings=np.asarray(h, dtype=float), static=st, accelerometer=ra,
+                                   accel_channels=extra, tilt=tilt, warnings=warnings)
+
+
+# ---------------------------------------------------------------------------
+# triaxial-apply
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TriaxialApplyOptions:
+    """Options of :func:`triaxial_apply` (the ``senscal triaxial apply`` options).
+
+    Attributes
+    ----------
+    params : str, Path or senscal.triaxial.TriaxialCalibration
+        The parameter file of ``triaxial calibrate --out`` (or a calibration in memory).
+    channels : str or tuple of 3 str
+        The X, Y, Z channels to correct.
+    time_column, fs, names
+        How the recording is read.
+    """
+
+    params: Any = None
+    channels: str | tuple[str, str, str] = ("x", "y", "z")
+    time_column: str = "t"
+    fs: float | None = None
+    names: str | tuple[str, ...] | None = None
+
+
+@dataclass(frozen=True)
+class TriaxialApplyResult(JobResult):
+    """A recording with three channels corrected; the other channels are copied.
+
+    Attributes
+    ----------
+    calibration : senscal.triaxial.TriaxialCalibration
+    recording : senscal.io.Recording
+        The corrected recording (what ``--out`` writes).
+    source : str
+    params_source : str
+        The parameter file (or ``"<calibration>"``).
+    channels : tuple of 3 str
+    corrected_norm : ndarray, shape (N,)
+        ``|H|`` after correction, channels' unit.
+    warnings : tuple of str
+    """
+
+    job: ClassVar[str] = "triaxial-apply"
+
+    calibration: Any
+    recording: Any = field(repr=False)
+    source: str
+    params_source: str
+    channels: tuple[str, str, str]
+    corrected_norm: np.ndarray = field(repr=False)
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``senscal triaxial apply --json`` document (``out``, the written file, is set by the writer)."""
+        cal, norm = self.calibration, self.corrected_norm
+        return to_jsonable({"file": self.source, "out": None, "model": cal.model,
+                "method": cal.method, "n_samples": int(norm.size), "corrected_norm_mean": float(norm.mean()),
+                "corrected_norm_std": float(norm.std(ddof=1)) if norm.size > 1 else 0.0, "field": cal.field})
+
+    def to_dataframe(self):
+        """The corrected recording, one row per sample: t (s) and every channel."""
+        import pandas as pd
+
+        rec = self.recording
+        return pd.DataFrame({"t": rec.time, **{k: np.asarray(v) for k, v in rec.channels.items()}})
+
+
+def _calibration_of(params) -> tuple[Any, str]:
+    from senscal.triaxial import TriaxialCalibration, load_calibration
+
+    if params is None:
+        raise InputError("triaxial apply needs the calibration: give --params PARAMS.json from "
+                         "'senscal triaxial calibrate --out PARAMS.json'")
+    if isinstance(params, TriaxialCalibration):
+        return params, "<calibration>"
+    if isinstance(params, (str, Path)):
+        return load_calibration(params), str(params)
+    raise InputError(f"the calibration must be a parameter file or a TriaxialCalibration, "
+                     f"got {type(params).__name__}")
+
+
+def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions()) -> TriaxialApplyResult:
+    """Correct three field channels of a recording with a saved calibration.
+
+    Parameters
+    ----------
+    source : str, Path or Recording
+        The recording to correct (never modified).
+    options : TriaxialApplyOptions
+        ``params`` is required.
+
+    Returns
+    -------
+    TriaxialApplyResult
+
+    Raises
+    ------
+    SenscalError
+        Unreadable parameter file or recording, unknown channel, channels in
+        another unit than the calibration's (one line, with the fix).
+    """
+    from senscal.io import Recording
+
+    o = options
+    cal, params_source = _calibration_of(o.params)
+    chans = _three(o.channels, "--channels")
+    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names)
+    rec.data(list(chans))  # unknown channel -> one-line error listing the channels
+    _check_units(cal, {c: rec.units.get(c, "") for c in chans})
+    corr = cal.apply(rec.data(list(chans)))
+    new = dict(rec.channels)
+    for k, c in enumerate(chans):
+        new[c] = corr[k]
+    out = Recording(channels=new, t=rec.t, fs=rec.fs, t0=rec.t0, units=rec.units,
+                    metadata={**rec.metadata, "triaxial_calibration": f"{cal.model}/{cal.method} from {params_source}"})
+    return TriaxialApplyResult(calibration=cal, recording=out, source=source_name(source),
+                               params_source=params_source, channels=chans,
+                               corrected_norm=np.linalg.norm(corr, axis=0))
+
+
+def _check_units(cal, units: dict[str, str]) -> None:
+    for c, u in units.items():
+        if cal.unit and u and u != cal.unit:
+            raise InputError(f"channel '{c}' is in {u} but the calibration was made from data in {cal.unit}; "
+                             "convert the data or calibrate again")
