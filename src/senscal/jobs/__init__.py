@@ -47,7 +47,12 @@ def _entry(name: str) -> tuple[Any, type]:
         module, function, opts = JOBS[name]
     except KeyError:
         raise InputError(f"unknown job {name!r}; jobs are: {', '.join(names())}") from None
-    mod = importlib.import_module(module)
+    try:
+        mod = importlib.import_module(module)
+    except ModuleNotFoundError as exc:
+        if exc.name != module:
+            raise  # a missing dependency inside the job module is a real error
+        raise InputError(f"job {name!r} is not available in this version of senscal ({module} is missing)") from None
     return getattr(mod, function), getattr(mod, opts)
 
 

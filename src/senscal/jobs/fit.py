@@ -171,6 +171,9 @@ class FitResult(JobResult):
     def quantities(self) -> tuple[Quantity, ...]:
         """``<channel>.amplitude|phase|offset|frequency`` per channel (phase in deg, frequency in Hz).
 
+        The frequency only when it was estimated: a known frequency (``freq``)
+        has no uncertainty and the registry takes none without one.
+
         Amplitude and offset carry no unit, as the registry has always stored
         them (the channel's unit is in ``units`` and the kept result).
         """
@@ -178,6 +181,8 @@ class FitResult(JobResult):
         for ch, f in self.channels.items():
             doc = fit_summary(f)
             for suffix, key, unit in _QUANTITIES:
+                if suffix == "frequency" and not f.frequency_estimated:
+                    continue  # a frequency given with --freq was not measured (u = 0): nothing to quote
                 out.append(Quantity(f"{ch}.{suffix}", doc[key], doc[f"u_{key}"], unit))
         return tuple(out)
 
