@@ -54,7 +54,8 @@ import numpy as np
 
 from senscal.errors import InputError, TooFewSamplesError
 
-__all__ = ["AllanResult", "NoiseLevels", "allan_deviation", "edf_simple", "identify_noise", "FLICKER_FACTOR"]
+__all__ = ["AllanResult", "NoiseLevels", "allan_deviation", "edf_simple", "identify_noise", "FLICKER_FACTOR",
+           "drift_levels_from_allan"]
 
 FLICKER_FACTOR = math.sqrt(2.0 * math.log(2.0) / math.pi)  # 0.6643: ADEV floor / B
 MIN_CLUSTERS = 3
@@ -329,3 +330,143 @@ def identify_noise(res: AllanResult) -> NoiseLevels:
     b = float(dev[imin] / FLICKER_FACTOR)
     u_b = _half_width(res, imin) / FLICKER_FACTOR
     return NoiseLevels(N=n_hat, u_N=u_n, B=b, u_B=float(u_b), K=k_hat, u_K=u_k, tau_min=float(taus[imin]))
+
+
+#: Peak Allan deviation of a first-order Gauss-Markov process over its
+#: stationary std (reached near tau = 1.89 correlation times).
+_GM_PEAK = 0.618
+
+
+def _white_std(res: AllanResult, lev: NoiseLevels) -> tuple[float, float]:
+    """Per-sample white-noise std [unit] and its relative u: N sqrt(fs), else the shortest-tau deviation."""
+    if lev.N is not None:
+        return float(lev.N * math.sqrt(res.fs)), float(lev.u_N / lev.N)
+    return float(res.dev[0]), _half_width(res, 0) / float(res.dev[0])
+
+
+def drift_levels_from_allan(setup, y: np.ndarray, t: np.ndarray, *, with_u: bool = False) -> dict:
+    """Starting noise levels of a drift set-up from Allan deviations (``--levels-from-allan``).
+
+    The Allan identification reads white noise ``N``, bias instability
+    ``B`` and rate random walk ``K`` off a signal whose true value does not
+    move.  A drift record's quantity does move, so each curve is taken where
+    the quantity cancels:
+
+    - ``known`` quantity: each channel itself;
+    - otherwise: each biased channel minus the reference (the mean of the
+      trusted channels, else of the other channels), whose ``K`` is the
+      bias's random-walk rate; the white noise of the difference is split
+      between the channels by the three-cornered hat when there are three
+      or more channels, equally otherwise; the quantity's random-walk rate
+      is ``K`` of the reference (trusted channels only).
+
+    Per-sample noise std = ``N sqrt(fs)``; random-walk bias rate = ``K``
+    [unit/sqrt(s)]; a Gauss-Markov bias's std = ``0.664 B / 0.618`` (its
+    Allan peak).  Ramp slopes and covariate coefficients are not seen by an
+    Allan curve and are left out (the maximum-likelihood search starts them
+    from its own rule).
+
+    Parameters
+    ----------
+    setup : DriftSetup
+    y : ndarray, (m, T)
+        Measurements of ``setup.channels`` [unit]; no NaN.
+    t : ndarray, (T,)
+        Time [s], about uniform (the median interval is taken).
+    with_u : bool
+        Also return each level's standard uncertainty (from the Allan
+        identification's; the three-cornered hat's and the equal split's
+        are the difference curves' relative ones).
+
+    Returns
+    -------
+    dict of str to float, or of str to (value, u)
+        A subset of ``setup.level_names()``.
+
+    Raises
+    ------
+    InputError
+        NaN in the data, or fewer than 3 clusters of one sample.
+    """
+    y = np.asarray(y, dtype=float)
+    t = np.asarray(t, dtype=float)
+    if not np.isfinite(y).all():
+        raise InputError("--levels-from-allan needs gap-free channels (an Allan deviation has no missing samples); "
+                         "interpolate the gaps or drop the option")
+    fs = 1.0 / float(np.median(np.diff(t)))
+    chans = list(setup.channels)
+    idx = {c: i for i, c in enumerate(chans)}
+
+    def curve(x):
+        res = allan_deviation(x - x.mean(), fs)
+        return res, identify_noise(res)
+
+    out: dict[str, float] = {}
+    rel: dict[str, float] = {}  # relative standard uncertainty of each level
+    rates: dict[str, tuple[float | None, float | None]] = {}
+    instab: dict[str, float] = {}
+    if setup.signal.kind == "known":
+        for c in chans:
+            res, lev = curve(y[idx[c]])
+            out[f"{c}_noise_std"], rel[f"{c}_noise_std"] = _white_std(res, lev)
+            rates[c], instab[c] = (lev.K, lev.u_K), lev.B
+    else:
+        trusted = [c for c in setup.trusted if c in idx]
+        white_diff: dict[tuple[str, str], float] = {}
+        for c in setup.biased_channels:
+            others = trusted or [o for o in chans if o != c]
+            ref = y[[idx[o] for o in others]].mean(axis=0)
+            res, lev = curve(y[idx[c]] - ref)
+            w, r = _white_std(res, lev)
+            white_diff[(c, "ref")] = (w**2, r)
+            rates[c], instab[c] = (lev.K, lev.u_K), lev.B
+        var: dict[str, float] = {}
+        vrel: dict[str, float] = {}
+        if len(chans) >= 3:
+            # Three-cornered hat on every pair: var_i = mean over (j, k) of (v_ij + v_ik - v_jk) / 2.
+            pair = {}
+            for a in range(len(chans)):
+                for b in range(a + 1, len(chans)):
+                    res, lev = curve(y[a] - y[b])
+                    w, r = _white_std(res, lev)
+                    pair[(a, b)] = pair[(b, a)] = w**2
+                    vrel[chans[a]] = max(vrel.get(chans[a], 0.0), r)
+                    vrel[chans[b]] = max(vrel.get(chans[b], 0.0), r)
+            for i, c in enumerate(chans):
+                est = [(pair[(i, j)] + pair[(i, k)] - pair[(j, k)]) / 2
+                       for j in range(len(chans)) for k in range(j + 1, len(chans)) if i not in (j, k)]
+                var[c] = max(float(np.mean(est)), 0.0)
+        else:
+            v = next(iter(white_diff.values()), None)
+            if v is None:
+                res, lev = curve(np.diff(y, axis=0)[0] if len(chans) > 1 else y[0])
+                w, r = _white_std(res, lev)
+                v = (w**2, r)
+            for c in chans:
+                var[c], vrel[c] = v[0] / (2.0 if len(chans) > 1 else 1.0), v[1]
+        floor = 1e-6 * max(max(var.values()), 1e-300)
+        for c in chans:
+            out[f"{c}_noise_std"] = math.sqrt(max(var[c], floor))
+            rel[f"{c}_noise_std"] = vrel[c]
+        if setup.signal.level_name == "signal_rate_std" and trusted:
+            res, lev = curve(y[[idx[c] for c in trusted]].mean(axis=0))
+            if lev.K is not None:
+                out["signal_rate_std"] = float(lev.K)
+                rel["signal_rate_std"] = float(lev.u_K / lev.K)
+    for b in setup.biases:
+        if b.covariate is not None or b.level is not None:
+            continue
+        if b.dynamics == "random_walk":
+            # No +1/2 region: the bias did not wander over the record; a tiny rate, not zero, so the search can move it.
+            k, u_k = rates.get(b.channel, (None, None))
+            if k is not None:
+                out[b.level_name], rel[b.level_name] = float(k), float(u_k / k)
+            else:
+                out[b.level_name], rel[b.level_name] = 1e-3 * out[f"{b.channel}_noise_std"] * math.sqrt(fs), 1.0
+        elif b.dynamics == "gauss_markov":
+            out[b.level_name] = float(FLICKER_FACTOR * instab[b.channel] / _GM_PEAK)
+            rel[b.level_name] = 1.0  # the peak-to-std factor assumes one time constant: a rough start only
+    names = setup.level_names()
+    if with_u:
+        return {k: (v, v * rel[k]) for k, v in out.items() if k in names}
+    return {k: v for k, v in out.items() if k in names}
