@@ -10,6 +10,8 @@ from dataclasses import replace
 from senscal.demo import DemoSection
 from senscal.jobs.vibration import ResponseOptions, VelocityOptions, response, velocity
 from senscal.report.certificate import response_figure, write_certificate
+from senscal.report.dcc import write_dcc
+from senscal.report.lab import example_info
 from senscal.report.plots import save_figure
 from senscal.simulate.common import write_simulation
 from senscal.simulate.vibration import simulate_centrifuge, simulate_hydraulic
@@ -32,13 +34,17 @@ def run(out: Path, seed: int) -> DemoSection:
     resp = response([replace(r, source=p.name) for r, p in zip(recs, paths)],
                     ResponseOptions(output="output", angle="angle", input_amplitude=a0, static_sensitivity=s0,
                                     u_input=0.001, phase_reference=replace(srecs[0], source="startup.csv"))).response
-    write_certificate(folder / "centrifuge_certificate.html", "response", resp, sensor_id="DEMO-ACC-001",
-                      model="simulated servo accelerometer (fn 40 Hz, damping 0.6)", unit=resp.unit,
-                      method="Double centrifuge, angle-synchronised least-squares sine fit (Qin, seed 003)",
-                      conditions={"peak input acceleration (m/s^2)": 100.0, "input amplitude u (type B)": "0.1 %",
-                                  "static sensitivity S0": f"{s0:g} V/(m/s^2)",
-                                  "input phase phi_0": resp.phase_reference},
-                      files=[p.name for p in paths])
+    # a fictitious lab and customer fill every ISO/IEC 17025 field; HTML, PDF and DCC carry the same id
+    info = example_info(item="servo accelerometer", model="second-order model (fn 40 Hz, damping 0.6)",
+                        serial="DEMO-ACC-001", certificate_id="SC-DEMO-ACC-001")
+    cert = dict(info=info, unit=resp.unit, files=[p.name for p in paths],
+                method="Double centrifuge, angle-synchronised least-squares sine fit (Qin, seed 003)",
+                conditions={"peak input acceleration (m/s^2)": 100.0, "input amplitude u (type B)": "0.1 %",
+                            "static sensitivity S0": f"{s0:g} V/(m/s^2)", "input phase phi_0": resp.phase_reference})
+    for suffix in (".html", ".pdf"):
+        write_certificate(folder / f"centrifuge_certificate{suffix}", "response", resp, **cert)
+    write_dcc(folder / "centrifuge_certificate.xml", "response", resp, info, unit=resp.unit, method=cert["method"],
+              files=cert["files"])
     save_figure(response_figure(resp), folder / "centrifuge_bode.png")
     rows = []
     for p, tp in zip(resp.points, truth["points"]):
@@ -55,8 +61,9 @@ def run(out: Path, seed: int) -> DemoSection:
     hpaths = write_simulation(hrecs, htruth, folder / "hydraulic", "hydraulic")
     cal = velocity([replace(r, source=p.name) for r, p in zip(hrecs, hpaths)],
                    VelocityOptions(position="position", velocity="velocity")).calibration
-    write_certificate(folder / "velocity_certificate.html", "velocity", cal, sensor_id="DEMO-VEL-001",
-                      model="simulated moving-coil velocity sensor", unit=cal.unit,
+    write_certificate(folder / "velocity_certificate.html", "velocity", cal, unit=cal.unit,
+                      info=example_info(item="moving-coil velocity sensor", model="0.1368 V/(m/s) model",
+                                        serial="DEMO-VEL-001", certificate_id="SC-DEMO-VEL-001"),
                       method="Hydraulic rig, position reference, sine fits at a shared frequency (Yang et al. 2014)",
                       conditions={"frequency points": len(cal.points), "peak displacement (m)": htruth["position_amplitude_m"]},
                       files=[p.name for p in hpaths])
@@ -71,8 +78,11 @@ def run(out: Path, seed: int) -> DemoSection:
                  "(natural frequency 40 Hz, damping 0.6), records starting mid-revolution; each record is cut to whole "
                  "revolutions at a 360 deg crossing and fitted against the turntable angle. Hydraulic rig: velocity "
                  "sensor (0.1368 V/(m/s), 0.5 ms delay, drifting offset) against a position reference at 10 "
-                 "frequencies. Both calibrations are written as HTML certificates."),
+                 "frequencies. Both calibrations are written as certificates (a fictitious lab and customer fill the "
+                 "ISO/IEC 17025 fields); the frequency response also as a PDF and a Digital Calibration Certificate "
+                 "(PTB DCC XML, validated against its schema)."),
         rows=tuple(rows), plot="vibration/centrifuge_bode.png",
-        files=("vibration/centrifuge_certificate.html", "vibration/velocity_certificate.html",
+        files=("vibration/centrifuge_certificate.html", "vibration/centrifuge_certificate.pdf",
+               "vibration/centrifuge_certificate.xml", "vibration/velocity_certificate.html",
                "vibration/centrifuge/centrifuge_truth.json", "vibration/hydraulic/hydraulic_truth.json"),
     )

@@ -43,7 +43,7 @@ import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.report.lab import CertificateInfo, missing_fields
+from senscal.report.lab import CertificateInfo, missing_fields, signing_approvers
 from senscal.report.plots import new_figure, svg_inline
 
 __all__ = ["write_certificate", "certificate_html", "certificate_id", "certificate_warnings", "budget_warnings",
@@ -433,17 +433,6 @@ def _logo_uri(path: str) -> str:
     return f"data:{mime};base64," + base64.b64encode(data).decode()
 
 
-def _approvers(info: CertificateInfo) -> tuple:
-    if not info.run.approver:
-        return info.lab.approvers
-    chosen = [a for a in info.lab.approvers if a.name == info.run.approver]
-    if not chosen:
-        raise InputError(f"approver {info.run.approver!r} is not among the lab's approvers "
-                         f"({', '.join(a.name for a in info.lab.approvers) or 'none listed'}); "
-                         "add them to the lab profile or choose one of those")
-    return tuple(chosen)
-
-
 def _admin_rows(info: CertificateInfo, method: str, issued: str) -> list[tuple[str, str | None]]:
     """The administrative fields in print order; ``None`` marks a missing required field."""
     run, lab = info.run, info.lab
@@ -520,7 +509,7 @@ def certificate_html(kind: str, result: Any, *, info: CertificateInfo | None = N
     return _TEMPLATE.render(
         title=_TITLES.get(kind, kind), cert_id=cert_id, lab=info.lab, run=info.run, logo=_logo_uri(info.lab.logo),
         admin=_admin_rows(info, method, date.strftime("%Y-%m-%d")), draft=bool(miss), missing=miss,
-        env=info.run.conditions, approvers=_approvers(info), version=__version__, g=_g, u=_u,
+        env=info.run.conditions, approvers=signing_approvers(info), version=__version__, g=_g, u=_u,
         pct=lambda v: "-" if v is None else f"{100 * v:.2g} %",
         conditions=[(k, v if isinstance(v, str) else _g(v)) for k, v in (conditions or {}).items()],
         summary=summary, columns=cols, rows=rows, budgets=[b for b in budgets if b[0]],

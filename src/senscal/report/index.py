@@ -69,6 +69,7 @@ def write_index(sections: Sequence, out: Path, *, seed: int | None = None) -> Pa
                             fmt2=lambda u: "-" if u is None else f"{2 * float(u):.2g}",
                             img=img, seed=seed if seed is not None else "",
                             when=_dt.datetime.now(_dt.timezone.utc).strftime("%Y-%m-%d %H:%M UTC"))
-    path = out / "index.html"
-    path.write_text(text, encoding="utf-8")
-    return path
+    from senscal.io.guard import write_text
+
+    # atomic: an interrupted demo never leaves half a page that links to missing outputs
+    return write_text(out / "index.html", text, what="demo index")

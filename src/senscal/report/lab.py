@@ -30,7 +30,7 @@ from senscal.errors import InputError
 
 __all__ = ["Person", "Standard", "Condition", "LabProfile", "RunInfo", "CertificateInfo", "load_lab_profile",
            "load_run_file", "parse_condition", "run_info_from", "merge_run", "missing_fields", "default_lab_path",
-           "REQUIRED_LAB", "REQUIRED_RUN", "signing_approvers"]
+           "REQUIRED_LAB", "REQUIRED_RUN", "signing_approvers", "example_info"]
 
 
 @dataclass(frozen=True)
@@ -364,3 +364,26 @@ def signing_approvers(info: CertificateInfo) -> tuple[Person, ...]:
                          f"({', '.join(a.name for a in info.lab.approvers) or 'none listed'}); "
                          "add them to the lab profile or choose one of those")
     return chosen
+
+
+def example_info(*, item: str, model: str, serial: str, certificate_id: str) -> CertificateInfo:
+    """A filled-in, fictitious lab and run for one item: what ``senscal demo`` certifies its simulated sensors with.
+
+    Every required field is given (no DRAFT mark) and every value says it
+    is fictitious or simulated, so a demo certificate cannot pass for a real one.
+    """
+    import datetime as _dt
+
+    lab = LabProfile(name="senscal demo laboratory (fictitious)", address="1 Example Street\n12345 Example Town",
+                     accreditation="none: demonstration only", procedure="DEMO-VIB-01", email="lab@example.org",
+                     country="DE", approvers=(Person("A. Example", "Head of laboratory (fictitious)"),),
+                     standards=(Standard("Double centrifuge and position reference (simulated)", "SIM-001",
+                                         "SIM-CERT-0001", "none: simulated data", "", 0.0005),))
+    run = RunInfo(certificate_id=certificate_id, customer="Demo customer (fictitious)",
+                  customer_address="2 Example Road, 12345 Example Town", customer_email="customer@example.org",
+                  item=item, manufacturer="senscal simulator", model=model, serial=serial,
+                  calibration_date=_dt.date.today().isoformat(), location="senscal demo (simulated recordings)",
+                  conditions=(Condition("temperature (simulated)", 23.0, 0.5, "degC"),),
+                  remarks="Simulated recordings with known truth: this certificate shows the format; it is not a "
+                          "calibration.")
+    return CertificateInfo(lab, run)
