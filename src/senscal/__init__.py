@@ -23,12 +23,15 @@ except PackageNotFoundError:  # running from a source tree
 _LAZY = {
     "Recording": "senscal.io", "read_recording": "senscal.io", "write_recording": "senscal.io",
     "fit_sine": "senscal.sinefit", "SineFit": "senscal.sinefit",
+    "load_calibration": "senscal.persist",
 }
 
-__all__ = ["Recording", "read_recording", "write_recording", "fit_sine", "SineFit", "errors", "__version__"]
+__all__ = ["Recording", "read_recording", "write_recording", "fit_sine", "SineFit", "load_calibration", "errors",
+           "__version__"]
 
 if TYPE_CHECKING:  # pragma: no cover
     from senscal.io import Recording, read_recording, write_recording
+    from senscal.persist import load_calibration
     from senscal.sinefit import SineFit, fit_sine
 
 

@@ -48,7 +48,7 @@ __all__ = ["G", "GravityModel", "calibrate_gravity", "load_model"]
 G = 9.80665
 ANGLE_FREQ = 1.0 / (2.0 * math.pi)  # fit_sine against an angle in rad: one cycle per revolution
 KIND = "senscal.shaft.GravityModel"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: tagged "type" like every saved calibration (senscal.persist); 1 said "kind"
 # Largest sensor radius (m) assumed when judging whether once-per-turn speed ripple could bias the fit
 # and no radius was given: shaft rigs for sensor calibration are well under a metre.
 SYNC_RADIUS_BOUND = 1.0
@@ -217,11 +217,10 @@ class GravityModel(ResultMixin):
         a gravity term left after compensation (sensor remounted, another
         sensor, wrong angle zero) is reported as a warning.
         """
-        if accel_unit and self.output_unit and accel_unit.strip() != self.output_unit.strip():
-            raise InputError(
-                f"the accelerometer channel is in '{accel_unit}' but the model was calibrated in "
-                f"'{self.output_unit}'; convert the channel or recalibrate with this sensor"
-            )
+        from senscal.persist.units import check_unit
+
+        check_unit(accel_unit, self.output_unit, what="the accelerometer channel",
+                   fix="convert the channel or recalibrate with this sensor")
 
     # -- persistence -----------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -234,12 +233,51 @@ class GravityModel(ResultMixin):
         return d
 
     def save(self, path: str | Path) -> Path:
-        """Write the model as JSON (folders created)."""
-        from senscal.io.guard import check_output, write_text
+        """Write the model as JSON, or HDF5 for a ``.h5``/``.hdf5`` path (folders created).
 
-        path = check_output(path, what="model file")
-        write_text(path, json.dumps(self.to_dict(), indent=2) + "\n", what="model file")
-        return path
+        The file carries ``type`` and ``format_version``
+        (:mod:`senscal.persist`); :func:`senscal.load_calibration` and
+        :func:`load_model` read it back.
+        """
+        from senscal.persist import document, write_document
+
+        return write_document(document(KIND, self.to_dict(), drop=("kind",)), path, what="model file")
+
+    def apply(self, accel, angle, *, angle_unit: str = "rad", unit: str | None = None) -> np.ndarray:
+        """Remove gravity from accelerometer readings: what the sensor measured besides gravity.
+
+        Parameters
+        ----------
+        accel : array_like
+            Accelerometer output, output unit of the calibration.
+        angle : array_like, same shape
+            Encoder angle at each reading, in ``angle_unit``.
+        angle_unit : {"rad", "deg"}
+        unit : str, optional
+            Unit of ``accel``; refused when it differs from the calibration's
+            (compared as units: ``m/s²`` equals ``m/s^2``).
+
+        Returns
+        -------
+        ndarray
+            ``(accel - gravity(angle)) / sensitivity``: the tangential
+            acceleration (plus the centripetal leakage at the calibration
+            speed), m/s^2.  :func:`senscal.shaft.compensate` also derives the
+            angular acceleration and checks the result.
+        """
+        self.check_applicable(accel_unit=unit)
+        theta = angle_to_rad(np.asarray(angle, dtype=float).ravel(), angle_unit).reshape(np.shape(angle))
+        a = np.asarray(accel, dtype=float)
+        if a.shape != theta.shape:
+            raise InputError(f"accel and angle must have the same shape, got {a.shape} and {theta.shape}")
+        return (a - self.gravity(theta)) / self.sensitivity
+
+    @classmethod
+    def from_document(cls, d: dict[str, Any], *, source: str = "model") -> "GravityModel":
+        """Rebuild a model from a saved document (version 1 tagged ``kind``, version 2 ``type``)."""
+        if isinstance(d, dict) and d.get("type") == KIND:
+            d = {**{k: v for k, v in d.items() if k != "type"}, "kind": KIND}
+        return cls.from_dict(d, source=source)
 
     @classmethod
     def from_dict(cls, d: dict[str, Any], *, source: str = "model") -> "GravityModel":
@@ -248,10 +286,9 @@ class GravityModel(ResultMixin):
             kind = d.get("kind") if isinstance(d, dict) else type(d).__name__
             raise FileFormatError(f"{source} is not a senscal shaft gravity model (kind={kind!r}); "
                                   "give the MODEL.json written by 'senscal shaft calibrate --out'")
-        ver = d.get("format_version")
-        if not isinstance(ver, int) or ver > FORMAT_VERSION or ver < 1:
-            raise FileFormatError(f"{source} has model format version {ver!r} but this senscal reads up to "
-                                  f"{FORMAT_VERSION}; upgrade senscal or recalibrate")
+        from senscal.persist import check_version
+
+        check_version(d, source)
         names = {f.name for f in dataclasses.fields(cls)}
         kw = {k: v for k, v in d.items() if k in names}
         missing = [f.name for f in dataclasses.fields(cls)
@@ -265,21 +302,19 @@ class GravityModel(ResultMixin):
 
         kw["covariance"] = array_field(kw["covariance"], (3, 3), f"'covariance' in {source}")
         kw["warnings"] = tuple(kw.get("warnings") or ())
+        kw["nuisance"] = tuple(kw.get("nuisance") or ())
+        kw["format_version"] = FORMAT_VERSION  # the object is today's, whichever layout it was read from
         return cls(**kw)
 
 
 def load_model(path: str | Path) -> GravityModel:
-    """Read a :class:`GravityModel` written by :meth:`GravityModel.save`."""
-    from senscal.io.guard import note_input
+    """Read a :class:`GravityModel` written by :meth:`GravityModel.save` (JSON or HDF5, any version).
 
-    path = Path(path)
-    note_input(path)
-    if not path.exists():
-        raise FileFormatError(f"model file {path} does not exist; run 'senscal shaft calibrate ... --out {path}'")
-    from senscal.io.sidefiles import read_json
+    Same as ``senscal.load_calibration(path)`` but refuses other calibration types.
+    """
+    from senscal.persist import load_calibration
 
-    d = read_json(path, "model file", expect=None)  # from_dict names a wrong top-level type
-    return GravityModel.from_dict(d, source=f"model file {path}")
+    return load_calibration(path, expect=KIND)
 
 
 # ---------------------------------------------------------------------------

@@ -20,7 +20,6 @@ References
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,8 +41,9 @@ MODELS = ("full", "diagonal", "offsets", "planar")
 #: The seed's 8 weights of the linearised steering-error model.
 LINEAR_NAMES = ("dKx", "dKy", "gamma", "alpha", "beta", "Bx", "By", "Bz")
 
-FORMAT = "senscal.triaxial.calibration"
-FORMAT_VERSION = 1
+FORMAT = "senscal.triaxial.calibration"  # the version-1 tag (key "format")
+TYPE = "senscal.triaxial.TriaxialCalibration"  # the type key of saved files (senscal.persist)
+FORMAT_VERSION = 2
 
 
 def sensor_matrix(kx: float, ky: float, kz: float, alpha: float, beta: float, gamma: float) -> np.ndarray:
@@ -132,13 +132,16 @@ class TriaxialCalibration(ResultMixin):
     format: str = FORMAT
     format_version: int = FORMAT_VERSION
 
-    def apply(self, h_hat: np.ndarray) -> np.ndarray:
+    def apply(self, h_hat: np.ndarray, *, unit: str | None = None) -> np.ndarray:
         """Correct measurements.
 
         Parameters
         ----------
         h_hat : array_like, shape (3, N) or (3,)
             Measured field in sensor units.
+        unit : str, optional
+            Unit of ``h_hat``; refused when it differs from :attr:`unit`
+            (compared as units, see :func:`senscal.persist.units.same_unit`).
 
         Returns
         -------
@@ -147,6 +150,8 @@ class TriaxialCalibration(ResultMixin):
             ``H_hat = M H + B``; the linearised model applies the seed's
             first-order correction ``H = H_hat - dH_hat``.
         """
+        if unit is not None:
+            self.check_units({c: unit for c in self.channels})
         h = np.asarray(h_hat, float)
         if h.shape[0] != 3:
             raise InputError(f"calibration needs 3 axes on the first dimension, got shape {h.shape}")
@@ -166,46 +171,70 @@ class TriaxialCalibration(ResultMixin):
         return out[:, 0] if vec else out
 
     def save(self, path: str | Path, extra: Mapping[str, Any] | None = None) -> Path:
-        """Write as JSON (``extra`` adds fields such as the parameter report)."""
-        from senscal.io.guard import check_output, write_text
+        """Write as JSON, or HDF5 for a ``.h5``/``.hdf5`` path (``extra`` adds fields such as the report).
 
-        path = check_output(path, what="parameter file")
-        doc = self.to_dict()
-        if extra:
-            doc = {**to_jsonable(dict(extra)), **doc}
-        write_text(path, json.dumps(doc, indent=2) + "\n", what="parameter file")
-        return path
+        The file carries ``type`` and ``format_version`` (:mod:`senscal.persist`);
+        :func:`senscal.load_calibration` and :func:`load_calibration` read it back.
+        """
+        from senscal.persist import document, write_document
+
+        fields = {**to_jsonable(dict(extra or {})), **self.to_dict()}
+        return write_document(document(TYPE, fields, drop=("format",)), path, what="parameter file")
+
+    def check_units(self, units: Mapping[str, str], *, source: str = "the recording") -> None:
+        """Refuse channels whose unit differs from the calibration's (compared as units).
+
+        Parameters
+        ----------
+        units : mapping
+            Channel name -> unit of the data to correct (missing or '' = unknown, passes).
+        source : str
+            Names the data in the message.
+
+        Raises
+        ------
+        InputError
+            A channel's unit is known and differs (``m/s²`` and ``m/s^2`` are the same unit; ``g`` is not).
+        """
+        from senscal.persist.units import check_unit
+
+        for c, u in units.items():
+            check_unit(u, self.unit, what=f"channel '{c}' of {source}", fix="convert the data or calibrate again")
+
+    @classmethod
+    def from_document(cls, doc: Mapping[str, Any], *, source: str = "parameter file") -> "TriaxialCalibration":
+        """Rebuild from a saved document: version 2 (``type``), a version-1 file or report (``format``)."""
+        if isinstance(doc, dict) and doc.get("type") != TYPE and isinstance(doc.get("calibration"), dict):
+            doc = doc["calibration"]
+        if not isinstance(doc, dict) or (doc.get("type") != TYPE and doc.get("format") != FORMAT):
+            raise FileFormatError(f"{source} is not a senscal triaxial calibration; give the file written by "
+                                  "'senscal triaxial calibrate --out'")
+        from senscal.persist import check_version
+
+        check_version(doc, source)
+        try:
+            m = np.array(doc["matrix"], float)
+            b = np.array(doc["offsets"], float)
+            pa = doc.get("plane_axes")
+            cal = cls(model=str(doc["model"]), method=str(doc["method"]), matrix=m, offsets=b,
+                      field=float(doc["field"]), unit=str(doc.get("unit") or ""),
+                      channels=tuple(doc.get("channels", ("x", "y", "z"))),
+                      plane_axes=tuple(int(i) for i in pa) if pa is not None else None)
+        except (KeyError, TypeError, ValueError) as exc:
+            raise FileFormatError(f"{source} is a damaged triaxial calibration (missing or bad {exc}); "
+                                  "re-run calibrate") from None
+        if m.shape != (3, 3) or b.shape != (3,) or not (np.all(np.isfinite(m)) and np.all(np.isfinite(b))):
+            raise FileFormatError(f"{source} holds a malformed matrix or offsets; re-run calibrate")
+        if cal.model not in MODELS + ("linearised",) or (cal.model == "planar" and (pa is None or len(pa) != 2)):
+            raise FileFormatError(f"{source} names an unknown model {cal.model!r}; re-run calibrate")
+        return cal
 
 
 def load_calibration(path: str | Path) -> TriaxialCalibration:
-    """Read a calibration written by :meth:`TriaxialCalibration.save` or ``--out``."""
-    from senscal.io.guard import note_input
+    """Read a calibration written by :meth:`TriaxialCalibration.save` or ``--out`` (JSON or HDF5, any version).
 
-    path = Path(path)
-    note_input(path)
-    if not path.exists():
-        raise FileFormatError(f"parameter file not found: {path}")
-    from senscal.io.sidefiles import read_json
+    Same as ``senscal.load_calibration(path)`` but refuses other calibration types.
+    """
+    from senscal.persist import load_calibration as load
 
-    doc = read_json(path, "parameter file", expect=None)  # the format check below names a wrong type
-    if isinstance(doc, dict) and "calibration" in doc and isinstance(doc["calibration"], dict):
-        doc = doc["calibration"]
-    if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-        raise FileFormatError(f"{path} is not a senscal triaxial calibration; give the file written by "
-                              "'senscal triaxial calibrate --out'")
-    if int(doc.get("format_version", 0)) > FORMAT_VERSION:
-        raise FileFormatError(f"{path} has format version {doc['format_version']}, newer than this senscal "
-                              f"understands ({FORMAT_VERSION}); upgrade senscal")
-    try:
-        m = np.array(doc["matrix"], float)
-        b = np.array(doc["offsets"], float)
-        pa = doc.get("plane_axes")
-        cal = TriaxialCalibration(model=str(doc["model"]), method=str(doc["method"]), matrix=m, offsets=b,
-                                  field=float(doc["field"]), unit=str(doc.get("unit", "")),
-                                  channels=tuple(doc.get("channels", ("x", "y", "z"))),
-                                  plane_axes=tuple(pa) if pa is not None else None)
-    except (KeyError, TypeError, ValueError) as exc:
-        raise FileFormatError(f"{path} is a damaged triaxial calibration (missing or bad {exc}); re-run calibrate") from None
-    if m.shape != (3, 3) or b.shape != (3,) or not (np.all(np.isfinite(m)) and np.all(np.isfinite(b))):
-        raise FileFormatError(f"{path} holds a malformed matrix or offsets; re-run calibrate")
-    return cal
+    return load(path, expect=TYPE)

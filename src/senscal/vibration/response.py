@@ -34,7 +34,7 @@ __all__ = ["ResponsePoint", "FrequencyResponse", "RepeatedPoint", "PhaseReferenc
 _SAME_FREQ = 1e-3
 
 FORMAT = "senscal.vibration.FrequencyResponse"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2  # 2: ".h5" files are HDF5 (senscal.persist); 1 wrote JSON into them
 
 
 @dataclass(frozen=True)
@@ -504,6 +504,73 @@ class FrequencyResponse(ResultMixin):
     def u_sensitivity(self) -> np.ndarray:
         return np.array([p.u_sensitivity for p in self.points])
 
+    def sensitivity_at(self, frequency: float) -> tuple[float, float]:
+        """Sensitivity and its standard uncertainty at ``frequency`` (Hz), sensitivity unit.
+
+        At a calibrated point its own values; between two points both are
+        interpolated linearly in log frequency (the response of an
+        accelerometer well below resonance is smooth there; the interpolated
+        ``u`` is the neighbours' weighted mean, not smaller than either's
+        share).  Outside the calibrated range it refuses: a calibration says
+        nothing about frequencies it did not visit.
+        """
+        f = float(frequency)
+        fr, s, u = self.frequency, self.sensitivity, self.u_sensitivity
+        if not (math.isfinite(f) and f > 0):
+            raise InputError(f"frequency must be a positive number of Hz, got {frequency!r}")
+        tol = 1e-9 * fr.max()
+        if f < fr.min() - tol or f > fr.max() + tol:
+            raise InputError(f"{f:g} Hz lies outside the calibrated range {fr.min():g} to {fr.max():g} Hz; "
+                             "calibrate at that frequency")
+        x = np.log(fr)
+        xf = math.log(min(max(f, fr.min()), fr.max()))
+        return float(np.interp(xf, x, s)), float(np.interp(xf, x, u))
+
+    def apply(self, output_amplitude, frequency: float, *, unit: str | None = None) -> np.ndarray:
+        """Correct output amplitudes at one frequency: the input amplitude that caused them.
+
+        Parameters
+        ----------
+        output_amplitude : array_like
+            Peak output amplitude(s) of the sensor, in the output unit (the
+            sensitivity unit's numerator: ``V`` for ``V/(m/s^2)``).
+        frequency : float
+            Hz, within the calibrated range.
+        unit : str, optional
+            Unit of ``output_amplitude``; refused when it differs from the
+            output unit (compared as units).
+
+        Returns
+        -------
+        ndarray
+            ``output_amplitude / S(frequency)``, input unit (``m/s^2`` for a
+            sensitivity in ``V/(m/s^2)``); :meth:`sensitivity_at` gives ``S``
+            and its ``u``.
+        """
+        from senscal.persist.units import check_unit, numerator
+
+        check_unit(unit, numerator(self.unit), what="the output amplitude",
+                   fix="convert the amplitudes to the calibration's output unit")
+        s, _ = self.sensitivity_at(frequency)
+        return np.asarray(output_amplitude, dtype=float) / s
+
+    def compare(self, sensitivity: float, frequency: float) -> tuple[float, float]:
+        """Relative deviation of a sensitivity measured at ``frequency`` from this calibration.
+
+        Returns
+        -------
+        deviation, u_deviation : float
+            ``sensitivity / S(f) - 1`` and the standard uncertainty this
+            calibration contributes to it (``u(S) / S``), ratio.
+        """
+        s, u = self.sensitivity_at(frequency)
+        return float(sensitivity) / s - 1.0, u / s
+
+    @classmethod
+    def from_document(cls, doc, *, source: str = "response file") -> "FrequencyResponse":
+        """Rebuild from a saved document; see :func:`response_from_document`."""
+        return response_from_document(doc, source=source)
+
 
 def frequency_response(points: Sequence[ResponsePoint], *, unit: str = "V/(m/s^2)",
                        static_sensitivity: float | None = None, phase_reference: str | None = None,
@@ -646,18 +713,13 @@ def combine_repeats(points: Sequence[ResponsePoint], *, rel_tol: float = 1e-3) -
 
 
 def save_response(resp: FrequencyResponse, path) -> "Path":
-    """Save a frequency response as JSON that carries its type and format version."""
-    import json
-    from pathlib import Path
+    """Save a frequency response with its type and format version: JSON, or HDF5 for ``.h5``/``.hdf5``.
 
-    from senscal._result import to_jsonable
+    :func:`senscal.load_calibration` and :func:`load_response` read it back.
+    """
+    from senscal.persist import document, write_document
 
-    from senscal.io.guard import check_output, write_text
-
-    path = check_output(path, what="response file")
-    doc = {"type": FORMAT, "format_version": FORMAT_VERSION, **to_jsonable(resp)}
-    write_text(path, json.dumps(doc, indent=1) + "\n", what="response file")
-    return path
+    return write_document(document(FORMAT, resp.to_dict()), path, what="response file")
 
 
 def _budget_from(d):
@@ -669,29 +731,38 @@ def _budget_from(d):
 
 
 def load_response(path) -> FrequencyResponse:
-    """Load a response written by :func:`save_response` (type and version checked)."""
-    import json
-    from pathlib import Path
+    """Load a response written by :func:`save_response` (JSON or HDF5, any version; type checked).
 
-    from senscal.io.guard import note_input
+    Same as ``senscal.load_calibration(path)`` but refuses other calibration types.
+    """
+    from senscal.persist import load_calibration
 
-    path = Path(path)
-    note_input(path)
-    from senscal.io.sidefiles import read_json
+    return load_calibration(path, expect=FORMAT)
 
-    doc = read_json(path, "response file", expect=None)  # the type check below names a wrong type
+
+def response_from_document(doc, *, source: str = "response file") -> FrequencyResponse:
+    """Rebuild a :class:`FrequencyResponse` from a saved document (see :func:`save_response`)."""
     if not isinstance(doc, dict) or doc.get("type") != FORMAT:
-        raise FileFormatError(f"{path} is not a senscal frequency response (type {doc.get('type') if isinstance(doc, dict) else None!r})")
-    if doc.get("format_version", 0) > FORMAT_VERSION:
-        raise FileFormatError(f"{path} has format version {doc['format_version']}; this senscal reads up to "
-                              f"{FORMAT_VERSION}: upgrade senscal")
-    pts = []
-    for d in doc["points"]:
-        kw = dict(d)
-        for k in ("sensitivity_budget", "normalized_budget", "phase_delay_budget"):
-            kw[k] = _budget_from(d[k])
-        kw["sync"] = None if d["sync"] is None else AngleSync(**d["sync"])
-        kw["warnings"] = tuple(d.get("warnings", ()))
-        pts.append(ResponsePoint(**kw))
-    return FrequencyResponse(tuple(pts), doc["unit"], doc["static_sensitivity"], doc.get("phase_reference", ""),
-                             tuple(doc.get("warnings", ())))
+        raise FileFormatError(f"{source} is not a senscal frequency response "
+                              f"(type {doc.get('type') if isinstance(doc, dict) else None!r})")
+    from senscal.persist import check_version
+
+    check_version(doc, source)
+    try:
+        pts = []
+        for d in doc["points"]:
+            kw = dict(d)
+            for k in ("sensitivity_budget", "normalized_budget", "phase_delay_budget"):
+                kw[k] = _budget_from(d.get(k))
+            kw["sync"] = None if d.get("sync") is None else AngleSync(**d["sync"])
+            kw["warnings"] = tuple(d.get("warnings") or ())
+            pts.append(ResponsePoint(**kw))
+        resp = FrequencyResponse(tuple(pts), doc["unit"], doc["static_sensitivity"], doc.get("phase_reference", ""),
+                                 tuple(doc.get("warnings") or ()))
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise FileFormatError(f"{source} is a damaged frequency response (missing or bad {exc}); "
+                              "save the response again") from None
+    if not pts or not all(isinstance(p.frequency, (int, float)) and isinstance(p.sensitivity, (int, float))
+                          for p in pts):
+        raise FileFormatError(f"{source} holds no usable frequency points; save the response again")
+    return resp
