@@ -28,17 +28,10 @@ def sim(tmp_path_factory):
     return d
 
 
-def _same_numbers(a, b, path=""):
-    if isinstance(a, dict):
-        assert list(a) == list(b), path
-        for k in a:
-            _same_numbers(a[k], b[k], f"{path}.{k}")
-    elif isinstance(a, list):
-        assert len(a) == len(b), path
-        for i, (x, y) in enumerate(zip(a, b)):
-            _same_numbers(x, y, f"{path}[{i}]")
-    else:
-        assert a == b, path
+def _same_document(a, b):
+    """Document ``a`` equals ``b`` exactly: same keys in the same order, every number equal."""
+    assert list(a) == list(b)
+    assert a == b
 
 
 @pytest.mark.parametrize("motion, words, opts", [
@@ -53,8 +46,8 @@ def test_calibrate_api_equals_cli_json_and_out_file(cli, sim, tmp_path, motion, 
     res = triaxial_calibrate(f, TriaxialCalibrateOptions(channels="x,y,z", **opts))
     assert isinstance(res, TriaxialCalibrateResult)
     doc = res.to_dict()
-    _same_numbers(doc, json.loads(r.out))
-    _same_numbers(doc, json.loads((tmp_path / "p.json").read_text()))
+    _same_document(doc, json.loads(r.out))
+    _same_document(doc, json.loads((tmp_path / "p.json").read_text()))
 
 
 def test_quantities_are_the_identified_parameters_the_registry_stores(cli, sim, tmp_path):
@@ -99,7 +92,7 @@ def test_apply_api_equals_cli(cli, sim, tmp_path):
     assert isinstance(res, TriaxialApplyResult)
     doc = res.to_dict()
     assert doc.pop("out") is None and cli_doc.pop("out") == str(out)
-    _same_numbers(doc, cli_doc)
+    _same_document(doc, cli_doc)
     written = read_recording(out)
     for c in ("x", "y", "z"):
         np.testing.assert_allclose(written[c], res.recording[c], rtol=1e-12)
