@@ -40,7 +40,7 @@ import os
 import time
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, ClassVar, Mapping, Sequence
 
 import numba as nb
 import numpy as np
@@ -213,7 +213,7 @@ def fleet_groups(doc: Mapping[str, Any], *, base: Path | str = ".", source: str 
     for i, g in enumerate(doc.get("groups") or []):
         if not isinstance(g, dict):
             raise FileFormatError(f"{source}: group {i} must be a mapping")
-        bad = set(g) - {"name", "channels", "setup", "levels", "channel_levels", "covariate_column"}
+        bad = set(g) - {"name", "channels", "setup", "levels", "channel_levels", "covariate_column", "prior_scale"}
         if bad:
             raise FileFormatError(f"{source}: group {g.get('name', i)} has unknown keys {sorted(bad)}")
         name = str(g.get("name", f"group{i}"))
@@ -226,7 +226,8 @@ def fleet_groups(doc: Mapping[str, Any], *, base: Path | str = ".", source: str 
             groups.append(FleetGroup(name=name, setup=_setup_from(g.get("setup"), name, base),
                                      levels=dict(g.get("levels") or {}), channels=tuple(str(c) for c in chans),
                                      covariate_column=str(g.get("covariate_column", "{channel}.{covariate}")),
-                                     channel_levels={str(k): dict(v) for k, v in per.items()}))
+                                     channel_levels={str(k): dict(v) for k, v in per.items()},
+                                     prior_scale=None if g.get("prior_scale") is None else float(g["prior_scale"])))
         except (TypeError, ValueError) as exc:
             raise FileFormatError(f"{source}: group {name}: {exc}") from None
     names = [g.name for g in groups]
@@ -659,3 +660,555 @@ def filter_block(group: FleetGroup, y: np.ndarray, t: np.ndarray, states: Sequen
                         x0=np.asarray(priors[c][0], dtype=float), P0=np.asarray(priors[c][1], dtype=float))
            for c, s in enumerate(states)]
     return bias, std, new
+
+
+# --------------------------------------------------------------------------- dataset, blocks, state store
+
+@dataclass(frozen=True)
+class FleetBlock:
+    """The channels of one group in one dataset file: one task, its row groups in time order.
+
+    Attributes
+    ----------
+    file : str
+        Parquet file.
+    group : str
+        Group name.
+    channels : tuple of str
+        Channel columns.
+    covariates : tuple of tuple of str
+        Per channel, its covariate columns (the group set-up's order).
+    """
+
+    file: str
+    group: str
+    channels: tuple[str, ...]
+    covariates: tuple[tuple[str, ...], ...]
+
+    @property
+    def key(self) -> str:
+        """Name of the block's state file in the store (without ``.npz``)."""
+        return f"{self.group}--{Path(self.file).stem}"
+
+
+def dataset_files(dataset: str | Path) -> list[Path]:
+    """The Parquet files of a fleet dataset: a file, or the ``*.parquet`` files of a folder, sorted."""
+    from senscal.io.guard import note_input
+
+    path = Path(dataset)
+    if path.is_dir():
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in (".parquet", ".pq") and p.is_file())
+        if not files:
+            raise InputError(f"fleet dataset {path} holds no .parquet files; give a folder of Parquet files "
+                             "(one block of channels each, a time column t)")
+    elif path.is_file():
+        files = [path]
+    else:
+        raise InputError(f"fleet dataset {path} does not exist")
+    for f in files:
+        note_input(f)
+    return files
+
+
+def plan_blocks(dataset: str | Path, groups: Sequence[FleetGroup]) -> tuple[list[FleetBlock], list[str]]:
+    """Assign every channel column of the dataset to the first group whose patterns match it.
+
+    Returns
+    -------
+    blocks : list of FleetBlock
+    warnings : list of str
+        ``fleet-columns-unassigned``, ``fleet-group-empty``.
+    """
+    import pyarrow.parquet as pq
+
+    blocks: list[FleetBlock] = []
+    unassigned: list[str] = []
+    used = {g.name: 0 for g in groups}
+    seen: dict[str, str] = {}
+    for f in dataset_files(dataset):
+        try:
+            names = pq.read_schema(f).names
+        except (OSError, ValueError) as exc:
+            raise FileFormatError(f"fleet dataset file {f} is not a readable Parquet file ({exc})") from None
+        if "t" not in names:
+            raise FileFormatError(f"fleet dataset file {f} has no time column t [s]")
+        cols = set(names)
+        taken: dict[str, list[tuple[str, tuple[str, ...]]]] = {g.name: [] for g in groups}
+        cov_cols = {c for g in groups for name in names for c in g.covariate_columns(name) if c in cols}
+        for name in names:
+            if name == "t" or name in cov_cols:
+                continue
+            g = next((g for g in groups if g.matches(name)), None)
+            if g is None:
+                unassigned.append(name)
+                continue
+            if name in seen:
+                raise InputError(f"channel {name} is in both {seen[name]} and {f}; a channel must be in one file")
+            seen[name] = str(f)
+            want = g.covariate_columns(name)
+            lack = [c for c in want if c not in cols]
+            if lack:
+                raise InputError(f"channel {name} of group {g.name} needs its covariate column {lack[0]} in {f} "
+                                 f"(set covariate_column in the group, now {g.covariate_column!r})")
+            taken[g.name].append((name, want))
+        for g in groups:
+            if taken[g.name]:
+                used[g.name] += len(taken[g.name])
+                blocks.append(FleetBlock(file=str(f), group=g.name, channels=tuple(c for c, _ in taken[g.name]),
+                                         covariates=tuple(w for _, w in taken[g.name])))
+    warnings = []
+    if unassigned:
+        warnings.append(named("fleet-columns-unassigned", (
+            f"{len(unassigned)} columns match no group and were not processed ({', '.join(unassigned[:5])}"
+            f"{', ...' if len(unassigned) > 5 else ''}); add a group or a pattern for them")))
+    empty = [n for n, k in used.items() if k == 0]
+    if empty:
+        warnings.append(named("fleet-group-empty", f"groups {', '.join(empty)} match no column of the dataset; "
+                              "check their channel patterns"))
+    return blocks, warnings
+
+
+def _group_doc(g: FleetGroup) -> dict[str, Any]:
+    from senscal.drift.stream import setup_to_dict
+
+    return {"setup": setup_to_dict(g.setup), "levels": dict(sorted(g.levels.items())),
+            "channel_levels": {k: dict(sorted(v.items())) for k, v in sorted(g.channel_levels.items())},
+            "prior_scale": g.prior_scale}
+
+
+def open_store(store: str | Path, groups: Sequence[FleetGroup]) -> Path:
+    """Create the state store folder, or check that its groups are the ones given.
+
+    A store keeps, per group, the set-up and levels it was filtered with
+    (``store.json``); continuing with other ones would mix two models in
+    one state, so it is refused.
+    """
+    import json
+
+    from senscal.io.guard import check_output_dir, write_text
+    from senscal.io.sidefiles import read_json
+
+    path = Path(store)
+    man = path / "store.json"
+    docs = {g.name: _group_doc(g) for g in groups}
+    if man.exists():
+        doc = read_json(man, "fleet state store")
+        if doc.get("format_version") != FORMAT_VERSION:
+            raise FileFormatError(f"fleet state store {path} has format_version {doc.get('format_version')!r}; "
+                                  f"this senscal reads {FORMAT_VERSION}")
+        old = doc.get("groups") or {}
+        for name, d in docs.items():
+            if name in old and json.loads(json.dumps(old[name])) != json.loads(json.dumps(d)):
+                raise InputError(f"group {name} of the state store {path} was filtered with another set-up, levels "
+                                 "or prior; use a new --state folder (or give the group a new name)")
+        docs = {**old, **docs}
+    check_output_dir(path, what="fleet state store")
+    write_text(man, json.dumps({"format_version": FORMAT_VERSION, "kind": "senscal drift fleet state",
+                                "groups": docs}, indent=1) + "\n", what="fleet state store")
+    return path
+
+
+def read_store(store: str | Path) -> dict[str, tuple[str, ChannelState, float, float]]:
+    """Every channel's latest state in a store.
+
+    Returns
+    -------
+    dict
+        channel -> (group, ChannelState, last bias [unit], its u [unit]).
+    """
+    path = Path(store)
+    out: dict[str, tuple[str, ChannelState, float, float]] = {}
+    if not path.is_dir():
+        return out
+    for f in sorted(path.glob("*.npz")):
+        try:
+            with np.load(f, allow_pickle=False) as z:
+                if int(z["format_version"]) != FORMAT_VERSION:
+                    raise FileFormatError(f"fleet state file {f} has format_version {int(z['format_version'])}; "
+                                          f"this senscal reads {FORMAT_VERSION}")
+                group = str(z["group"])
+                arrs = {k: np.array(z[k]) for k in ("channels", "x", "P", "x0", "P0", "t_last", "n_samples",
+                                                    "bias", "u_bias")}
+        except (OSError, ValueError, KeyError) as exc:
+            raise FileFormatError(f"fleet state file {f} cannot be read ({type(exc).__name__}); restore it from "
+                                  "a backup or start a new --state folder") from None
+        for i, c in enumerate(arrs["channels"].tolist()):
+            st = ChannelState(x=arrs["x"][i], P=arrs["P"][i], t_last=float(arrs["t_last"][i]),
+                              n_samples=int(arrs["n_samples"][i]), x0=arrs["x0"][i], P0=arrs["P0"][i])
+            if c not in out or st.t_last > out[c][1].t_last:
+                out[c] = (group, st, float(arrs["bias"][i]), float(arrs["u_bias"][i]))
+    return out
+
+
+def _save_block_state(store: Path, block: FleetBlock, states: Sequence[ChannelState], bias: np.ndarray,
+                      u_bias: np.ndarray) -> None:
+    """Write a block's states in one rename (a crash leaves the previous file whole)."""
+    from senscal.io.guard import atomic_output
+
+    with atomic_output(store / f"{block.key}.npz", what="fleet state file") as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, format_version=np.array(FORMAT_VERSION), group=np.array(block.group),
+                     channels=np.array(block.channels), x=np.array([s.x for s in states]),
+                     P=np.array([s.P for s in states]), x0=np.array([s.x0 for s in states]),
+                     P0=np.array([s.P0 for s in states]), t_last=np.array([s.t_last for s in states]),
+                     n_samples=np.array([s.n_samples for s in states]), bias=bias, u_bias=u_bias)
+
+
+def _write_chunk(out: Path, block: FleetBlock, index: int, t: np.ndarray, corrected: np.ndarray,
+                 std: np.ndarray) -> None:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from senscal.io.guard import atomic_output
+
+    folder = out / block.key
+    folder.mkdir(parents=True, exist_ok=True)
+    cols: dict[str, Any] = {"t": t}
+    std = np.broadcast_to(std, corrected.shape)
+    for i, c in enumerate(block.channels):
+        cols[c] = corrected[i]
+        cols[f"{c}.u_bias"] = std[i]
+    # Named by the chunk's first time stamp, so a resumed run adds files and never clobbers.
+    with atomic_output(folder / f"t{t[0]:017.3f}-{index:05d}.parquet", what="corrected chunk") as tmp:
+        pq.write_table(pa.table(cols), tmp, compression="none")
+
+
+def _read_chunk(pf, rg: int, block: FleetBlock, kcov: int) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    cols = ["t", *block.channels, *(c for cc in block.covariates for c in cc)]
+    tbl = pf.read_row_group(rg, columns=cols)
+    t = tbl.column(0).to_numpy(zero_copy_only=False).astype(float, copy=False)
+    C = len(block.channels)
+    y = np.empty((C, t.size))
+    for i in range(C):
+        y[i] = tbl.column(1 + i).to_numpy(zero_copy_only=False)
+    cov = None
+    if kcov:
+        cov = np.empty((C, kcov, t.size))
+        for i in range(C):
+            for j in range(kcov):
+                cov[i, j] = tbl.column(1 + C + i * kcov + j).to_numpy(zero_copy_only=False)
+    return t, y, cov
+
+
+def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, ChannelState | None],
+              store: str | None, out: str | None) -> dict[str, Any]:
+    """Filter one block: its row groups in time order, saving the state after each.
+
+    Runs in a Dask worker (or in this process).  Rows at or before the
+    block's stored time are skipped: a resumed run continues after the last
+    row group whose state was saved.
+
+    Returns
+    -------
+    dict
+        ``channels``, ``bias`` / ``u_bias`` (last sample, [unit]),
+        ``t_last`` [s], ``n_samples`` and ``n_missing`` (this run),
+        ``n_skipped`` (rows already in the state), ``shared`` (row groups
+        done by the shared kernel), ``chunks``, ``seconds``.
+    """
+    import pyarrow.parquet as pq
+
+    t0 = time.perf_counter()
+    gm = _group_model(group)
+    st = [states.get(c) for c in block.channels]
+    C = len(block.channels)
+    bias_last = np.full(C, np.nan)
+    u_last = np.full(C, np.nan)
+    n_new = n_missing = n_skip = chunks = shared = 0
+    kcov = len(group.setup.covariates)
+    try:
+        pf = pq.ParquetFile(block.file)
+    except (OSError, ValueError) as exc:
+        raise FileFormatError(f"fleet dataset file {block.file} cannot be read ({exc})") from None
+    storep = Path(store) if store else None
+    outp = Path(out) if out else None
+    for rg in range(pf.metadata.num_row_groups):
+        t, y, cov = _read_chunk(pf, rg, block, kcov)
+        done = [s.t_last for s in st if s is not None]
+        if done:
+            keep = t > max(done)
+            n_skip += int((~keep).sum())
+            if not keep.any():
+                continue
+            if not keep.all():
+                t, y = t[keep], y[:, keep]
+                cov = cov[:, :, keep] if cov is not None else None
+        try:
+            bias, std, st = filter_block(group, y, t, st, cov, channels=block.channels, _model=gm)
+        except (DataError, InputError) as exc:
+            raise type(exc)(f"{block.file}, row group {rg}: {exc}") from None
+        shared += std.ndim == 1
+        if outp is not None:
+            _write_chunk(outp, block, rg, t, y - bias, std)
+        bias_last = bias[:, -1].copy()
+        u_last = np.broadcast_to(std, bias.shape)[:, -1].copy()
+        if storep is not None:
+            _save_block_state(storep, block, st, bias_last, u_last)
+        n_new += t.size
+        n_missing += int(np.isnan(y).sum())
+        chunks += 1
+    return {"channels": block.channels, "group": block.group, "bias": bias_last, "u_bias": u_last,
+            "t_last": np.array([s.t_last if s is not None else np.nan for s in st]),
+            "n_samples": n_new, "n_missing": n_missing, "n_skipped": n_skip, "chunks": chunks, "shared": shared,
+            "seconds": time.perf_counter() - t0}
+
+
+# --------------------------------------------------------------------------- the run
+
+@dataclass(frozen=True)
+class FleetOptions:
+    """Options of a fleet run.
+
+    Attributes
+    ----------
+    config : path or tuple of FleetGroup
+        The groups (a configuration file, see :func:`load_fleet_config`).
+    state : path, optional
+        State store folder: loaded if it exists, updated after every row
+        group of every block.  None: start from the priors, keep nothing.
+    out : path, optional
+        Folder for the corrected data: per block a folder of Parquet files,
+        one per row group, with ``t``, ``<channel>`` (corrected) and
+        ``<channel>.u_bias`` [unit].
+    workers : int
+        Worker processes of the local Dask cluster (0: every block in this
+        process, one after another).
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``); overrides
+        ``workers``.
+    """
+
+    config: Any = None
+    state: str | None = None
+    out: str | None = None
+    workers: int = 2
+    scheduler: str | None = None
+
+
+@dataclass(frozen=True)
+class FleetResult(JobResult):
+    """What a fleet run did, per channel.
+
+    Attributes
+    ----------
+    dataset : str
+    state, out : str or None
+    channels : tuple of str
+    groups : tuple of str
+        Each channel's group.
+    bias, u_bias : ndarray, (C,)
+        Estimated bias at each channel's last sample and its standard
+        uncertainty (k=1) [unit].
+    t_last : ndarray, (C,)
+        Time of each channel's last sample filtered [s].
+    n_samples : int
+        Samples filtered in this run (all channels).
+    n_missing : int
+        Of which missing (NaN).
+    n_skipped : int
+        Samples at or before the stored state, skipped.
+    n_blocks : int
+        Tasks (one per file and group).
+    shared_chunks, chunks : int
+        Row groups filtered, and of them by the shared-covariance kernel.
+    workers : int
+        Dask workers (0: in this process).
+    wall_seconds : float
+        Wall time of the filtering [s].
+    warnings : tuple of str
+    """
+
+    job: ClassVar[str] = "drift-fleet"
+    dataset: str
+    state: str | None
+    out: str | None
+    channels: tuple[str, ...]
+    groups: tuple[str, ...]
+    bias: np.ndarray
+    u_bias: np.ndarray
+    t_last: np.ndarray
+    n_samples: int
+    n_missing: int
+    n_skipped: int
+    n_blocks: int
+    chunks: int
+    shared_chunks: int
+    workers: int
+    wall_seconds: float
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def samples_per_second(self) -> float:
+        """Throughput of the run [samples/s] (reading, filtering, saving state)."""
+        return self.n_samples / self.wall_seconds if self.wall_seconds > 0 else float("nan")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON document of ``senscal drift-fleet --json``."""
+        def num(v):
+            v = float(v)
+            return v if math.isfinite(v) else None
+
+        return {
+            "dataset": self.dataset, "state": self.state, "out": self.out, "n_channels": len(self.channels),
+            "n_samples": int(self.n_samples), "n_missing": int(self.n_missing), "n_skipped": int(self.n_skipped),
+            "n_blocks": int(self.n_blocks), "chunks": int(self.chunks), "shared_chunks": int(self.shared_chunks),
+            "workers": int(self.workers), "wall_seconds": float(self.wall_seconds),
+            "samples_per_second": num(self.samples_per_second),
+            "channels": {c: {"group": g, "bias": num(b), "u_bias": num(u), "t_last": num(tl)}
+                         for c, g, b, u, tl in zip(self.channels, self.groups, self.bias, self.u_bias, self.t_last)},
+            "warnings": list(self.warnings),
+        }
+
+    def quantities(self) -> tuple[Quantity, ...]:
+        """``<channel>.bias`` at its last sample, for every channel with one."""
+        return tuple(Quantity(f"{c}.bias", float(b), float(u), "", 2.0)
+                     for c, b, u in zip(self.channels, self.bias, self.u_bias) if math.isfinite(b) and math.isfinite(u))
+
+    def to_dataframe(self):
+        """One row per channel: channel, group, bias, u_bias, t_last."""
+        import pandas as pd
+
+        return pd.DataFrame({"channel": list(self.channels), "group": list(self.groups), "bias": self.bias,
+                             "u_bias": self.u_bias, "t_last": self.t_last})
+
+
+class _Client:
+    """A Dask client for the run: an existing scheduler, a local cluster, or none (this process)."""
+
+    def __init__(self, workers: int, scheduler: str | None) -> None:
+        if int(workers) != workers or workers < 0:
+            raise InputError(f"workers must be a whole number >= 0, got {workers}")
+        self.workers, self.scheduler = int(workers), scheduler
+        self.client = self.cluster = None
+
+    def __enter__(self):
+        if not self.scheduler and self.workers == 0:
+            return None
+        from dask.distributed import Client, LocalCluster
+
+        if self.scheduler:
+            try:
+                self.client = Client(self.scheduler, timeout="10s")
+            except (OSError, ValueError, TypeError) as exc:  # TimeoutError is an OSError
+                raise InputError(f"cannot connect to the Dask scheduler {self.scheduler!r} ({type(exc).__name__}: "
+                                 f"{' '.join(str(exc).split())[:150]}); give an address like tcp://host:8786") from None
+        else:
+            # One thread per worker: the kernels hold the GIL-free cores themselves.
+            self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, dashboard_address=":0",
+                                        silence_logs=50)
+            self.client = Client(self.cluster)
+        return self.client
+
+    def __exit__(self, *exc):
+        if self.client is not None:
+            self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+        return False
+
+
+def run_fleet(dataset: str | Path, groups: Sequence[FleetGroup], *, state: str | Path | None = None,
+              out: str | Path | None = None, client: Any = None,
+              progress: Callable[[dict], None] | None = None) -> FleetResult:
+    """Filter every channel of a fleet dataset, blocks in parallel, row groups in time order.
+
+    Parameters
+    ----------
+    dataset : path
+        Folder of Parquet files (or one file): a time column ``t`` [s] and
+        channel columns, cut into row groups.
+    groups : sequence of FleetGroup
+    state : path, optional
+        State store folder (see :class:`FleetOptions`).
+    out : path, optional
+        Folder for the corrected data.
+    client : dask.distributed.Client, optional
+        Run the blocks on it; None: in this process.
+    progress : callable, optional
+        Called with each block's summary as it finishes.
+
+    Returns
+    -------
+    FleetResult
+    """
+    from senscal.io.guard import check_output_dir
+
+    groups = tuple(groups)
+    if not groups:
+        raise InputError("a fleet run needs at least one channel group")
+    by_name = {g.name: g for g in groups}
+    blocks, warnings = plan_blocks(dataset, groups)
+    stored = {}
+    if state is not None:
+        open_store(state, groups)
+        stored = read_store(state)
+        moved = [c for b in blocks for c in b.channels if c in stored and stored[c][0] != b.group]
+        if moved:
+            raise InputError(f"channel {moved[0]} was filtered in group {stored[moved[0]][0]} before; a channel "
+                             "cannot change group within one state store (use a new --state folder)")
+    if out is not None:
+        check_output_dir(out, what="corrected data folder")
+    store_s = str(state) if state is not None else None
+    out_s = str(out) if out is not None else None
+    t0 = time.perf_counter()
+    rows = []
+    args = [(b, by_name[b.group], {c: stored[c][1] for c in b.channels if c in stored}, store_s, out_s)
+            for b in blocks]
+    if client is None:
+        for a in args:
+            rows.append(run_block(*a))
+            if progress:
+                progress(rows[-1])
+        workers = 0
+    else:
+        from dask.distributed import as_completed
+
+        workers = len(client.scheduler_info().get("workers", {}))
+        futs = [client.submit(run_block, *a, key=f"fleet-{a[0].key}-{i}", pure=False) for i, a in enumerate(args)]
+        for fut in as_completed(futs):
+            rows.append(fut.result())
+            if progress:
+                progress(rows[-1])
+    wall = time.perf_counter() - t0
+    rows.sort(key=lambda r: [b.channels for b in blocks].index(r["channels"]))
+    chans = [c for r in rows for c in r["channels"]]
+    bias = np.concatenate([r["bias"] for r in rows]) if rows else np.zeros(0)
+    u = np.concatenate([r["u_bias"] for r in rows]) if rows else np.zeros(0)
+    for i, c in enumerate(chans):
+        if not math.isfinite(bias[i]) and c in stored:
+            # Nothing new for this channel: its last estimate is the stored one.
+            bias[i], u[i] = stored[c][2], stored[c][3]
+    n_skip = sum(r["n_skipped"] for r in rows)
+    if n_skip:
+        warnings.append(named("fleet-rows-skipped", (
+            f"{n_skip} samples at or before the stored state's last time were skipped (already filtered: a "
+            "resumed run, or a file given twice)")))
+    return FleetResult(dataset=str(dataset), state=store_s, out=out_s, channels=tuple(chans),
+                       groups=tuple(r["group"] for r in rows for _ in r["channels"]), bias=bias, u_bias=u,
+                       t_last=np.concatenate([r["t_last"] for r in rows]) if rows else np.zeros(0),
+                       n_samples=sum(r["n_samples"] * len(r["channels"]) for r in rows),
+                       n_missing=sum(r["n_missing"] for r in rows), n_skipped=n_skip, n_blocks=len(blocks),
+                       chunks=sum(r["chunks"] for r in rows), shared_chunks=sum(r["shared"] for r in rows),
+                       workers=workers, wall_seconds=wall, warnings=tuple(warnings))
+
+
+def fleet(source: str | Path, options: FleetOptions | None = None) -> FleetResult:
+    """The ``drift-fleet`` job: :func:`run_fleet` with its options (a local cluster by default).
+
+    Parameters
+    ----------
+    source : path
+        The fleet dataset (folder of Parquet files).
+    options : FleetOptions
+
+    Returns
+    -------
+    FleetResult
+    """
+    opts = options or FleetOptions()
+    if opts.config is None:
+        raise InputError("a fleet run needs a configuration of channel groups (--config FLEET.yaml)")
+    groups = (load_fleet_config(opts.config) if isinstance(opts.config, (str, os.PathLike))
+              else tuple(opts.config))
+    with _Client(opts.workers, opts.scheduler) as client:
+        return run_fleet(source, groups, state=opts.state, out=opts.out, client=client)

@@ -48,7 +48,11 @@ def _fleet_config(kind: str, noise: float, bias_rate: float, signal_rate: float,
         setup = {"preset": "covariate", "covariate": "temperature", "reference": TEMPERATURE_REFERENCE}
         levels = {"y_noise_std": noise, "signal_rate_std": signal_rate,
                   "y_temperature_coefficient_rate_std": coefficient_rate}
-    return {"groups": [{"name": kind, "channels": "*", "setup": setup, "levels": levels}]}
+    group = {"name": kind, "channels": "*", "setup": setup, "levels": levels}
+    if kind == "known":
+        # One prior width for every channel (about the data's spread), so they share their covariance.
+        group["prior_scale"] = noise
+    return {"groups": [group]}
 
 
 def simulate_fleet(out: str | Path, *, n_channels: int = 20, n_samples: int = 2000, fs: float = 1.0,
