@@ -373,11 +373,12 @@ def budget_warnings(kind: str, result: Any, standards: Sequence[Any] = ()) -> tu
                 zero.setdefault(c.source, [])
                 if b.quantity not in zero[c.source]:
                     zero[c.source].append(b.quantity)
-    for source, quantities in zero.items():
-        hint = f" ({_B_OPTIONS[source]})" if source in _B_OPTIONS else ""
+    if zero:
+        listed = "; ".join(f"'{src}'{' (' + _B_OPTIONS[src] + ')' if src in _B_OPTIONS else ''} in the budget of "
+                           f"{', '.join(qs)}" for src, qs in zero.items())
         out.append(named("budget-zero-component", (
-            f"the type B component '{source}' is 0 in the budget of {', '.join(quantities)}: the stated U treats "
-            f"that input as exact; give its standard uncertainty{hint}, or the certificate understates U")))
+            f"type B component(s) given as 0: {listed}; the stated U treats those inputs as exact: give their "
+            "standard uncertainties, or the certificate understates U")))
     refs = [s for s in standards if getattr(s, "u_relative", None)]
     if refs:
         worst = max(refs, key=lambda s: s.u_relative)
