@@ -76,6 +76,11 @@ def job_options(job: str, first_file: str, words: list[str]) -> tuple[Any, bool]
     cmd = typer.main.get_command(app)
     for w in cmd_words:
         cmd = cmd.commands[w]  # type: ignore[attr-defined]
+    for param in cmd.params:
+        if param.required and param.name in _SINGLE_RUN:
+            opt = param.opts[0]
+            raise InputError(f"'{spelled}' writes each recording's result to its own {opt} file, which a batch "
+                             f"cannot name; run '{spelled} FILE {opt} OUT ...' per recording (a shell loop)")
     ctx = cmd.make_context(spelled, [first_file, *words], resilient_parsing=False)
     sig = inspect.signature(builder).parameters.values()
     explicit = {p.name for p in sig if p.kind is not p.VAR_KEYWORD}

@@ -14,14 +14,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, Mapping
+from typing import TYPE_CHECKING, Any, ClassVar, Mapping
 
 import numpy as np
 
 from senscal.diagnostics import named, warning_name
 from senscal.errors import DataError, InputError, SenscalError
 from senscal.jobs._base import JobResult, Quantity, read_source, source_name
-from senscal.sinefit import SineFit, fit_sine
+
+if TYPE_CHECKING:  # the engine (scipy.linalg, ~0.3 s) loads when a fit runs, not for `senscal fit --help`
+    from senscal.sinefit import SineFit
 
 __all__ = ["NOISE_MODELS", "FitOptions", "FitResult", "fit", "fit_summary", "not_a_signal"]
 
@@ -218,6 +220,8 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
         Unreadable file, unknown channel, a frequency above Nyquist, or no
         channel that could be fitted (one line, with the fix).
     """
+    from senscal.sinefit import fit_sine
+
     options = FitOptions() if options is None else options
     # NaN in one channel should not stop the others: checked per channel below.
     rec = read_source(source, time_column=options.time_column, fs=options.fs, names=options.names,
