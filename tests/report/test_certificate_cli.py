@@ -9,9 +9,6 @@ import subprocess
 
 import pytest
 
-from senscal.simulate.common import write_simulation
-from senscal.simulate.vibration import simulate_centrifuge
-
 LAB = """
 name = "Vibration Lab Nord"
 address = "Hafenstr. 7, 20457 Hamburg"
@@ -44,21 +41,12 @@ deviations = "Points above 10 Hz omitted at the customer's request."
 
 
 @pytest.fixture(scope="module")
-def setup(tmp_path_factory):
+def setup(tmp_path_factory, centrifuge_files):
     d = tmp_path_factory.mktemp("certcli")
-    recs, truth = simulate_centrifuge(frequencies=(1.0, 5.0), seed=7, min_duration=3.0)
-    files = write_simulation(recs, truth, d, "centrifuge")
     (d / "lab.toml").write_text(LAB % {"u_rel": "0.0005"})
     (d / "lab_poor_reference.toml").write_text(LAB % {"u_rel": "0.05"})
     (d / "run.toml").write_text(RUN)
-    return d, [str(f) for f in files]
-
-
-@pytest.fixture(autouse=True)
-def no_user_profile(monkeypatch, tmp_path):
-    """The user's own lab profile must not leak into a test."""
-    monkeypatch.delenv("SENSCAL_LAB", raising=False)
-    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    return d, centrifuge_files
 
 
 def _base(files):
