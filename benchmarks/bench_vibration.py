@@ -113,7 +113,7 @@ def main() -> None:
 
     import pandas as pd
 
-    from senscal.cli.cmd_vibration import write_simulation
+    from senscal.simulate.common import write_simulation
     from senscal.io import read_recording
 
     with tempfile.TemporaryDirectory() as d:
