@@ -8,17 +8,11 @@ first use, so ``import senscal`` (and the command line) start fast.
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version as _version
 from typing import TYPE_CHECKING
 
 from senscal._lazy import lazy_attributes
 
 from senscal import errors
-
-try:
-    __version__ = _version("senscal")
-except PackageNotFoundError:  # running from a source tree
-    __version__ = "0.0.0+src"
 
 _LAZY = {
     "Recording": "senscal.io", "read_recording": "senscal.io", "write_recording": "senscal.io",
@@ -35,4 +29,18 @@ if TYPE_CHECKING:  # pragma: no cover
     from senscal.sinefit import SineFit, fit_sine
 
 
-__getattr__, __dir__ = lazy_attributes(__name__, globals(), _LAZY)
+_lazy_getattr, __dir__ = lazy_attributes(__name__, globals(), _LAZY)
+
+
+def __getattr__(name: str):
+    # The version is looked up on first use: importlib.metadata costs every command ~50 ms at start-up.
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("senscal")
+        except PackageNotFoundError:  # running from a source tree
+            value = "0.0.0+src"
+        globals()["__version__"] = value
+        return value
+    return _lazy_getattr(name)

@@ -7,8 +7,6 @@ import math
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 __all__ = ["ResultMixin", "to_jsonable"]
 
 
@@ -17,6 +15,10 @@ def to_jsonable(value: Any) -> Any:
 
     Non-finite floats become ``None`` (JSON has no NaN).
     """
+    # numpy loads with the first conversion, not with this module: result classes are imported by
+    # `senscal fit --help` and friends, which should start without numpy.
+    import numpy as np
+
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         if hasattr(value, "to_dict"):
             return value.to_dict()

@@ -7,18 +7,22 @@ import math
 import sys
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterable, Iterator, Optional, Sequence, TypeVar
+from typing import TYPE_CHECKING, Any, Iterable, Iterator, Optional, Sequence, TypeVar
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 from rich.text import Text
 from typing_extensions import Annotated
 
-from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.io import Recording, check_output, read_recording
+from senscal.io.guard import check_output
+
+if TYPE_CHECKING:
+    from senscal.io import Recording
+
+# numpy (through senscal._result and senscal.io), rich.progress and the readers load where they are used:
+# `senscal --help` and `senscal fit --help` import this module and must start as fast as typer itself.
 
 T = TypeVar("T")
 
@@ -89,6 +93,8 @@ def load(path: Path | str, *, time_column: str = "t", fs: float | None = None,
     ``time_required=False`` for jobs that never use time: a file with neither
     time column nor sample rate is then read on a sample-index time base.
     """
+    from senscal.io import read_recording
+
     return read_recording(path, time_column=time_column, fs=fs, names=split_names(names),
                           channels=channels, allow_nan=allow_nan, time_unit=time_unit, skip_rows=skip_rows,
                           time_required=time_required)
@@ -114,12 +120,16 @@ def time_checked(rec: Recording, job: str, result: T, *, channel: str | None = N
 
 def print_json(obj: Any) -> None:
     """Print ``obj`` as indented JSON on stdout."""
+    from senscal._result import to_jsonable
+
     sys.stdout.write(json.dumps(to_jsonable(obj), indent=2) + "\n")
 
 
 def write_json(obj: Any, path: Path | str) -> Path:
     """Write ``obj`` as JSON to ``path`` (folders created)."""
     from senscal.io.guard import write_text
+
+    from senscal._result import to_jsonable
 
     path = check_output(path)
     write_text(path, json.dumps(to_jsonable(obj), indent=2) + "\n")  # atomic: no half-written JSON
@@ -189,6 +199,8 @@ def fmt(v: Any, digits: int = 6) -> str:
 @contextmanager
 def progress_bar(description: str, total: int | None, *, disable: bool = False) -> Iterator[Any]:
     """A Rich progress bar on stderr (so ``--json`` stdout stays clean)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
     prog = Progress(TextColumn("{task.description}", markup=False), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
                     console=err_console, transient=True, disable=disable or not err_console.is_terminal)
     with prog:

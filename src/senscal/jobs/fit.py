@@ -16,13 +16,13 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar, Mapping
 
-import numpy as np
-
 from senscal.diagnostics import named, warning_name
 from senscal.errors import DataError, InputError, SenscalError
 from senscal.jobs._base import JobResult, Quantity, read_source, source_name
 
-if TYPE_CHECKING:  # the engine (scipy.linalg, ~0.3 s) loads when a fit runs, not for `senscal fit --help`
+if TYPE_CHECKING:  # numpy and the engine (scipy.linalg) load when a fit runs, not for `senscal fit --help`
+    import numpy as np
+
     from senscal.sinefit import SineFit
 
 __all__ = ["NOISE_MODELS", "FitOptions", "FitResult", "fit", "fit_summary", "not_a_signal"]
@@ -80,6 +80,8 @@ def fit_summary(fit: SineFit) -> dict:
     ``phase_centre_deg`` the phase at ``t_phase_centre_s``, the record's
     centre, which does not carry the frequency's lever arm.
     """
+    import numpy as np
+
     d = {
         "frequency_hz": float(fit.frequency),
         "amplitude": float(fit.amplitude),
@@ -114,6 +116,8 @@ def not_a_signal(y: np.ndarray) -> str | None:
     (a scope's ``Sample`` column), whose spectrum peaks at the lowest bin and
     whose fit fails with a misleading "record too short".
     """
+    import numpy as np
+
     y = np.asarray(y, dtype=float)
     bad = np.flatnonzero(~np.isfinite(y))
     if bad.size:
