@@ -23,22 +23,23 @@ def main() -> None:
 
     from senscal.batch import run_batch, run_one
     from senscal.io import Recording, write_recording
+    from senscal.jobs.fit import FitOptions
 
     ap = argparse.ArgumentParser()
     ap.add_argument("--n", type=int, default=1000)
     args = ap.parse_args()
     rng = np.random.default_rng(0)
     t = np.arange(2000) / 1000.0
-    opts = ["--freq", "10"]
+    opts = FitOptions(freq=10.0)
     with tempfile.TemporaryDirectory() as d:
         files = []
         for i in range(args.n):
             rec = Recording(channels={"x": np.sin(2 * math.pi * 10 * t) + rng.normal(0, 0.01, t.size)}, t=t)
             files.append(str(write_recording(rec, Path(d) / f"r{i:05d}.npz")))
-        run_one(["fit"], files[0], opts)  # warm imports and compilation
+        run_one("fit", files[0], opts)  # warm imports and compilation
         t0 = time.perf_counter()
         for f in files:
-            run_one(["fit"], f, opts)
+            run_one("fit", f, opts)
         t_loop = time.perf_counter() - t0
         res = {}
         for w in (1, 2):
