@@ -209,3 +209,20 @@ def test_u_below_reference(resp):
     assert f"{len(rel)} result(s)" in budget_warnings("response", resp, [below])[0]
     assert budget_warnings("response", resp, [above]) == ()
     assert budget_warnings("response", resp, [replace(below, u_relative=None)]) == ()
+
+
+def test_velocity_budget_checks_cover_points_and_mean():
+    from senscal.simulate.vibration import simulate_hydraulic
+    from senscal.vibration import velocity_calibration, velocity_point
+
+    recs, _ = simulate_hydraulic(frequencies=(2.0, 4.0), seed=5)
+    for u_pos in (0.0, 0.001):
+        cal = velocity_calibration([velocity_point(r["position"], r["velocity"], r.time, u_position=u_pos)
+                                    for r in recs], u_position=u_pos)
+        rel = [cal.budget.combined / cal.sensitivity] + [p.budget.combined / p.sensitivity for p in cal.points]
+        warns = budget_warnings("velocity", cal, [replace(LAB.standards[0], u_relative=1.01 * max(rel))])
+        # zero --u-position: named in the points' and the mean's budgets; every result (2 points + mean) below
+        assert warning_names(warns) == (("budget-zero-component",) if u_pos == 0 else ()) + ("u-below-reference",)
+        assert "3 result(s)" in warns[-1]
+        if u_pos == 0:
+            assert "'position reference' (--u-position) in the budget of sensitivity, mean sensitivity" in warns[0]

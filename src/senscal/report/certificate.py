@@ -293,7 +293,9 @@ def _tables(kind: str, result: Any, unit: str):
                     f"{_u(result.sensitivity_std)} {unit}")]
         figs = [velocity_figure(result)]
     elif kind == "linearity":
-        cols = ["input amplitude (m/s^2)", "output amplitude", "U", "deviation", "deviation (% FS)"]
+        out_unit = unit.split("/(m/s^2)")[0] if unit else ""
+        cols = ["input amplitude (m/s^2)", f"output amplitude ({out_unit})" if out_unit else "output amplitude", "U",
+                "deviation", "deviation (% FS)"]
         rows = [[_g(p.input_amplitude), _g(p.output_amplitude), _u(2 * p.u_output_amplitude), _g(p.deviation, 3),
                  _g(p.deviation_percent, 3)] for p in result.points]
         budgets = []
@@ -308,7 +310,7 @@ def _tables(kind: str, result: Any, unit: str):
         summary = [("Amplitude linearity", lin_text),
                    ("Sensitivity (slope)", f"{_g(result.slope)} {unit}, U = {_u(k * result.u_slope)} (k={_g(k, 3)})"),
                    ("Intercept", f"{_g(result.intercept)}, U = {_u(k * result.u_intercept)} (k={_g(k, 3)})")]
-        figs = [linearity_figure(result)]
+        figs = [linearity_figure(result, f"({out_unit})" if out_unit else "")]
     else:
         raise InputError(f"unknown certificate kind {kind!r}; use response, velocity or linearity")
     return cols, rows, budgets, summary, figs
@@ -337,8 +339,8 @@ def _sensitivity_u(kind: str, result: Any) -> list[tuple[str, float]]:
     """(label, relative standard uncertainty) of each absolute sensitivity: what a reference standard bounds."""
     if kind == "linearity":
         return [("slope", abs(result.u_slope / result.slope))] if result.slope else []
-    return [(f"{b.quantity} at {label}" if label != "mean" else f"mean {b.quantity}", abs(b.combined / b.value))
-            for label, b in _budgets(kind, result) if b.quantity == "sensitivity" and b.value]
+    return [(f"{b.quantity} at {label}" if label != "mean" else b.quantity, abs(b.combined / b.value))
+            for label, b in _budgets(kind, result) if b.quantity in ("sensitivity", "mean sensitivity") and b.value]
 
 
 def budget_warnings(kind: str, result: Any, standards: Sequence[Any] = ()) -> tuple[str, ...]:
