@@ -5,66 +5,52 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
-import numpy as np
 import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, load,
                                 print_json, progress_bar, split_names, table)
-from senscal.cli.common import TimeUnitOpt, time_checked
+from senscal.cli.common import TimeUnitOpt
 from senscal.errors import InputError
 from senscal.io import Recording, write_recording
 
-PRESETS = ("redundant", "covariate", "known", "model")
-BIAS_DYNAMICS = ("random_walk", "ramp")
+# The set-up rules live with the job; re-exported for the callers that import them from here.
+from senscal.jobs.drift import BIAS_DYNAMICS, PRESETS, drift_setup_for  # noqa: E402,F401
+
+#: Rows per chunk read from standard input ('-') by default.
+DEFAULT_CHUNK = 1000
 
 
-def drift_setup_for(rec: Recording, preset: str, *, channels: list[str] | None, trusted: list[str],
-                    covariate: str | None, model: Path | None, signal: str, signal_tau: float | None,
-                    signal_mean: float, covariate_reference: float | None, bias_dynamics: str = "random_walk",
-                    true_value: float = 0.0):
-    """Build the DriftSetup a preset and its options describe."""
-    from senscal.drift import covariate_setup, known_setup, load_model_yaml, redundant_setup
+def _drift_options(*, preset: str = "redundant", channels: str | None = None, trusted: str | None = None,
+                   covariate: str | None = None, model: Path | str | None = None, window: int | None = None,
+                   smooth: bool = False, false_alarm_rate: float = 1e-4, signal: str = "random_walk",
+                   signal_tau: float | None = None, signal_mean: float = 0.0,
+                   covariate_reference: float | None = None, bias_dynamics: str = "random_walk",
+                   true_value: float = 0.0, compare: bool = True, state: Path | str | None = None,
+                   fit_levels: bool = False, levels_from_allan: bool = False, flush: bool = False,
+                   time_column: str = "t", fs: float | None = None, names: str | None = None,
+                   time_unit: str | None = None, **_):
+    """``DriftOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.jobs.drift import DriftOptions
 
-    if bias_dynamics not in BIAS_DYNAMICS:
-        raise InputError(f"--bias-dynamics must be one of {', '.join(BIAS_DYNAMICS)}, got {bias_dynamics!r}")
+    return DriftOptions(
+        preset=preset, channels=tuple(split_names(channels) or ()) or None, trusted=tuple(split_names(trusted) or ()),
+        covariate=covariate, model=None if model is None else str(model), window=window, smooth=smooth,
+        false_alarm_rate=false_alarm_rate, signal=signal, signal_tau=signal_tau, signal_mean=signal_mean,
+        covariate_reference=covariate_reference, bias_dynamics=bias_dynamics, true_value=true_value,
+        compare=compare, state=None if state is None else str(state), fit_levels=fit_levels,
+        levels_from_allan=levels_from_allan, flush=flush, time_column=time_column, fs=fs, names=names,
+        time_unit=time_unit)
 
-    if preset not in PRESETS:
-        raise InputError(f"--preset must be one of {', '.join(PRESETS)}, got {preset!r}")
-    if preset == "model":
-        if model is None:
-            raise InputError("--preset model needs --model FILE.yaml")
-        return load_model_yaml(model)
-    if model is not None:
-        raise InputError("--model is only used with --preset model")
-    if covariate is not None and covariate not in rec:
-        raise InputError(f"covariate channel '{covariate}' is not in the file (channels: {', '.join(rec.names)})")
-    chans = channels or [c for c in rec.names if c != covariate]
-    if preset == "known":
-        if trusted:
-            raise InputError("--trusted is for the redundant preset; with --preset known every channel's true "
-                             "value is --true-value")
-        return known_setup(chans, true_value, bias_dynamics=bias_dynamics, covariate=covariate,
-                           covariate_reference=covariate_reference)
-    kw = dict(signal=signal, signal_tau=signal_tau, signal_mean=signal_mean, covariate_reference=covariate_reference)
-    if preset == "covariate":
-        if covariate is None:
-            raise InputError("--preset covariate needs --covariate NAME (the channel the bias follows)")
-        if trusted:
-            raise InputError("--trusted is for the redundant preset; the covariate preset has one sensor")
-        if bias_dynamics != "random_walk":
-            raise InputError("--bias-dynamics is for the additive biases of the redundant and known presets; the "
-                             "covariate preset has only a covariate-linked bias")
-        if len(chans) != 1:
-            raise InputError(f"--preset covariate corrects one sensor; choose it with --channels (got {', '.join(chans)})")
-        return covariate_setup(chans[0], covariate, **kw)
-    return redundant_setup(chans, trusted, covariate=covariate, bias_dynamics=bias_dynamics, **kw)
+
+# What `senscal batch` turns the job's option words into (see senscal.jobs).
+JOB_OPTIONS = {"drift": _drift_options}
 
 
 @app.command("drift")
 def drift_cmd(
-    file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ).")],
+    file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ), or - for CSV on standard input read in chunks (with --state: a live pipe).")],
     preset: Annotated[str, typer.Option("--preset", help="redundant | covariate | known (true value known, e.g. a gyro at rest) | model.")],
     channels: Annotated[Optional[str], typer.Option("--channels", help="Measured channels, comma separated (default: all but the covariate).")] = None,
     trusted: Annotated[Optional[str], typer.Option("--trusted", help="Channels that do not drift (redundant preset), comma separated.")] = None,
@@ -82,6 +68,11 @@ def drift_cmd(
     bias_dynamics: Annotated[str, typer.Option("--bias-dynamics", help="random_walk | ramp (bias plus a wandering slope: a linear drift without lag).")] = "random_walk",
     true_value: Annotated[float, typer.Option("--true-value", help="Preset known: the true reading of every channel (0 for a gyro at rest).")] = 0.0,
     compare: Annotated[bool, typer.Option("--compare/--no-compare", help="Also fit the alternative signal/bias models and warn when one has a lower AIC.")] = True,
+    state: Annotated[Optional[Path], typer.Option("--state", help="Tracker state (.json or .npz): continued when it exists, started otherwise, written back atomically.")] = None,
+    fit_levels: Annotated[bool, typer.Option("--fit-levels", help="With --state: estimate the noise levels again on this file (default: keep the state's).")] = False,
+    levels_from_allan: Annotated[bool, typer.Option("--levels-from-allan", help="Start the noise-level estimation from Allan-deviation levels (white noise, random walks).")] = False,
+    flush: Annotated[bool, typer.Option("--flush", help="With --state and --window: end of data, output the samples the window still holds.")] = False,
+    chunk_size: Annotated[int, typer.Option("--chunk-size", help="With FILE '-': rows per chunk (the first chunk starts a new state).")] = DEFAULT_CHUNK,
     strict: StrictOpt = False,
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
@@ -90,66 +81,177 @@ def drift_cmd(
     json_out: JsonOpt = False,
 ) -> None:
     """Estimate and remove slowly drifting sensor biases (augmented Kalman filter)."""
-    from senscal.drift import correct_drift
+    from senscal.io.guard import check_output
+    from senscal.jobs.drift import drift
 
-    if window is not None and smooth:
-        raise InputError("choose either --window or --smooth, not both")
-    rec = load(file, time_column=time_column, fs=fs, names=names, allow_nan=True, time_unit=time_unit)
-    setup = drift_setup_for(rec, preset, channels=split_names(channels), trusted=split_names(trusted) or [],
-                            covariate=covariate, model=model, signal=signal, signal_tau=signal_tau,
-                            signal_mean=signal_mean, covariate_reference=covariate_reference,
-                            bias_dynamics=bias_dynamics, true_value=true_value)
-    for c in list(setup.channels) + setup.covariates:
-        if c not in rec:
-            raise InputError(f"channel '{c}' is not in {file} (channels: {', '.join(rec.names)})")
-    cov = {c: rec[c] for c in setup.covariates}
+    opts = _drift_options(**{k: v for k, v in locals().items() if k not in ("file", "check_output", "drift")})
+    if state is not None:
+        check_output(state, suffixes=(".json", ".npz"), what="drift state")
+        if plot is not None:
+            raise InputError("--plot draws a one-pass result; leave it out with --state (use --out for the values)")
+    if str(file) == "-":
+        if state is None:
+            raise InputError("reading standard input in chunks ('-') needs --state FILE (the state carries the "
+                             "levels and the filter from one chunk to the next)")
+        if out is not None or plot is not None or json_out:
+            raise InputError("with '-' the corrected values go to standard output as CSV; leave out --out, --plot "
+                             "and --json")
+        if not chunk_size >= 1:
+            raise InputError(f"--chunk-size must be >= 1, got {chunk_size}")
+        _stream_stdin(opts, chunk_size, strict)
+        return
     with progress_bar("estimating noise levels (likelihood evaluations)", None) as advance:
-        res = time_checked(rec, "drift", correct_drift(
-            setup, rec.data(list(setup.channels)), rec.time, cov, window=window, smooth=smooth,
-            false_alarm_rate=false_alarm_rate, compare=compare, progress=advance))
+        res = drift(file, opts, progress=advance)
+    if res.state is not None:
+        res.state.save(state)
     if out is not None:
-        cols: dict[str, np.ndarray] = {}
-        for i, c in enumerate(res.channels):
-            cols[f"{c}_corrected"] = res.corrected[i]
-            cols[f"{c}_bias"] = res.bias[i]
-            cols[f"{c}_bias_std"] = res.bias_std[i]
-        units = {}
-        for c in res.channels:
-            u = rec.unit(c)
-            units.update({f"{c}_corrected": u, f"{c}_bias": u, f"{c}_bias_std": u})
-        write_recording(Recording(cols, t=rec.time, units=units), out)
+        t, cols, units = res.columns()
+        write_recording(Recording(cols, t=t, units=units), out)
     if plot is not None:
         from senscal.drift.plot import plot_drift
 
-        plot_drift(res, {c: rec[c] for c in res.channels}, plot, unit=rec.unit(res.channels[0]) if res.channels else "")
-    doc = {"file": str(file), "preset": preset, **res.summary()}
+        rec = load(file, time_column=time_column, fs=fs, names=names, allow_nan=True, time_unit=time_unit)
+        chans = res.result.channels
+        plot_drift(res.result, {c: rec[c] for c in chans}, plot, unit=rec.unit(chans[0]) if chans else "")
+    doc = res.to_dict()
     if json_out:
         print_json(doc)
         emit_warnings(res.warnings, strict)
         return
+    _print_tables(file, res, doc)
+    for p in (out, plot, state):
+        if p is not None:
+            console.print(f"wrote {p}")
+    emit_warnings(res.warnings, strict)
+
+
+def _print_tables(file: Path, res, doc: dict) -> None:
+    streamed = res.result is None
     rows = []
     for c, d in doc["channels"].items():
-        rows.append([c, d["bias"], 2 * d["bias_std"], d["onset_t"], d["alarm_t"]])
-    console.print(table(f"Drift of {file} ({res.method}; U = expanded uncertainty, k=2)",
-                        ["channel", "final bias", "U bias", "onset t (s)", "alarm t (s)"], rows))
+        if streamed:
+            rows.append([c, d["bias"], 2 * d["bias_std"], d["t_s"]])
+        else:
+            rows.append([c, d["bias"], 2 * d["bias_std"], d["onset_t"], d["alarm_t"]])
+    cols = ["channel", "final bias", "U bias"] + (["at t (s)"] if streamed else ["onset t (s)", "alarm t (s)"])
+    console.print(table(f"Drift of {file} ({doc['method']}; U = expanded uncertainty, k=2)", cols, rows))
     for c, d in doc["channels"].items():
         terms = [[name, v["value"], 2 * v["std"]] for name, v in d["terms"].items()]
         if len(terms) > 1:
             console.print(table(f"{c}: bias terms (final)", ["term", "value", "U (k=2)"], terms))
+    source = {True: "estimated", False: "from the state" if streamed else "given"}
     nrows = [[k, v["value"], None if v["std"] is None else 2 * v["std"],
-              "estimated" + (" (at search bound)" if v["at_bound"] else "") if v["estimated"] else "given"]
+              source[bool(v["estimated"])] + (" (at search bound)" if v["at_bound"] else "")]
              for k, v in doc["noise"].items()]
     console.print(table("Noise levels (std; random walks per sqrt(s))", ["parameter", "value", "U (k=2)", "source"], nrows))
-    if res.check is not None:
-        console.print(f"innovations: mean normalised square {res.check.nis:.3f} (1 under the model), whiteness "
-                      f"p = {res.check.whiteness_p:.2g} ({res.check.lags} lags): "
-                      + ("adequate" if res.check.adequate else "model rejected"))
-    for c in res.comparison[1:]:
-        console.print(f"alternative {c['model']}: AIC {c['aic'] - res.comparison[0]['aic']:+.1f} against the model used")
-    for p in (out, plot):
-        if p is not None:
-            console.print(f"wrote {p}")
-    emit_warnings(res.warnings, strict)
+    if streamed:
+        st = doc["state"]
+        console.print(f"state {st['how']}: {doc['n_samples']} samples in, {doc['n_output']} out, {st['pending']} "
+                      f"held in the window; {st['n_samples_total']} samples since the state started "
+                      f"(last t = {st['t_last_s']:g} s)")
+        return
+    check, comparison = res.result.check, res.result.comparison
+    if check is not None:
+        console.print(f"innovations: mean normalised square {check.nis:.3f} (1 under the model), whiteness "
+                      f"p = {check.whiteness_p:.2g} ({check.lags} lags): "
+                      + ("adequate" if check.adequate else "model rejected"))
+    for c in comparison[1:]:
+        console.print(f"alternative {c['model']}: AIC {c['aic'] - comparison[0]['aic']:+.1f} against the model used")
+
+
+def _stdin_chunks(chunk_size: int, opts):
+    """Recordings of ``chunk_size`` rows each from CSV on standard input, as the rows arrive.
+
+    Each chunk is parsed by the ordinary CSV reader (units in the header,
+    separators, NaN) with the header line in front; a line is read as soon
+    as it arrives, so a ``tail -f`` pipe is followed.
+    """
+    import sys
+    import tempfile
+
+    from senscal.errors import SenscalError
+    from senscal.io import read_recording
+
+    stream = sys.stdin
+    if stream is None or stream.isatty():
+        raise InputError("'-' means standard input, but nothing is piped in; use 'tail -f FILE.csv | senscal drift - "
+                         "...' or give the file name")
+    head = []
+    while True:
+        line = stream.readline()
+        if not line:
+            raise InputError("standard input ended before a CSV header row")
+        head.append(line)
+        if line.strip() and not line.lstrip().startswith("#"):
+            break
+    n_seen = 0
+    with tempfile.TemporaryDirectory(prefix="senscal-drift-") as folder:
+        tmp = Path(folder) / "chunk.csv"
+        while True:
+            lines = []
+            while len(lines) < chunk_size:
+                line = stream.readline()
+                if not line:
+                    break
+                if line.strip():
+                    lines.append(line if line.endswith("\n") else line + "\n")
+            if not lines:
+                return
+            tmp.write_text("".join(head) + "".join(lines), encoding="utf-8")
+            try:
+                rec = read_recording(tmp, format="csv", time_column=opts.time_column, fs=opts.fs,
+                                     names=split_names(opts.names), allow_nan=True, time_unit=opts.time_unit)
+            except SenscalError as exc:
+                raise type(exc)(str(exc).replace(str(tmp), f"standard input (rows {n_seen + 1}-{n_seen + len(lines)})")
+                                ) from None
+            # Without a time column every chunk starts at 0: its samples continue the count instead.
+            offset = n_seen / opts.fs if opts.fs and opts.time_column not in rec.names else 0.0
+            n_seen += len(lines)
+            yield rec, rec.time + offset
+            if len(lines) < chunk_size:
+                return
+
+
+def _stream_stdin(opts, chunk_size: int, strict: bool) -> None:
+    """``senscal drift - --state S``: corrected CSV on stdout, flushed per chunk; the state saved after each chunk."""
+    import sys
+
+    from senscal.drift.stream import TrackerState
+    from senscal.jobs.drift import drift_setup_for, start_tracker
+
+    state_path = Path(opts.state)
+    tracker = None
+    warnings: list[str] = []
+    write = sys.stdout.write
+    for rec, t in _stdin_chunks(chunk_size, opts):
+        if tracker is None:
+            setup = drift_setup_for(rec, opts)
+            for c in list(setup.channels) + setup.covariates:
+                if c not in rec:
+                    raise InputError(f"channel '{c}' is not on standard input (channels: {', '.join(rec.names)})")
+            y, cov = rec.data(list(setup.channels)), {c: rec[c] for c in setup.covariates}
+            old = TrackerState.load(state_path) if state_path.exists() else None
+            tracker, _, _, warnings = start_tracker(setup, y, t, cov, opts, old)
+            write("t," + ",".join(f"{c}_corrected,{c}_bias,{c}_bias_std" for c in tracker.channels) + "\n")
+        else:
+            y, cov = rec.data(list(setup.channels)), {c: rec[c] for c in setup.covariates}
+        _write_rows(write, tracker.update(y, t, cov))
+        sys.stdout.flush()
+        tracker.state.save(state_path)
+    if tracker is None:
+        raise InputError("standard input has a header but no data rows")
+    if opts.flush:
+        _write_rows(write, tracker.flush())
+        sys.stdout.flush()
+        tracker.state.save(state_path)
+    emit_warnings(warnings, strict)
+
+
+def _write_rows(write, out) -> None:
+    for k in range(out.n):
+        vals = [out.t[k]] + [v for i in range(len(out.channels))
+                             for v in (out.corrected[i, k], out.bias[i, k], out.u_bias[i, k])]
+        write(",".join(repr(float(v)) for v in vals) + "\n")
 
 
 @simulate_app.command("drift")

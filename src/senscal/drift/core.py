@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 import dataclasses
 from typing import Any, Callable, Mapping, Sequence
@@ -443,7 +444,7 @@ def drift_prior(setup: DriftSetup, y: np.ndarray, covariates: Mapping[str, np.nd
 def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, Any] | None = None, *,
                   window: int | None = None, smooth: bool = False,
                   false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, detect_shift: float = 1.0,
-                  estimate: bool = True, compare: bool = True,
+                  estimate: bool = True, compare: bool = True, start: Mapping[str, float] | None = None,
                   progress: Callable[[], None] | None = None, _fit_only: bool = False) -> DriftResult:
     """Estimate and remove slowly drifting biases.
 
@@ -481,6 +482,10 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
         quantity against a random walk and against tau x 0.1 and x 10;
         random-walk <-> ramp biases) and warn (``better-model``) when one
         has the lower AIC.  Costs one more estimation per alternative.
+    start : mapping of str to float, optional
+        Starting values of the maximum-likelihood search for some levels
+        (e.g. from Allan deviations, :func:`senscal.drift.allan.drift_levels_from_allan`);
+        the others start from the differenced moments.
     progress : callable, optional
         Called once per likelihood evaluation (progress display).
 
@@ -568,6 +573,9 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
     mom = moment_levels(yy)
     step = float(np.median(dt))
     first_start = _moment_levels_start(setup, yy, step, duration, cov, mom)
+    for k, v in (start or {}).items():
+        if k in first_start and math.isfinite(v) and v > 0:
+            first_start[k] = float(v)
     other = _starting_levels(setup, yy, step, duration, cov)
     noise, loglik = estimate_levels(build, yy, {k: first_start[k] for k in missing}, given, progress=progress)
     if missing and _degenerate(setup, noise, mom):

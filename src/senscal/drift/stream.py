@@ -136,6 +136,8 @@ class TrackerState(ResultMixin):
         ``t`` (k,), ``y`` (k, m), ``h`` (k, m, n) measurement matrices,
         ``xf``/``xp`` (k, n), ``Pf``/``Pp`` (k, n, n), ``F`` (k, n, n)
         transition into each sample.
+    h_last : ndarray or None
+        Measurement matrix (m, n) of the last sample (its covariate values).
     n_samples : int
         Samples filtered so far.
     n_emitted : int
@@ -154,6 +156,7 @@ class TrackerState(ResultMixin):
     x: np.ndarray | None
     P: np.ndarray | None
     buffer: dict
+    h_last: np.ndarray | None = None
     n_samples: int = 0
     n_emitted: int = 0
     loglik: float = 0.0
@@ -172,7 +175,7 @@ class TrackerState(ResultMixin):
             "setup": setup_to_dict(self.setup), "levels": {k: float(v) for k, v in self.levels.items()},
             "lag": int(self.lag), "references": {k: float(v) for k, v in self.references.items()},
             "x0": arr(self.x0), "P0": arr(self.P0), "t_last": self.t_last, "x": arr(self.x), "P": arr(self.P),
-            "buffer": {k: arr(v) for k, v in self.buffer.items()},
+            "h_last": arr(self.h_last), "buffer": {k: arr(v) for k, v in self.buffer.items()},
             "n_samples": int(self.n_samples), "n_emitted": int(self.n_emitted), "loglik": float(self.loglik),
         }
 
@@ -199,7 +202,7 @@ class TrackerState(ResultMixin):
                         references={k: float(v) for k, v in doc["references"].items()},
                         x0=arr(doc["x0"]), P0=arr(doc["P0"]),
                         t_last=None if doc["t_last"] is None else float(doc["t_last"]),
-                        x=arr(doc["x"]), P=arr(doc["P"]), buffer=buffer, n_samples=int(doc["n_samples"]),
+                        x=arr(doc["x"]), P=arr(doc["P"]), buffer=buffer, h_last=arr(doc["h_last"]), n_samples=int(doc["n_samples"]),
                         n_emitted=int(doc["n_emitted"]), loglik=float(doc["loglik"]))
         except (KeyError, TypeError, ValueError) as exc:
             raise FileFormatError(f"{source} is not a valid drift tracker state ({type(exc).__name__}: {exc})") from None
@@ -213,15 +216,19 @@ class TrackerState(ResultMixin):
 
         A run killed while saving leaves the previous state file as it was.
         """
-        from senscal.io.guard import atomic_output, check_output
+        from senscal.io.guard import atomic_output, check_output, protect_inputs
 
-        path = check_output(path, suffixes=(".json", ".npz"), what="drift state")
+        # The state is read and then replaced by design (input and output of one
+        # run): the folder and suffix checks apply, the never-overwrite-an-input
+        # rule does not.
+        with protect_inputs():
+            path = check_output(path, suffixes=(".json", ".npz"), what="drift state")
         doc = self.to_dict()
         with atomic_output(path, what="drift state") as tmp:
             if path.suffix.lower() == ".npz":
                 # Arrays stored as arrays (exact binary); the rest as one JSON string.
                 arrays = {}
-                for key in ("x0", "P0", "x", "P"):
+                for key in ("x0", "P0", "x", "P", "h_last"):
                     v = getattr(self, key)
                     if v is not None:
                         arrays[key] = np.asarray(v, dtype=float)
@@ -268,7 +275,7 @@ class TrackerState(ResultMixin):
             return v
 
         if isinstance(doc, dict):
-            for key in ("x0", "P0", "x", "P"):
+            for key in ("x0", "P0", "x", "P", "h_last"):
                 doc[key] = back(doc.get(key))
             if isinstance(doc.get("buffer"), dict):
                 doc["buffer"] = {k: back(v) for k, v in doc["buffer"].items()}
@@ -292,11 +299,11 @@ def _check_state(s: TrackerState, source: str) -> None:
         k = a.shape[0] if k is None else k
         if a.shape[0] != k:
             raise FileFormatError(f"{source}: buffer arrays have different lengths")
-    for key, shape in (("x0", (n,)), ("P0", (n, n)), ("x", (n,)), ("P", (n, n))):
+    for key, shape in (("x0", (n,)), ("P0", (n, n)), ("x", (n,)), ("P", (n, n)), ("h_last", (m, n))):
         a = getattr(s, key)
         if a is not None and (a.shape != shape or not np.all(np.isfinite(a))):
             raise FileFormatError(f"{source}: {key} must be {shape} finite numbers")
-    if (s.x is None) != (s.t_last is None) or s.lag < 0 or k > max(s.lag, 0):
+    if (s.x is None) != (s.t_last is None) or (s.x is None) != (s.h_last is None) or s.lag < 0 or k > max(s.lag, 0):
         raise FileFormatError(f"{source} is inconsistent (last state, time and window do not agree)")
 
 
@@ -458,9 +465,16 @@ class DriftTracker:
             With ``lag`` > 0, the samples whose window is complete: the last
             ``lag`` samples seen come out with the next chunk or
             :meth:`flush`.
+
+        Notes
+        -----
+        ``self.innovations`` then holds the whitened innovations (m, n) of
+        the chunk's samples (standard normal under the model; NaN where a
+        measurement is missing) for model checks.
         """
         yy, tt, cov, refs = self._inputs(y_chunk, t_chunk, covariates)
         s = self._s
+        self.innovations = np.zeros((len(s.setup.channels), 0))
         if tt.size == 0:
             return self._emit(0, s)
         setup = s.setup
@@ -504,26 +518,62 @@ class DriftTracker:
         if code == -2:
             raise DataError("the innovation covariance lost positive definiteness; check the noise levels "
                             "against the data's scale")
+        # Whitened innovations of the new samples, for model checks by the caller (not part of the state).
+        self.innovations = e[skip:].T.copy()
         Fst = np.broadcast_to(model._F, (T, n, n)) if model._F.shape[0] == 1 else model._F
         Hst = np.broadcast_to(model._H, (T, m, n)) if model._H.shape[0] == 1 else model._H
         new = {"t": tt, "y": yy.T, "h": Hst[skip:], "xf": xf[skip:], "Pf": Pf[skip:], "xp": xp[skip:],
                "Pp": Pp[skip:], "F": Fst[skip:]}
         buf = {k: np.concatenate([s.buffer[k], new[k]], axis=0) for k in _BUFFER}
         st = dataclasses.replace(s, references=refs, x0=x0, P0=P0, t_last=float(tt[-1]), x=xf[-1].copy(),
-                                 P=Pf[-1].copy(), buffer=buf, n_samples=s.n_samples + tt.size,
+                                 P=Pf[-1].copy(), h_last=np.array(Hst[-1]), buffer=buf, n_samples=s.n_samples + tt.size,
                                  loglik=s.loglik + float(ll))
         return self._emit(max(buf["t"].size - st.lag, 0), st)
+
+    def current(self) -> TrackerChunk:
+        """The filtered estimate at the last sample seen (one sample; empty before any data).
+
+        Not yet final with a lag (later data will smooth it), but it is what
+        a monitoring display shows now, and at the end of a record it equals
+        the one-pass estimate.
+        """
+        s = self._s
+        if s.x is None:
+            return self._emit_from(s, np.zeros(0), np.zeros((0, len(s.setup.channels))),
+                                   np.zeros((0,) + (len(s.setup.channels), len(s.setup.state_names))),
+                                   np.zeros((0, len(s.setup.state_names))),
+                                   np.zeros((0, len(s.setup.state_names), len(s.setup.state_names))))
+        y_last = s.buffer["y"][-1:] if s.buffer["t"].size else np.full((1, len(s.setup.channels)), np.nan)
+        return self._emit_from(s, np.array([s.t_last]), y_last, s.h_last[None], s.x[None], s.P[None])
 
     def flush(self) -> TrackerChunk:
         """Emit the samples still in the lag window (end of data: shorter windows, as a one-pass run)."""
         return self._emit(self._s.buffer["t"].size, self._s)
 
+    @staticmethod
+    def _emit_from(st: TrackerState, t, y, h, x, P) -> TrackerChunk:
+        """Bias, its u and corrected values of time-major estimates ``x`` (k, n), ``P`` (k, n, n)."""
+        setup = st.setup
+        k, n = x.shape
+        ns = setup.signal.n_states
+        chans = setup.biased_channels
+        rows = [setup.channels.index(c) for c in chans]
+        # Total bias of a channel: E_t x_t, E_t the bias columns of H_t.
+        E = np.array(h[:, rows, :], copy=True)
+        E[:, :, :ns] = 0.0
+        bias = np.einsum("tcn,tn->ct", E, x)
+        bias_var = np.einsum("tcn,tnk,tck->ct", E, P, E)
+        corrected = y[:, rows].T - bias
+        state = x.T.copy()
+        if setup.signal.kind in ("gauss_markov", "known"):
+            state[0] += setup.signal.mean
+        std = np.sqrt(np.maximum(np.diagonal(P, axis1=1, axis2=2), 0.0)).T
+        return TrackerChunk(t=np.asarray(t, dtype=float), channels=tuple(chans), corrected=corrected, bias=bias,
+                            u_bias=np.sqrt(np.maximum(bias_var, 0.0)), state=state, state_std=std.reshape(n, k))
+
     def _emit(self, k: int, st: TrackerState) -> TrackerChunk:
         """Smooth and emit the first ``k`` buffered samples; keep the rest; commit ``st``."""
-        setup = st.setup
         buf = st.buffer
-        N = buf["t"].size
-        n = len(setup.state_names)
         if k and st.lag:
             C = K.smoother_gains(np.ascontiguousarray(buf["F"]), buf["Pf"], buf["Pp"])
             xs = np.empty_like(buf["xf"])
@@ -532,21 +582,7 @@ class DriftTracker:
             x, P = xs[:k], Ps[:k]
         else:
             x, P = buf["xf"][:k], buf["Pf"][:k]
-        ns = setup.signal.n_states
-        chans = setup.biased_channels
-        rows = [setup.channels.index(c) for c in chans]
-        E = np.array(buf["h"][:k][:, rows, :], copy=True)
-        E[:, :, :ns] = 0.0
-        bias = np.einsum("tcn,tn->ct", E, x)
-        bias_var = np.einsum("tcn,tnk,tck->ct", E, P, E)
-        corrected = buf["y"][:k, rows].T - bias
-        state = x.T.copy()
-        if setup.signal.kind in ("gauss_markov", "known"):
-            state[0] += setup.signal.mean
-        std = np.sqrt(np.maximum(np.diagonal(P, axis1=1, axis2=2), 0.0)).T
-        out = TrackerChunk(t=buf["t"][:k].copy(), channels=tuple(chans), corrected=corrected, bias=bias,
-                           u_bias=np.sqrt(np.maximum(bias_var, 0.0)), state=state,
-                           state_std=std.reshape(n, k))
+        out = self._emit_from(st, buf["t"][:k].copy(), buf["y"][:k], buf["h"][:k], x, P)
         if k:
             st = dataclasses.replace(st, buffer={key: buf[key][k:].copy() for key in _BUFFER},
                                      n_emitted=st.n_emitted + k)
