@@ -127,6 +127,7 @@ def test_reference_better_than_the_result(cli, setup, tmp_path):
     (["--report", "{t}/x.pdf", "--run", "{t}/bad.toml"], "unknown field(s) 'colour', 'name'"),
     (["--report", "{t}/x.pdf", "--env", "temperature=warm"], "NAME=VALUE+-U UNIT"),
     (["--report", "{t}/x.pdf", "--calibration-date", "5.1.2026"], "not an ISO 8601 date"),
+    (["--report", "{t}/x.pdf", "--customer", "AC\udcffME"], "not UTF-8"),   # a non-UTF-8 byte in argv
 ])
 def test_bad_certificate_input_is_one_line_exit_2(cli, setup, tmp_path, args, message):
     d, files = setup

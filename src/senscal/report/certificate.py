@@ -509,7 +509,7 @@ def certificate_html(kind: str, result: Any, *, info: CertificateInfo | None = N
     cols, rows, budgets, summary, figs = _tables(kind, result, unit)
     cert_id = certificate_id(kind, result, info, date)
     miss = missing_fields(info)
-    return _TEMPLATE.render(
+    return _utf8_checked(_TEMPLATE.render(
         title=_TITLES.get(kind, kind), cert_id=cert_id, lab=info.lab, run=info.run, logo=_logo_uri(info.lab.logo),
         admin=_admin_rows(info, method, date.strftime("%Y-%m-%d")), draft=bool(miss), missing=miss,
         env=info.run.conditions, approvers=signing_approvers(info), version=__version__, g=_g, u=_u,
@@ -518,7 +518,18 @@ def certificate_html(kind: str, result: Any, *, info: CertificateInfo | None = N
         summary=summary, columns=cols, rows=rows, budgets=[b for b in budgets if b[0]],
         plots=[svg_inline(f) for f in figs], files=", ".join(files) or "-",
         warnings=list(getattr(result, "warnings", ()) if warnings is None else warnings),
-    )
+    ))
+
+
+def _utf8_checked(html: str) -> str:
+    """``html``, refused with one line when it holds text that is not Unicode (a non-UTF-8 byte in an argument)."""
+    try:
+        html.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        near = html[max(exc.start - 30, 0):exc.start].rsplit(">", 1)[-1]
+        raise InputError(f"certificate text after {near!r} holds bytes that are not UTF-8 text; give the option or "
+                         "profile field as UTF-8") from None
+    return html
 
 
 def write_certificate(path: str | Path, kind: str, result: Any, **kw: Any) -> Path:
