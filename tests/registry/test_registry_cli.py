@@ -141,16 +141,6 @@ def test_fit_save_records_the_result(cli, tmp_path):
     assert path.read_bytes() == before  # input never modified
 
 
-def test_quoted_reports_missing_quantity():
-    from senscal.cli.registry_opts import quoted
-    from senscal.registry import UnknownQuantityError
-
-    doc = {"channels": {"ch1": {"amplitude": 1.0, "u_amplitude": 0.1}}}
-    assert quoted(doc, "a", "channels.ch1.amplitude", "channels.ch1.u_amplitude", "V").value == 1.0
-    with pytest.raises(UnknownQuantityError, match="no quantity 'channels.ch2.amplitude'.*has: ch1"):
-        quoted(doc, "a", "channels.ch2.amplitude", "channels.ch2.u_amplitude")
-
-
 def test_simulated_history_import_due_plot(cli, tmp_path):
     _ok(cli("simulate", "registry", "--out", tmp_path, "--seed", "5", "--drift", "0.002"))
     truth = json.loads((tmp_path / "history_truth.json").read_text())

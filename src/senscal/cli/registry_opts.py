@@ -32,8 +32,7 @@ from typing_extensions import Annotated
 from senscal.cli.common import err_console
 from senscal.errors import InputError
 
-__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "quoted",
-           "save_if_requested"]
+__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "save_if_requested"]
 
 _PANEL = "Sensor registry"
 
@@ -54,46 +53,6 @@ OperatorOpt = Annotated[Optional[str], typer.Option("--operator", help="Who cali
                                                     rich_help_panel=_PANEL)]
 
 
-def quoted(doc: Mapping[str, Any], name: str, value_path: str, u_path: str, unit: str = "", *, k: float = 2.0):
-    """A :class:`~senscal.registry.Quantity` read from a result document.
-
-    For commands not yet on the job layer; a job result's ``quantities()``
-    replaces it.
-
-    Parameters
-    ----------
-    doc : mapping
-        The command's JSON result.
-    name : str
-        Name the quantity gets in the registry.
-    value_path, u_path : str
-        Dotted paths of the value and its standard uncertainty in ``doc``
-        (``"channels.ch1.amplitude"``).
-    unit : str
-    k : float
-        Coverage factor the quantity is quoted with on certificates.
-
-    Raises
-    ------
-    UnknownQuantityError
-        The result does not contain the path.
-    """
-    from senscal.registry import Quantity, UnknownQuantityError
-
-    def get(path: str) -> float:
-        node: Any = doc
-        for part in path.split("."):
-            if not isinstance(node, Mapping) or part not in node:
-                have = ", ".join(sorted(node)) if isinstance(node, Mapping) else "nothing"
-                raise UnknownQuantityError(f"the result has no quantity {path!r} to save (at {part!r} it has: {have})")
-            node = node[part]
-        if node is None:
-            raise UnknownQuantityError(f"the result's {path!r} is empty (not finite); nothing to save")
-        return float(node)
-
-    return Quantity(name, get(value_path), get(u_path), unit, k)
-
-
 def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | None = None,
                       create_sensor: str | None = None, date: str | None = None, operator: str | None = None,
                       job: str | None = None, method: str | None, quantities: Sequence[Any] | None = None,
@@ -106,8 +65,7 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
     result : JobResult or mapping
         The job's result: the registry stores ``result.quantities()`` and
         keeps ``result.to_dict()`` (the ``--json`` document) as the full
-        result.  A plain JSON document is still accepted (with
-        ``quantities``) for commands not yet on the job layer.
+        result.  A plain JSON document is accepted with ``quantities``.
     job : str, optional
         Job name recorded with the calibration (default ``result.job``).
     quantities : sequence of Quantity or callable, optional
