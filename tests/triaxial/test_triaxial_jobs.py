@@ -47,7 +47,13 @@ def test_calibrate_api_equals_cli_json_and_out_file(cli, sim, tmp_path, motion, 
     assert isinstance(res, TriaxialCalibrateResult)
     doc = res.to_dict()
     _same_document(doc, json.loads(r.out))
-    _same_document(doc, json.loads((tmp_path / "p.json").read_text()))
+    # The --out parameter file carries the same report and a calibration that corrects the same way.
+    from senscal.triaxial import load_calibration
+
+    assert json.loads((tmp_path / "p.json").read_text())["parameters"] == doc["parameters"]
+    h = read_recording(f).data(["x", "y", "z"])
+    np.testing.assert_allclose(load_calibration(tmp_path / "p.json").apply(h), res.calibration.calibration.apply(h),
+                               rtol=1e-12)
 
 
 def test_quantities_are_the_identified_parameters_the_registry_stores(cli, sim, tmp_path):
@@ -127,3 +133,16 @@ def test_options_builders_match_the_command_words(tmp_path):
 def test_incomplete_options_are_refused(sim, job, opts, msg):
     with pytest.raises(InputError, match=msg):
         job(sim / "sphere" / "magnetometer.csv", opts)
+
+
+def test_apply_refuses_channels_in_another_unit(sim):
+    from senscal.io import Recording
+
+    rec = read_recording(sim / "sphere" / "magnetometer.csv")
+    tagged = Recording(channels=rec.channels, t=rec.t, units={c: "nT" for c in "xyz"})
+    cal = triaxial_calibrate(tagged, TriaxialCalibrateOptions(field=50000.0)).calibration.calibration
+    assert cal.unit == "nT"
+    with pytest.raises(InputError, match="'uT'.*calibrated in 'nT'"):
+        triaxial_apply(Recording(channels=rec.channels, t=rec.t, units={c: "uT" for c in "xyz"}),
+                       TriaxialApplyOptions(params=cal))
+    assert triaxial_apply(tagged, TriaxialApplyOptions(params=cal)).corrected_norm.size == rec.n_samples

@@ -391,7 +391,8 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
     chans = _three(o.channels, "--channels")
     rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names)
     rec.data(list(chans))  # unknown channel -> one-line error listing the channels
-    _check_units(cal, {c: rec.units.get(c, "") for c in chans})
+    # Units compared as units (m/s² is m/s^2); a channel of unknown unit passes.
+    cal.check_units({c: rec.units.get(c, "") for c in chans}, source=source_name(source))
     corr = cal.apply(rec.data(list(chans)))
     new = dict(rec.channels)
     for k, c in enumerate(chans):
@@ -402,9 +403,3 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
                                params_source=params_source, channels=chans,
                                corrected_norm=np.linalg.norm(corr, axis=0))
 
-
-def _check_units(cal, units: dict[str, str]) -> None:
-    for c, u in units.items():
-        if cal.unit and u and u != cal.unit:
-            raise InputError(f"channel '{c}' is in {u} but the calibration was made from data in {cal.unit}; "
-                             "convert the data or calibrate again")
