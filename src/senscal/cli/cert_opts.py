@@ -161,14 +161,14 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     """
     if report is None and dcc is None:
         return []
-    from senscal.io.guard import check_output
-    from senscal.report.certificate import REPORT_SUFFIXES, certificate_id, certificate_warnings, write_certificate
+    from senscal.io.guard import check_output, write_bytes
+    from senscal.report.certificate import REPORT_SUFFIXES, certificate_bytes, certificate_id, certificate_warnings
 
     # Refuse a bad path before anything is written: a PDF without its DCC (or the reverse) is half an issue.
     if report is not None:
-        check_output(report, suffixes=REPORT_SUFFIXES, what="--report")
+        report = check_output(report, suffixes=REPORT_SUFFIXES, what="--report")
     if dcc is not None:
-        check_output(dcc, suffixes=(".xml",), what="--dcc")
+        dcc = check_output(dcc, suffixes=(".xml",), what="--dcc")
     info = certificate_info(**fields)
     now = _dt.datetime.now(_dt.timezone.utc)
     # The PDF/HTML and the DCC carry the same id and issue date.
@@ -176,12 +176,15 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     info = replace(info, run=replace(run, certificate_id=certificate_id(kind, result, replace(info, run=run), now)))
     warns = list(certificate_warnings(kind, result, info))
     shown = [*warnings, *warns]
-    if dcc is not None:  # first: it refuses missing fields, and then nothing is written
+    # Both are built (and checked) before either is written.
+    data = None if report is None else certificate_bytes(report.suffix, kind, result, info=info, unit=unit,
+                                                         method=method, conditions=conditions, files=files,
+                                                         warnings=shown)
+    if dcc is not None:
         _write_dcc(dcc, kind, result, info, unit=unit, method=method, files=files, warnings=shown)
         err_console.print(f"DCC {info.run.certificate_id} written to {dcc}")  # stdout stays clean for --json
-    if report is not None:
-        write_certificate(report, kind, result, info=info, unit=unit, method=method, conditions=conditions,
-                          files=files, warnings=shown)
+    if data is not None:
+        write_bytes(report, data, what="report")
     return warns
 
 

@@ -46,7 +46,7 @@ from senscal.errors import InputError
 from senscal.report.lab import CertificateInfo, missing_fields, signing_approvers
 from senscal.report.plots import new_figure, svg_inline
 
-__all__ = ["write_certificate", "certificate_html", "certificate_id", "certificate_warnings", "budget_warnings",
+__all__ = ["write_certificate", "certificate_bytes", "certificate_html", "certificate_id", "certificate_warnings", "budget_warnings",
            "REPORT_SUFFIXES", "response_figure", "linearity_figure", "velocity_figure"]
 
 # What --report writes, by suffix.
@@ -532,6 +532,32 @@ def _utf8_checked(html: str) -> str:
     return html
 
 
+def certificate_bytes(suffix: str, kind: str, result: Any, **kw: Any) -> bytes:
+    """The certificate file's content: PDF for ``".pdf"``, UTF-8 HTML for ``".html"``/``".htm"``.
+
+    Parameters
+    ----------
+    suffix : str
+        The file suffix, case-insensitive.
+    kind, result, **kw
+        As :func:`certificate_html`.
+
+    Raises
+    ------
+    InputError
+        Another suffix, or bad certificate input.
+    """
+    suffix = suffix.lower()
+    if suffix not in REPORT_SUFFIXES:
+        raise InputError(f"a certificate is written as {', '.join(REPORT_SUFFIXES)}, not {suffix or '(no suffix)'!r}")
+    html = certificate_html(kind, result, **kw)
+    if suffix == ".pdf":
+        from senscal.report.pdf import html_to_pdf
+
+        return html_to_pdf(html)
+    return html.encode("utf-8")
+
+
 def write_certificate(path: str | Path, kind: str, result: Any, **kw: Any) -> Path:
     """Write the certificate to ``path``: PDF for ``.pdf``, HTML for ``.html``; folders created, written atomically.
 
@@ -547,14 +573,8 @@ def write_certificate(path: str | Path, kind: str, result: Any, **kw: Any) -> Pa
     InputError
         Another suffix, an unwritable folder, or a path that is an input of the command.
     """
-    from senscal.io.guard import check_output, write_bytes, write_text
+    from senscal.io.guard import check_output, write_bytes
 
     path = check_output(path, suffixes=REPORT_SUFFIXES, what="report")
-    html = certificate_html(kind, result, **kw)
-    if path.suffix.lower() == ".pdf":
-        from senscal.report.pdf import html_to_pdf
-
-        write_bytes(path, html_to_pdf(html), what="report")
-    else:
-        write_text(path, html, what="report")
+    write_bytes(path, certificate_bytes(path.suffix, kind, result, **kw), what="report")
     return path
