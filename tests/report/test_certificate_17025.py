@@ -226,3 +226,14 @@ def test_velocity_budget_checks_cover_points_and_mean():
         assert "3 result(s)" in warns[-1]
         if u_pos == 0:
             assert "'position reference' (--u-position) in the budget of sensitivity, mean sensitivity" in warns[0]
+
+
+def test_logo_is_embedded_and_a_missing_one_is_named(resp, no_plots, tmp_path):
+    from senscal.report.plots import new_figure, save_figure
+
+    fig, ax = new_figure(width=1.0, height=0.5)
+    logo = save_figure(fig, tmp_path / "logo.png")
+    html = certificate_html("response", resp, info=CertificateInfo(replace(LAB, logo=str(logo)), RUN))
+    assert '<img alt="logo" src="data:image/png;base64,' in html and str(tmp_path) not in html
+    with pytest.raises(InputError, match="cannot read the lab logo"):
+        certificate_html("response", resp, info=CertificateInfo(replace(LAB, logo=str(tmp_path / "no.png")), RUN))
