@@ -11,13 +11,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
 from senscal.jobs._base import JobResult, read_source, source_name
+
+if TYPE_CHECKING:  # the engines load when a job runs, not when the CLI starts
+    from senscal.gfimu import AttitudeError, ErrorStatistics, Layout, RateEstimate
 
 __all__ = ["GfimuOptions", "GfimuResult", "gfimu"]
 
@@ -65,7 +68,7 @@ class GfimuOptions:
         How the recording is read.
     """
 
-    layout: Any = None
+    layout: str | Path | Layout | None = None
     distance: float | None = None
     method: str = "kalman"
     observation: str = "quadratic"
@@ -124,22 +127,22 @@ class GfimuResult(JobResult):
 
     job: ClassVar[str] = "gfimu"
 
-    estimate: Any
+    estimate: RateEstimate
     source: str
     t: np.ndarray = field(repr=False)
     sample_rate: float | None
-    layout: Any
+    layout: Layout
     layout_source: str
     observation: str
     initial_omega: tuple[float, float, float]
     bias_std: float | None = None
     differential_max_u: float | None = None
-    errors: dict | None = None
+    errors: dict[str, ErrorStatistics] | None = None
     truth_omega: np.ndarray | None = field(default=None, repr=False)
     quaternion: np.ndarray | None = field(default=None, repr=False)
     attitude_method: str | None = None
     initial_quaternion: tuple[float, ...] | None = None
-    attitude_error: Any = None
+    attitude_error: AttitudeError | None = None
     warnings: tuple[str, ...] = ()
 
     @property

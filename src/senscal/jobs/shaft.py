@@ -13,13 +13,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
 from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+
+if TYPE_CHECKING:  # the engines load when a job runs, not when the CLI starts
+    from senscal.shaft import GravityModel, ShaftCompensation
 
 __all__ = ["ShaftCalibrateOptions", "ShaftCalibrateResult", "shaft_calibrate", "ShaftCompensateOptions",
            "ShaftCompensateResult", "shaft_compensate", "angle_unit_of", "calibration_summary", "METHOD"]
@@ -162,7 +165,7 @@ class ShaftCalibrateResult(JobResult):
     job: ClassVar[str] = "shaft-calibrate"
     method: ClassVar[str] = METHOD
 
-    model: Any
+    model: GravityModel
     source: str
     angle: np.ndarray = field(repr=False)
     accel: np.ndarray = field(repr=False)
@@ -268,7 +271,7 @@ class ShaftCompensateOptions:
         How the recording is read.
     """
 
-    model: Any = None
+    model: str | Path | GravityModel | None = None
     radius: float | None = None
     angle: str = "angle"
     accel: str = "accel"
@@ -307,8 +310,8 @@ class ShaftCompensateResult(JobResult):
 
     job: ClassVar[str] = "shaft-compensate"
 
-    compensation: Any
-    model: Any
+    compensation: ShaftCompensation
+    model: GravityModel
     source: str
     model_source: str
     accel: np.ndarray = field(repr=False)

@@ -12,13 +12,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
 from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+
+if TYPE_CHECKING:  # the engines load when a job runs, not when the CLI starts
+    from senscal.io import Recording
+    from senscal.triaxial import TriaxialCalibration, TriaxialResult
+    from senscal.triaxial.static import StaticIntervals
 
 __all__ = ["TriaxialCalibrateOptions", "TriaxialCalibrateResult", "triaxial_calibrate", "TriaxialApplyOptions",
            "TriaxialApplyResult", "triaxial_apply", "parameter_table"]
@@ -132,7 +137,7 @@ class TriaxialCalibrateResult(JobResult):
         Unit of the field channels ('' if unknown).
     readings : ndarray, shape (3, N)
         What was fitted: the readings, or the static pose means.
-    static : senscal.triaxial.StaticPoses or None
+    static : senscal.triaxial.static.StaticIntervals or None
         The detected poses (``static``).
     accelerometer : senscal.triaxial.TriaxialResult or None
         Calibration of ``accel_channels``.
@@ -146,15 +151,15 @@ class TriaxialCalibrateResult(JobResult):
 
     job: ClassVar[str] = "triaxial-calibrate"
 
-    calibration: Any
+    calibration: TriaxialResult
     source: str
     channels: tuple[str, str, str]
     unit: str
     readings: np.ndarray = field(repr=False)
-    static: Any = None
-    accelerometer: Any = None
+    static: StaticIntervals | None = None
+    accelerometer: TriaxialResult | None = None
     accel_channels: tuple[str, str, str] | None = None
-    tilt: Any = None
+    tilt: dict[str, Any] | None = None
     warnings: tuple[str, ...] = ()
 
     @property
@@ -300,7 +305,7 @@ class TriaxialApplyOptions:
         How the recording is read.
     """
 
-    params: Any = None
+    params: str | Path | TriaxialCalibration | None = None
     channels: str | tuple[str, str, str] = ("x", "y", "z")
     time_column: str = "t"
     fs: float | None = None
@@ -327,8 +332,8 @@ class TriaxialApplyResult(JobResult):
 
     job: ClassVar[str] = "triaxial-apply"
 
-    calibration: Any
-    recording: Any = field(repr=False)
+    calibration: TriaxialCalibration
+    recording: Recording = field(repr=False)
     source: str
     params_source: str
     channels: tuple[str, str, str]
