@@ -77,7 +77,7 @@ table.small{font-size:8pt;break-inside:avoid}table.small td,table.small th{paddi
 .draft{border:2px solid #b00;color:#b00;padding:.4em .6em;margin:.6em 0;string-set:draftmark "DRAFT"}
 .watermark{position:fixed;top:38%;left:0;width:100%;text-align:center;font-size:110pt;font-weight:700;
  color:rgba(190,0,0,.13);transform:rotate(-35deg);z-index:-1}
-.plot{break-inside:avoid}.plot svg{width:100%;height:auto}
+.plot,.results,li{break-inside:avoid}.plot svg{width:100%;height:auto}
 .note{border-top:1px solid #ccc;margin-top:1.5em;padding-top:.5em;font-size:.92em;color:#333;break-inside:avoid}
 .sign{margin-top:1em}.sign td{border:none;padding:.2em 1.5em .2em 0;text-align:left}
 .end{text-align:center;color:#555;margin-top:1em}
@@ -109,13 +109,13 @@ standards above, whose own calibration certificates are listed.</p>
 {% endfor %}</table>{% else %}<p class="missing">MISSING (required): the environmental conditions of the calibration.</p>{% endif %}
 <h2>Calibration settings</h2>
 <table class="kv">{% for k, v in conditions %}<tr><td>{{ k }}</td><td>{{ v }}</td></tr>{% endfor %}</table>
-<h2>Results</h2>
+<div class="results"><h2>Results</h2>
 {% for s in summary %}<p><b>{{ s[0] }}</b>: {{ s[1] }}</p>{% endfor %}
 <table><thead><tr>{% for c in columns %}<th>{{ c }}</th>{% endfor %}</tr></thead>
 {% for row in rows %}<tr>{% for v in row %}<td>{{ v }}</td>{% endfor %}</tr>{% endfor %}</table>
 <p>U is the expanded uncertainty with coverage factor k = 2 (about 95 % coverage for a normal
 distribution), evaluated following the GUM (JCGM 100:2008) from the standard uncertainties below;
-where the effective degrees of freedom are few, k is Student's t for the same 95.45 % (shown in the budget).</p>
+where the effective degrees of freedom are few, k is Student's t for the same 95.45 % (shown in the budget).</p></div>
 {% for p in plots %}<div class="plot">{{ p | safe }}</div>{% endfor %}
 <h2>Deviations from the method</h2>
 <p>{{ run.deviations or "None: the calibration followed the method as stated." }}</p>
