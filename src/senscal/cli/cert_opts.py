@@ -59,7 +59,8 @@ LabOpt = Annotated[Optional[Path], typer.Option(
     "--lab", metavar="FILE", help="Lab profile, TOML or YAML (default: $SENSCAL_LAB, else lab.toml in "
                                   "~/.config/senscal).", rich_help_panel=_PANEL)]
 RunFileOpt = Annotated[Optional[Path], typer.Option(
-    "--run", metavar="FILE", help="Certificate fields of this calibration, TOML or YAML ([run] table); options win.",
+    "--run", metavar="FILE", help="Certificate fields of this calibration: TOML or YAML, a 'run' table or top-level fields; "
+                                 "options win.",
     rich_help_panel=_PANEL)]
 CustomerOpt = Annotated[Optional[str], typer.Option("--customer", help="Customer name (certificate).",
                                                     rich_help_panel=_PANEL)]
@@ -68,7 +69,7 @@ ItemOpt = Annotated[Optional[str], typer.Option(
 ManufacturerOpt = Annotated[Optional[str], typer.Option("--manufacturer", help="Manufacturer of the item.",
                                                         rich_help_panel=_PANEL)]
 ModelOpt = Annotated[Optional[str], typer.Option("--model", help="Model (type) of the item.", rich_help_panel=_PANEL)]
-SensorIdOpt = Annotated[Optional[str], typer.Option("--serial", "--sensor-id", help="Serial number of the item.",
+SensorIdOpt = Annotated[Optional[str], typer.Option("--serial", "--sensor-id", help="Serial number of the item (default: the registry's --sensor).",
                                                     rich_help_panel=_PANEL)]
 LocationOpt = Annotated[Optional[str], typer.Option(
     "--location", help="Where the calibration was done (the lab, or the customer's site).", rich_help_panel=_PANEL)]
