@@ -91,10 +91,14 @@ def job_options(job: str, first_file: str, words: list[str]) -> tuple[Any, bool]
         source = ctx.get_parameter_source(param.name)
         if getattr(source, "name", None) not in ("COMMANDLINE", "ENVIRONMENT"):
             continue
-        if param.name in _SINGLE_RUN or (explicit and param.name not in explicit):
-            opt = param.opts[0]
+        opt = param.opts[0]
+        if param.name in _SINGLE_RUN:
             raise InputError(f"{opt} applies to a single run of '{spelled}', not to a batch (each recording's "
                              f"result is a row of batch's --out table); run '{spelled} FILE {opt} ...' for it")
+        if explicit and param.name not in explicit:
+            # Silently dropping it would run the job differently from what was asked.
+            raise InputError(f"{opt} of '{spelled}' is not an option of the '{job}' job that senscal batch runs "
+                             f"on each recording; leave it out, or run '{spelled}' per file")
     return builder(**ctx.params), bool(ctx.params.get("strict"))
 
 
