@@ -546,6 +546,37 @@ def channel_prior(group: FleetGroup, y: np.ndarray, t: np.ndarray, covariates: n
     return drift_prior(setup, yy, cov, float(t[-1] - t[0]) if len(t) else 0.0, spread=group.prior_scale)
 
 
+def _shared_classes(k: int, y: np.ndarray, lev2: np.ndarray, r2: np.ndarray, started: np.ndarray,
+                    P: np.ndarray) -> list[np.ndarray]:
+    """Channels that may share one Riccati recursion in this chunk, in classes of identical covariance.
+
+    No covariate in ``H``, no missing sample in the chunk, and bit-identical
+    levels, start flag and covariance: then their gains are equal for the
+    whole chunk.  A channel that lost a sample goes through the per-channel
+    kernel and rejoins a class once its covariance has converged back to the
+    same bits.
+    """
+    if k:
+        return []
+    ok = ~np.isnan(y).any(axis=1)
+    classes: dict[bytes, list[int]] = {}
+    for c in np.nonzero(ok)[0]:
+        key = lev2[c].tobytes() + r2[c].tobytes() + bytes([bool(started[c])]) + P[c].tobytes()
+        classes.setdefault(key, []).append(int(c))
+    return [np.array(v) for v in classes.values() if len(v) > 1 or ok.sum() == y.shape[0]]
+
+
+def _run_shared(group: FleetGroup, F: np.ndarray, Qu: np.ndarray, lev2: np.ndarray, r2: float, gm: _GroupModel,
+                y: np.ndarray, x: np.ndarray, P: np.ndarray, started: bool, bias: np.ndarray, bvar: np.ndarray) -> None:
+    """The shared-covariance kernel on channels of one class; updates x, P (all rows) in place."""
+    Ps = P[0].copy()
+    Q = np.ascontiguousarray(np.einsum("p,ptij->tij", lev2, Qu))
+    if not _filter_shared(F, Q, float(r2), gm.h0, np.ascontiguousarray(y), gm.shift, x, Ps, started, gm.bias_mask,
+                          bias, bvar):
+        raise DataError(f"group {group.name}: the innovation variance is not positive; check the noise levels")
+    P[:] = Ps
+
+
 def filter_block(group: FleetGroup, y: np.ndarray, t: np.ndarray, states: Sequence[ChannelState | None],
                  covariates: np.ndarray | None = None, *, channels: Sequence[str] | None = None,
                  shared: bool | None = None, _model: _GroupModel | None = None
@@ -635,25 +666,31 @@ def filter_block(group: FleetGroup, y: np.ndarray, t: np.ndarray, states: Sequen
             raise DataError(f"a covariate of channel {names[int(np.argmax(bad))]} has NaN or inf; interpolate "
                             "its gaps first")
     bias = np.empty((C, T))
-    can_share = (k == 0 and not np.isnan(y).any() and np.all(lev2 == lev2[:1]) and np.all(r2 == r2[0])
-                 and np.all(started == started[0]) and np.all(P == P[:1]))
-    if shared and not can_share:
+    classes = _shared_classes(k, y, lev2, r2, started, P) if shared is not False else []
+    if shared and not (len(classes) == 1 and classes[0].size == C):
         raise InputError("the channels of this block do not share their covariance (levels, covariates, "
                          "missing samples or prior differ)")
-    if can_share if shared is None else shared:
-        Ps = P[0].copy()
-        Q = np.ascontiguousarray(np.einsum("p,ptij->tij", lev2[0], Qu))
+    if len(classes) == 1 and classes[0].size == C:
         bvar = np.empty(T)
-        if not _filter_shared(F, Q, float(r2[0]), gm.h0, y, gm.shift, x, Ps, bool(started[0]), gm.bias_mask,
-                              bias, bvar):
-            raise DataError(f"group {group.name}: the innovation variance is not positive; check the noise levels")
-        P[:] = Ps
+        _run_shared(group, F, Qu, lev2[0], r2[0], gm, y, x, P, bool(started[0]), bias, bvar)
     else:
         bvar = np.empty((C, T))
-        bad_c = _filter_channels(F, Qu, lev2, r2, gm.h0, gm.cov_cols, cov, y, gm.shift, x, P, started.copy(),
-                                 gm.bias_mask, bias, bvar)
-        if bad_c >= 0:
-            raise DataError(f"channel {names[bad_c]}: the innovation variance is not positive; check its noise levels")
+        rest = np.ones(C, dtype=bool)
+        for idx in classes:
+            rest[idx] = False
+            xs, Ps, bs, vs = x[idx], P[idx], np.empty((idx.size, T)), np.empty(T)
+            _run_shared(group, F, Qu, lev2[idx[0]], r2[idx[0]], gm, y[idx], xs, Ps, bool(started[idx[0]]), bs, vs)
+            x[idx], P[idx], bias[idx], bvar[idx] = xs, Ps, bs, vs
+        if rest.any():
+            idx = np.nonzero(rest)[0]
+            xs, Ps, bs, vs = x[idx], P[idx], np.empty((idx.size, T)), np.empty((idx.size, T))
+            bad_c = _filter_channels(F, Qu, lev2[idx], r2[idx], gm.h0, gm.cov_cols, np.ascontiguousarray(cov[idx]),
+                                     np.ascontiguousarray(y[idx]), gm.shift, xs, Ps, started[idx].copy(),
+                                     gm.bias_mask, bs, vs)
+            if bad_c >= 0:
+                raise DataError(f"channel {names[idx[bad_c]]}: the innovation variance is not positive; check its "
+                                "noise levels")
+            x[idx], P[idx], bias[idx], bvar[idx] = xs, Ps, bs, vs
     std = np.sqrt(np.maximum(bvar, 0.0))
     new = [ChannelState(x=x[c].copy(), P=P[c].copy(), t_last=float(t[-1]),
                         n_samples=(s.n_samples if s is not None else 0) + T,
