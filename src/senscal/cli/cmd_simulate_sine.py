@@ -11,14 +11,15 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import simulate_app
-from senscal.cli.common import console
+from senscal.cli.common import console, err_console
 from senscal.io import write_recording
+from senscal.io.guard import is_stdio
 from senscal.simulate import simulate_sine, write_truth
 
 
 @simulate_app.command("sine")
 def simulate_sine_cmd(
-    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    out: Annotated[Path, typer.Option("--out", help="Output folder; - writes the recording (CSV) to stdout.")],
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
     channels: Annotated[int, typer.Option("--channels", help="Number of channels.")] = 4,
     fs: Annotated[float, typer.Option("--fs", help="Sample rate in Hz.")] = 1000.0,
@@ -42,6 +43,11 @@ def simulate_sine_cmd(
         raise InputError(f"--noise-rho must lie strictly between -1 and 1 (stationary AR(1) noise), got {noise_rho}")
     rec, truth = simulate_sine(n_channels=channels, fs=fs, duration=duration, frequency=freq, noise=noise,
                                t0=t0, noise_rho=noise_rho, seed=seed)
+    if is_stdio(out):
+        # A pipe takes one file: the recording (senscal simulate sine --out - | senscal fit -).
+        write_recording(rec, out)
+        err_console.print("wrote sine.csv to standard output; the truth file needs --out FOLDER")
+        return
     p = write_recording(rec, out / "sine.csv")
     q = write_truth(truth, out / "sine_truth.json")
     console.print(f"wrote {p} and {q}")

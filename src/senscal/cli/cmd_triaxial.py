@@ -11,7 +11,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (
     FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, TimeColumnOpt, console, emit_warnings, err_console, print_json, progress_bar,
-    table, write_json,
+    table,
 )
 from senscal.cli.registry_opts import (
     CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, save_if_requested,
@@ -63,7 +63,7 @@ def calibrate_cmd(
     static_window: Annotated[float, typer.Option("--static-window", help="Moving-variance window for --static, s.")] = 0.5,
     min_pose: Annotated[float, typer.Option("--min-pose", help="Shortest static pose kept, s.")] = 1.0,
     outlier_sigma: Annotated[float, typer.Option("--outlier-sigma", help="Exclude readings this many robust sigma off (0: keep all).")] = 5.0,
-    out: Annotated[Optional[Path], typer.Option("--out", help="Write the parameters (for 'triaxial apply') as JSON.")] = None,
+    out: Annotated[Optional[Path], typer.Option("--out", help="Write the parameters (for 'triaxial apply') as JSON, or HDF5 for .h5; - for stdout.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Sphere projections and norm error before/after (PNG); a one-axis turn or --accel-channels also writes <name>_heading.png.")] = None,
     accel_channels: Annotated[Optional[str], typer.Option("--accel-channels", help="An accelerometer recorded alongside (X,Y,Z names): it is calibrated too, and the tilt-compensated heading error and dip-angle spread are reported before/after.")] = None,
     time_column: TimeColumnOpt = "t",
@@ -86,7 +86,7 @@ def calibrate_cmd(
     res, h, unit, tilt = result.calibration, result.readings, result.unit, result.tilt
     doc = result.to_dict()
     if out is not None:
-        write_json(doc, out)
+        res.calibration.save(out, extra=doc)  # type + format_version; JSON, or HDF5 for .h5 (senscal.persist)
     save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
                       operator=operator, job="triaxial", method=result.method, input_files=[file],
                       conditions=result.conditions)

@@ -30,7 +30,24 @@ T = TypeVar("T")
 # strings, and '[/' in one crashed the output (after a registry write had
 # committed) while '[link=...]' made a hyperlink.  The few deliberate styles
 # pass markup=True and escape whatever user text they carry.
-console = Console(highlight=False, markup=False, emoji=False)
+class _Console(Console):
+    """A stdout console that moves to stderr once data went to stdout (``--out -``)."""
+
+    @property
+    def file(self):
+        from senscal.io.guard import stdout_claimed
+
+        if not self.stderr and self._file is None and stdout_claimed():
+            # Tables and "wrote ..." lines would corrupt the data a pipe reads.
+            return sys.stderr
+        return super().file
+
+    @file.setter
+    def file(self, new_file) -> None:
+        self._file = new_file
+
+
+console = _Console(highlight=False, markup=False, emoji=False)
 err_console = Console(stderr=True, highlight=False, markup=False, emoji=False)
 
 # Options every command that reads recordings shares (same words everywhere).
@@ -92,6 +109,7 @@ def load(path: Path | str, *, time_column: str = "t", fs: float | None = None,
 
     ``time_required=False`` for jobs that never use time: a file with neither
     time column nor sample rate is then read on a sample-index time base.
+    ``-`` reads a CSV recording from standard input.
     """
     from senscal.io import read_recording
 
@@ -119,14 +137,23 @@ def time_checked(rec: Recording, job: str, result: T, *, channel: str | None = N
 
 
 def print_json(obj: Any) -> None:
-    """Print ``obj`` as indented JSON on stdout."""
+    """Print ``obj`` as indented JSON on stdout.
+
+    Raises
+    ------
+    InputError
+        Stdout already holds the command's data (``--out -``): the two would mix.
+    """
+    from senscal.io.guard import claim_stdout
+
+    claim_stdout("--json")
     from senscal._result import to_jsonable
 
     sys.stdout.write(json.dumps(to_jsonable(obj), indent=2) + "\n")
 
 
 def write_json(obj: Any, path: Path | str) -> Path:
-    """Write ``obj`` as JSON to ``path`` (folders created)."""
+    """Write ``obj`` as JSON to ``path`` (folders created; ``-`` is stdout)."""
     from senscal.io.guard import write_text
 
     from senscal._result import to_jsonable

@@ -6,12 +6,20 @@ over one of them, refuses folders and paths under a file, and turns the
 ``OSError`` of an unwritable folder into a one-line :class:`InputError`.
 Outside a command (plain API use) only the folder checks apply, so a script
 may deliberately rewrite a file it read.
+
+``-`` names standard input / output (:data:`STDIO`): readers take a CSV
+recording from stdin (:func:`stdin_bytes` reads it once per command), and
+:func:`write_bytes`, :func:`write_text` and ``write_recording`` write to
+stdout.  Once data went to stdout (:func:`claim_stdout`) it is taken: a
+second output there is refused, and the command line sends its messages to
+stderr instead (:func:`stdout_claimed`).
 """
 
 from __future__ import annotations
 
 import os
 import stat
+import sys
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -20,9 +28,63 @@ from typing import Iterator
 from senscal.errors import InputError
 
 __all__ = ["protect_inputs", "note_input", "check_output", "check_output_dir", "atomic_output", "write_text",
-           "write_bytes"]
+           "write_bytes", "STDIO", "is_stdio", "stdin_bytes", "claim_stdout", "stdout_claimed"]
 
 _inputs: set[str] | None = None
+
+#: The file name that means standard input (where read) or standard output (where written).
+STDIO = "-"
+_stdout_owner: str | None = None
+_stdin_data: bytes | None = None
+
+
+def is_stdio(path: str | os.PathLike | None) -> bool:
+    """Whether ``path`` is ``-`` (standard input or output)."""
+    return path is not None and os.fspath(path) == STDIO
+
+
+def stdin_bytes(what: str = "input") -> bytes:
+    """Standard input, read whole (pipes cannot seek; readers need it twice); once per command.
+
+    Raises
+    ------
+    InputError
+        Standard input is a terminal (nothing piped in) or empty.
+    """
+    global _stdin_data
+    if _stdin_data is not None and _inputs is not None:
+        return _stdin_data
+    stream = sys.stdin
+    if stream is None or (hasattr(stream, "isatty") and stream.isatty()):
+        raise InputError(f"{what} '-' means standard input, but nothing is piped in; "
+                         "use 'senscal ... - < FILE.csv' or give the file name")
+    buf = getattr(stream, "buffer", None)
+    data = buf.read() if buf is not None else stream.read().encode("utf-8")
+    if not data:
+        raise InputError(f"{what} '-' (standard input) is empty; pipe a recording in or give a file name")
+    if _inputs is not None:
+        _stdin_data = data
+    return data
+
+
+def claim_stdout(what: str) -> None:
+    """Mark standard output as holding ``what`` (data); refuse a second output there.
+
+    Raises
+    ------
+    InputError
+        Something else was already written to stdout by this command.
+    """
+    global _stdout_owner
+    if _stdout_owner is not None and _stdout_owner != what:
+        raise InputError(f"{what} and {_stdout_owner} both go to standard output ('-'); send one of them to a file")
+    if _inputs is not None:  # only inside a command; a script may write to stdout as often as it likes
+        _stdout_owner = what
+
+
+def stdout_claimed() -> str | None:
+    """What the running command wrote to standard output, or None."""
+    return _stdout_owner
 
 
 def _key(path: str | os.PathLike) -> str:
@@ -32,12 +94,14 @@ def _key(path: str | os.PathLike) -> str:
 @contextmanager
 def protect_inputs() -> Iterator[None]:
     """Remember the files read inside the block and refuse to overwrite them."""
-    global _inputs
+    global _inputs, _stdout_owner, _stdin_data
     saved, _inputs = _inputs, set()
+    saved_io, _stdout_owner, _stdin_data = (_stdout_owner, _stdin_data), None, None
     try:
         yield
     finally:
         _inputs = saved
+        _stdout_owner, _stdin_data = saved_io
 
 
 def note_input(path: str | os.PathLike) -> None:
@@ -65,6 +129,11 @@ def check_output(path: str | os.PathLike, *, suffixes: tuple[str, ...] | None = 
         ``path`` as a :class:`Path`.
     """
     path = Path(path)
+    if is_stdio(path):
+        return path  # standard output: nothing to create or protect
+    if not path.is_absolute() and len(path.parts) > 1 and path.parts[0] == STDIO:
+        raise InputError(f"{what} {path}: '-' means standard output, which takes one file, not a folder of "
+                         "files; give a folder name")
     if path.is_dir():
         raise InputError(f"{what} {path} is a folder; give a file name")
     if suffixes is not None and path.suffix.lower() not in suffixes:
@@ -131,6 +200,8 @@ def atomic_output(path: str | os.PathLike, *, what: str = "output file") -> Iter
         permission, quota ...); one line naming the file.
     """
     path = Path(path)
+    if is_stdio(path):
+        raise InputError(f"{what} cannot be written to standard output ('-'); give a file name")
     try:
         st = os.stat(path)
     except OSError:
@@ -184,8 +255,19 @@ def write_text(path: str | os.PathLike, text: str, *, what: str = "output file")
 
 
 def write_bytes(path: str | os.PathLike, data: bytes, *, what: str = "output file") -> Path:
-    """Write ``data`` to ``path`` atomically; see :func:`atomic_output`."""
+    """Write ``data`` to ``path`` atomically (see :func:`atomic_output`); ``-`` writes to standard output."""
     path = Path(path)
+    if is_stdio(path):
+        claim_stdout(what)
+        out = getattr(sys.stdout, "buffer", None)
+        if out is not None:
+            sys.stdout.flush()
+            out.write(data)
+            out.flush()
+        else:
+            sys.stdout.write(data.decode("utf-8"))
+            sys.stdout.flush()
+        return path
     with atomic_output(path, what=what) as tmp:
         with open(tmp, "wb") as fh:
             fh.write(data)

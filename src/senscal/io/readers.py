@@ -16,7 +16,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from senscal.errors import DataError, FileFormatError, InputError, SenscalError
-from senscal.io.guard import atomic_output, check_output, note_input
+from senscal.io.guard import atomic_output, check_output, claim_stdout, is_stdio, note_input, stdin_bytes
 from senscal.io.recording import Recording
 
 __all__ = ["read_recording", "write_recording", "FORMATS"]
@@ -63,7 +63,8 @@ def read_recording(
     Parameters
     ----------
     path : str or Path
-        CSV/TXT, Parquet, HDF5, TDMS or NPZ file.
+        CSV/TXT, Parquet, HDF5, TDMS or NPZ file; ``"-"`` reads CSV text
+        from standard input (binary formats need a file).
     time_column : str
         Name of the time channel in seconds (default ``"t"``).  It is not
         returned as a data channel.
@@ -106,6 +107,10 @@ def read_recording(
         The file is missing, empty, corrupt, or not in a layout senscal
         reads (one line naming the file and what is wrong).
     """
+    if is_stdio(path):
+        return _read_stdin(time_column=time_column, fs=fs, channels=channels, names=names, group=group,
+                           format=format, allow_nan=allow_nan, skip_rows=skip_rows, time_required=time_required,
+                           time_unit=time_unit)
     path = Path(path)
     if fs is not None and not (isinstance(fs, (int, float, np.floating, np.integer)) and math.isfinite(float(fs))
                                and float(fs) > 0):
@@ -188,6 +193,34 @@ def read_recording(
 
 
 _LABEL = {"csv": "CSV/text", "parquet": "Parquet", "hdf5": "HDF5", "tdms": "TDMS", "npz": "NPZ"}
+
+# How the binary formats start: they cannot come through a pipe (their readers seek).
+_MAGIC = ((b"PAR1", "parquet"), (b"\x89HDF\r\n\x1a\n", "hdf5"), (b"TDSm", "tdms"), (b"PK\x03\x04", "npz"))
+STDIN_NAME = "standard input"
+
+
+def _read_stdin(*, format: str | None, **options: Any) -> Recording:
+    """A CSV recording piped into standard input (``-``), read whole, parsed like a file."""
+    import tempfile
+
+    if format not in (None, "csv"):
+        raise InputError(f"only CSV text can be read from standard input ('-'), not {_LABEL.get(format, format)}; "
+                         "give the file name")
+    data = stdin_bytes("recording")
+    for magic, kind in _MAGIC:
+        if data.startswith(magic):
+            raise FileFormatError(f"{STDIN_NAME} holds a {_LABEL[kind]} file; only CSV text can be piped in, "
+                                  "give the file name instead")
+    with tempfile.TemporaryDirectory(prefix="senscal-stdin-") as folder:
+        tmp = Path(folder) / "stdin.csv"
+        tmp.write_bytes(data)
+        try:
+            rec = read_recording(tmp, format="csv", **options)
+        except SenscalError as exc:
+            # The spool file is an implementation detail: messages name standard input.
+            raise type(exc)(str(exc).replace(str(tmp), STDIN_NAME)) from None
+    object.__setattr__(rec, "source", STDIN_NAME)
+    return rec
 
 
 def _reason(exc: OSError) -> str:
@@ -701,21 +734,17 @@ def write_recording(rec: Recording, path: str | Path, *, format: str | None = No
         The path written.
     """
     path = Path(path)
-    kind = _format_of(path, format)
-    check_output(path)
     if time_column in rec.channels:
         raise InputError(f"a data channel is called '{time_column}'; rename it or choose another time_column")
+    if is_stdio(path):
+        return _write_stdout(rec, format=format, time_column=time_column, units_in_header=units_in_header)
+    kind = _format_of(path, format)
+    check_output(path)
     info = {"units": dict(rec.units), "metadata": {k: v for k, v in rec.metadata.items() if isinstance(v, (str, int, float, bool))}}
     # Written to a temporary file and renamed: a full disk or a crash never leaves half a recording.
     with atomic_output(path, what="recording") as tmp:
         if kind == "csv":
-            import pandas as pd
-
-            # Units ride in the header as "name [unit]", which the reader parses back.
-            df = pd.DataFrame({time_column: rec.time,
-                               **{(f"{n} [{rec.units[n]}]" if units_in_header and rec.units.get(n) else n): rec.channels[n]
-                                  for n in rec.names}})
-            df.to_csv(tmp, index=False, float_format="%.17g")
+            _csv_frame(rec, time_column, units_in_header).to_csv(tmp, index=False, float_format="%.17g")
         elif kind == "parquet":
             import pyarrow as pa
             import pyarrow.parquet as pq
@@ -767,3 +796,25 @@ def write_recording(rec: Recording, path: str | Path, *, format: str | None = No
             arrays["__senscal__"] = np.array(json.dumps(info))
             np.savez(tmp, **arrays)
     return path
+
+
+def _csv_frame(rec: Recording, time_column: str, units_in_header: bool):
+    import pandas as pd
+
+    # Units ride in the header as "name [unit]", which the reader parses back.
+    return pd.DataFrame({time_column: rec.time,
+                         **{(f"{n} [{rec.units[n]}]" if units_in_header and rec.units.get(n) else n): rec.channels[n]
+                            for n in rec.names}})
+
+
+def _write_stdout(rec: Recording, *, format: str | None, time_column: str, units_in_header: bool) -> Path:
+    """``write_recording(rec, "-")``: CSV text on standard output (a pipe takes no binary format)."""
+    import sys
+
+    if format not in (None, "csv"):
+        raise InputError(f"only CSV can be written to standard output ('-'), not {_LABEL.get(format, format)}; "
+                         "give a file name")
+    claim_stdout("the recording")
+    sys.stdout.write(_csv_frame(rec, time_column, units_in_header).to_csv(index=False, float_format="%.17g"))
+    sys.stdout.flush()
+    return Path("-")

@@ -97,9 +97,11 @@ def read_document(path: str | os.PathLike, *, what: str = "calibration file") ->
         Missing, unreadable, or neither valid JSON nor a readable HDF5 file
         (one line naming the file).
     """
-    from senscal.io.guard import note_input
+    from senscal.io.guard import is_stdio, note_input
     from senscal.io.sidefiles import read_json, read_text
 
+    if is_stdio(path):
+        return _read_stdin_document(what)
     path = Path(path)
     note_input(path)
     if not path.exists():
@@ -123,6 +125,20 @@ def read_document(path: str | os.PathLike, *, what: str = "calibration file") ->
     if _is_hdf5_path(path) and not read_text(path, what).lstrip().startswith("{"):
         raise FileFormatError(f"{what} {path} is neither an HDF5 file nor JSON; give a file saved by senscal")
     return read_json(path, what, expect=None)
+
+
+def _read_stdin_document(what: str) -> Any:
+    from senscal.io.guard import stdin_bytes
+
+    data = stdin_bytes(what)
+    if data.startswith(_HDF5_SIGNATURE):
+        raise FileFormatError(f"{what} on standard input is HDF5, which needs a file; give the file name "
+                              "(or pipe the JSON form)")
+    try:
+        return json.loads(data.decode("utf-8-sig"))
+    except (UnicodeDecodeError, ValueError, RecursionError) as exc:
+        raise FileFormatError(f"{what} on standard input is not valid JSON ({str(exc).splitlines()[0][:120]}); "
+                              "pipe a file saved by senscal") from None
 
 
 def calibration_type(doc: Any) -> str | None:
@@ -179,6 +195,8 @@ def load_calibration(path: str | os.PathLike, *, expect: str | None = None) -> A
     path = Path(path)
     what = "calibration file"
     doc = read_document(path, what=what)
+    if os.fspath(path) == "-":
+        path = Path("standard input")
     kind = calibration_type(doc)
     source = f"{what} {path}"
     if expect is not None and kind != expect:

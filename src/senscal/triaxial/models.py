@@ -171,15 +171,19 @@ class TriaxialCalibration(ResultMixin):
         return out[:, 0] if vec else out
 
     def save(self, path: str | Path, extra: Mapping[str, Any] | None = None) -> Path:
-        """Write as JSON, or HDF5 for a ``.h5``/``.hdf5`` path (``extra`` adds fields such as the report).
+        """Write as JSON, or HDF5 for a ``.h5``/``.hdf5`` path.
 
-        The file carries ``type`` and ``format_version`` (:mod:`senscal.persist`);
-        :func:`senscal.load_calibration` and :func:`load_calibration` read it back.
+        The file is ``{"type", "format_version", **extra, "calibration": {...}}``
+        (:mod:`senscal.persist`): ``extra`` adds fields such as the
+        calibration report (``triaxial calibrate --out`` stores its ``--json``
+        document there); :func:`senscal.load_calibration` and
+        :func:`load_calibration` read it back.
         """
         from senscal.persist import document, write_document
 
-        fields = {**to_jsonable(dict(extra or {})), **self.to_dict()}
-        return write_document(document(TYPE, fields, drop=("format",)), path, what="parameter file")
+        cal = {k: v for k, v in self.to_dict().items() if k not in ("format", "format_version")}
+        doc = document(TYPE, {**to_jsonable(dict(extra or {})), "calibration": cal})
+        return write_document(doc, path, what="parameter file")
 
     def check_units(self, units: Mapping[str, str], *, source: str = "the recording") -> None:
         """Refuse channels whose unit differs from the calibration's (compared as units).
@@ -203,15 +207,20 @@ class TriaxialCalibration(ResultMixin):
 
     @classmethod
     def from_document(cls, doc: Mapping[str, Any], *, source: str = "parameter file") -> "TriaxialCalibration":
-        """Rebuild from a saved document: version 2 (``type``), a version-1 file or report (``format``)."""
-        if isinstance(doc, dict) and doc.get("type") != TYPE and isinstance(doc.get("calibration"), dict):
-            doc = doc["calibration"]
-        if not isinstance(doc, dict) or (doc.get("type") != TYPE and doc.get("format") != FORMAT):
-            raise FileFormatError(f"{source} is not a senscal triaxial calibration; give the file written by "
-                                  "'senscal triaxial calibrate --out'")
+        """Rebuild from a saved document: version 2 (``type``, fields under ``calibration``), or a
+        version-1 file (``format``; flat, or a report with the calibration inside)."""
         from senscal.persist import check_version
 
-        check_version(doc, source)
+        if isinstance(doc, dict) and doc.get("type") == TYPE:
+            check_version(doc, source)
+            doc = doc.get("calibration") if isinstance(doc.get("calibration"), dict) else doc
+        else:
+            if isinstance(doc, dict) and isinstance(doc.get("calibration"), dict):
+                doc = doc["calibration"]
+            if not isinstance(doc, dict) or doc.get("format") != FORMAT:
+                raise FileFormatError(f"{source} is not a senscal triaxial calibration; give the file written by "
+                                      "'senscal triaxial calibrate --out'")
+            check_version(doc, source)
         try:
             m = np.array(doc["matrix"], float)
             b = np.array(doc["offsets"], float)
