@@ -245,3 +245,19 @@ def _chunked_file(group, y, t, c):
     for a in (0, 200, 400):
         _, _, st = filter_block(group, y[None, a:a + 200], t[a:a + 200], st, c[None, None, a:a + 200])
     return None, None, st[0]
+
+
+def test_a_channel_that_missed_a_sample_rejoins_the_shared_covariance():
+    rng = np.random.default_rng(9)
+    group = FleetGroup("g", known_setup([ROLE]), KNOWN, prior_scale=0.05)
+    C, T = 30, 600
+    states = [None] * C
+    kinds = []
+    for k in range(5):
+        y = _known_data(rng, C, T)
+        if k == 1:
+            y[4, 50] = np.nan
+        bias, std, states = filter_block(group, y, np.arange(k * T, (k + 1) * T, dtype=float), states)
+        kinds.append(std.ndim)
+        assert np.all(np.isfinite(bias))
+    assert kinds[0] == 1 and kinds[1] == 2 and kinds[-1] == 1
