@@ -45,7 +45,7 @@ def test_record_history_due_json(cli, db_url, tmp_path):
     _ok(cli("registry", "history", "A1", "--quantity", "sensitivity", "--plot", png, "--db", db_url))
     assert png.stat().st_size > 5000
     due = json.loads(_ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "2%",
-                             "--json", "--db", db_url)).out)
+                             "--as-of", "2023-06-01", "--json", "--db", db_url)).out)
     # Exactly +4e-5 per year (records one year apart, differences in leap days aside).
     assert due["drift_per_year"] == pytest.approx(4e-5, rel=2e-3)
     assert due["significant"] is True
@@ -53,6 +53,16 @@ def test_record_history_due_json(cli, db_url, tmp_path):
     # The noiseless line leaves 2 % of 0.0100 five years after the first record (2025-03-01); adding the
     # k=2 uncertainty of the extrapolated line makes it earlier, but after the last record.
     assert "2023-03-01" < due["due_date"] < "2025-03-01" and due["overdue"] is False
+    assert due["as_of"].startswith("2023-06-01")
+    # Judged today (after 2025-03-01) the same due date has passed: overdue, in JSON and in the table.
+    now = json.loads(_ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "2%",
+                             "--json", "--db", db_url)).out)
+    assert now["due_date"] == due["due_date"] and now["overdue"] is True
+    r = _ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "2%", "--db", db_url))
+    assert "OVERDUE" in r.out and "overdue" in r.err
+    r = _ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "2%", "--as-of", "2023-06-01",
+                "--db", db_url))
+    assert "OVERDUE" not in r.out and "overdue" not in r.err
     assert abs(due["deviation_at_due"]) + 2 * due["u_deviation_at_due"] == pytest.approx(2e-4, rel=1e-5)
     late = json.loads(_ok(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "1%",
                               "--json", "--db", db_url)).out)
@@ -119,8 +129,11 @@ def test_fit_save_records_the_result(cli, tmp_path):
     write_recording(rec, path)
     before = path.read_bytes()
     db = f"sqlite:///{tmp_path / 'reg.sqlite'}"
-    r = _one_line_error(cli("fit", path, "--save", "--sensor", "V7", "--db", db), "unknown sensor serial 'V7'",
+    # A --db file that does not exist is refused (a typo must not start a new registry) unless the
+    # command registers the sensor (--create-sensor).
+    r = _one_line_error(cli("fit", path, "--save", "--sensor", "V7", "--db", db), "reg.sqlite does not exist",
                         "--create-sensor")
+    assert not (tmp_path / "reg.sqlite").exists()
     _one_line_error(cli("fit", path, "--sensor", "V7"), "add --save")
     _one_line_error(cli("fit", path, "--save"), "--save needs --sensor")
     r = _ok(cli("fit", path, "--json", "--save", "--sensor", "V7", "--create-sensor", "velocity sensor", "--db", db,

@@ -23,11 +23,20 @@ registry_app = typer.Typer(
 app.add_typer(registry_app, name="registry")
 
 SerialArg = Annotated[str, typer.Argument(help="Sensor serial number.")]
+CreateOpt = Annotated[bool, typer.Option(
+    "--create", help="Create the --db registry file if it does not exist (without it a missing file is an error: "
+                     "a typo must not open an empty registry).")]
 
 
-def _open(db: str | None):
+def _open(db: str | None, create: bool = False):
+    """Open the registry; a ``--db`` SQLite file that does not exist needs ``create`` (see docs/registry.md)."""
     from senscal.registry import open_registry
+    from senscal.registry.db import missing_registry_file
 
+    missing = missing_registry_file(db)
+    if missing is not None and not create:
+        raise InputError(f"registry file {missing} does not exist; check the --db path, or add --create to make "
+                         "a new registry there")
     return open_registry(db)
 
 
@@ -67,9 +76,9 @@ def _parse_nominal(items: list[str] | None) -> dict:
 
 
 @registry_app.command("sensors")
-def sensors_cmd(db: DbOpt = None, json_out: JsonOpt = False) -> None:
+def sensors_cmd(db: DbOpt = None, create: CreateOpt = False, json_out: JsonOpt = False) -> None:
     """List the registered sensors and their number of calibration records."""
-    with _open(db) as reg:
+    with _open(db, create) as reg:
         sens = reg.sensors()
         counts = reg.counts()
         url = reg.url
@@ -94,9 +103,9 @@ def add_cmd(
     db: DbOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    """Register a sensor (serials are unique)."""
+    """Register a sensor (serials are unique); creates a --db registry file that does not exist yet."""
     nom = _parse_nominal(nominal)
-    with _open(db) as reg:
+    with _open(db, create=True) as reg:
         s = reg.add_sensor(serial, kind, model=model, manufacturer=manufacturer, nominal=nom, notes=notes)
         url = reg.url
     if json_out:
@@ -122,6 +131,7 @@ def record_cmd(
     operator: OperatorOpt = None,
     create_sensor: CreateSensorOpt = None,
     db: DbOpt = None,
+    create: CreateOpt = False,
     json_out: JsonOpt = False,
 ) -> None:
     """Enter a calibration done elsewhere (e.g. an old paper certificate)."""
@@ -130,7 +140,7 @@ def record_cmd(
     if not k > 0:
         raise InputError(f"--k must be positive, got {k}")
     q = Quantity(quantity, value, uncertainty / k, unit, k)
-    with _open(db) as reg:
+    with _open(db, create or create_sensor is not None) as reg:
         rec = reg.record(serial, [q], performed_at=_date(date), job="manual", method="external certificate",
                          certificate=certificate, note=note, supersedes=supersedes, operator=operator,
                          create_kind=create_sensor)
@@ -158,11 +168,12 @@ def history_cmd(
     plot: Annotated[Optional[Path], typer.Option("--plot", metavar="FILE.png", help="Plot with uncertainty bars.")] = None,
     all_records: Annotated[bool, typer.Option("--all", help="Include superseded records.")] = False,
     db: DbOpt = None,
+    create: CreateOpt = False,
     json_out: JsonOpt = False,
     strict: StrictOpt = False,
 ) -> None:
     """A sensor's calibration history (table, JSON, plot)."""
-    with _open(db) as reg:
+    with _open(db, create) as reg:
         points = reg.history(serial, quantity, include_superseded=all_records)
         report = None
         if plot is not None and quantity is not None and sum(p.superseded_by is None for p in points) >= 2:
@@ -200,7 +211,10 @@ def due_cmd(
     nominal: Annotated[Optional[float], typer.Option("--nominal", help="Reference value (default: first record).")] = None,
     k: Annotated[float, typer.Option("--k", help="Coverage factor added to the predicted deviation.")] = 2.0,
     plot: Annotated[Optional[Path], typer.Option("--plot", metavar="FILE.png", help="History, drift line, due date.")] = None,
+    as_of: Annotated[Optional[str], typer.Option(
+        "--as-of", metavar="ISO", help="Judge 'overdue' at this date (ISO 8601; default now).")] = None,
     db: DbOpt = None,
+    create: CreateOpt = False,
     json_out: JsonOpt = False,
     strict: StrictOpt = False,
 ) -> None:
@@ -208,8 +222,11 @@ def due_cmd(
     tol = parse_relative(tolerance, "--tolerance")
     if tol == 0:
         raise InputError("--tolerance must be larger than zero")
-    with _open(db) as reg:
-        rep = reg.drift(serial, quantity, tolerance=tol, nominal=nominal, k=k)
+    from senscal.registry import parse_date
+
+    when = parse_date(as_of, what="--as-of")  # checked before opening the database
+    with _open(db, create) as reg:
+        rep = reg.drift(serial, quantity, tolerance=tol, nominal=nominal, k=k, as_of=when)
         points = reg.history(serial, quantity) if plot is not None else []
         warns = _chain_warnings(reg)
     if plot is not None:
@@ -231,13 +248,16 @@ def due_cmd(
         ["Birge ratio", f"{rep.fit.birge_ratio:.3g}" if rep.fit.dof > 0 else "- (2 records)", ""],
         ["reference", f"{rep.reference:.6g} {rep.unit} ({rep.reference_source})", ""],
         ["tolerance", f"± {rep.tolerance:.4g} {rep.unit} ({100 * tol:.4g} %)", ""],
-        ["due date", doc["due_date"] or "none within 100 years", ""],
+        ["due date", (doc["due_date"] or "none within 100 years") + ("  OVERDUE" if rep.overdue else ""), ""],
     ]
     console.print(table(f"{serial} {quantity}: drift from {rep.fit.n_records} records  (U: k=2)",
                         ["", "value", "U"], rows))
     if rep.due is not None and rep.due.overdue:
         err_console.print(f"{serial} is overdue: at the last calibration the deviation plus "
                           f"{k:g} standard uncertainties already reaches the tolerance")
+    elif rep.overdue:
+        err_console.print(f"{serial} is overdue: its due date {doc['due_date'][:10]} is before "
+                          f"{doc['as_of'][:10]}")
     emit_warnings(warns, strict)
 
 
@@ -253,13 +273,13 @@ def due_document(rep, tol: float) -> dict:
         "last_date": rep.last_date.isoformat(), "reference": rep.reference, "reference_source": rep.reference_source,
         "tolerance_relative": tol, "tolerance": rep.tolerance, "k": rep.due.k,
         "due_date": rep.due_date.isoformat() if rep.due_date is not None else None,
-        "overdue": rep.due.overdue,
+        "overdue": rep.overdue, "as_of": rep.as_of.isoformat() if rep.as_of is not None else None,
         "deviation_at_due": rep.due.deviation_at_due, "u_deviation_at_due": rep.due.u_deviation_at_due,
     }
 
 
 @registry_app.command("verify")
-def verify_cmd(db: DbOpt = None, json_out: JsonOpt = False) -> None:
+def verify_cmd(db: DbOpt = None, create: CreateOpt = False, json_out: JsonOpt = False) -> None:
     """Recompute the hash chain over every record; exit 3 naming the first broken record.
 
     Detects records changed, deleted or inserted with direct database access
@@ -269,7 +289,7 @@ def verify_cmd(db: DbOpt = None, json_out: JsonOpt = False) -> None:
     """
     from senscal.errors import DiagnosticError
 
-    with _open(db) as reg:
+    with _open(db, create) as reg:
         rep = reg.verify()
         url = reg.url
     if json_out:
@@ -283,11 +303,12 @@ def verify_cmd(db: DbOpt = None, json_out: JsonOpt = False) -> None:
 
 @registry_app.command("export")
 def export_cmd(
-    file: Annotated[Path, typer.Argument(help="Output JSON file.")],
+    file: Annotated[Path, typer.Argument(help="Output JSON file (- for stdout).")],
     db: DbOpt = None,
+    create: CreateOpt = False,
 ) -> None:
     """Write every sensor and record to a JSON file (import reads it back exactly)."""
-    with _open(db) as reg:
+    with _open(db, create) as reg:
         doc = reg.export()
         url = reg.url
     write_json(doc, file)
@@ -301,11 +322,12 @@ def import_cmd(
     db: DbOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
-    """Add the sensors and records of an export file (records already present are skipped)."""
+    """Add the sensors and records of an export file (records already present are skipped); creates a --db
+    registry file that does not exist yet."""
     from senscal.io.sidefiles import read_json
 
     doc = read_json(file, "registry export")  # one line for unreadable, non-UTF-8, invalid or too deep JSON
-    with _open(db) as reg:
+    with _open(db, create=True) as reg:
         added = reg.import_(doc)
         url = reg.url
     if json_out:

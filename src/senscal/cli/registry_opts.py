@@ -100,6 +100,13 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
     qs = list(quantities() if callable(quantities) else (quantities or []))
     doc = result.to_dict() if hasattr(result, "to_dict") else result
     job = job or getattr(result, "job", "") or None
+    from senscal.registry.db import missing_registry_file
+
+    missing = missing_registry_file(db)
+    if missing is not None and create_sensor is None:
+        # A typo in --db must not record into a new, empty registry.
+        raise InputError(f"registry file {missing} does not exist; check the --db path, or add --create-sensor KIND "
+                         "to start a new registry there with this sensor")
     with open_registry(db) as reg:
         rec = reg.record(sensor, qs, performed_at=when, job=job, method=method, conditions=conditions,
                          result=doc, certificate=certificate, input_files=input_files, operator=operator,

@@ -24,7 +24,7 @@ from sqlalchemy.exc import ArgumentError, DBAPIError, NoSuchModuleError
 from senscal.errors import InputError
 from senscal.io.guard import note_input
 
-__all__ = ["default_url", "parse_url", "mask_url", "create_registry_engine", "upgrade", "metadata",
+__all__ = ["default_url", "parse_url", "mask_url", "missing_registry_file", "create_registry_engine", "upgrade", "metadata",
            "sensors", "calibrations", "quantities", "registry_chain", "UTC"]
 
 UTC = timezone.utc
@@ -95,6 +95,27 @@ def parse_url(url: str | Path | None) -> URL:
         # psycopg (v3) is the driver senscal installs; SQLAlchemy's default is psycopg2.
         u = u.set(drivername="postgresql+psycopg")
     return u
+
+
+def missing_registry_file(url: str | Path | None) -> Path | None:
+    """The SQLite file an explicitly named registry would create, or None if it exists.
+
+    ``None`` (the default registry: ``$SENSCAL_DB`` or the user data
+    folder), server URLs and in-memory databases never count as missing:
+    the default is created on first use.  A named file that does not exist
+    is most often a typo, which would otherwise open an empty registry; the
+    command line refuses it unless asked to create it (``--create``).
+    """
+    if url is None:
+        return None
+    u = url if isinstance(url, URL) else parse_url(url)
+    if u.get_backend_name() != "sqlite":
+        return None
+    db = u.database
+    if not db or db == ":memory:" or db.startswith("file:"):
+        return None
+    path = Path(db)
+    return None if path.exists() else path
 
 
 def _sqlite_pragmas(dbapi_conn, _record) -> None:

@@ -185,6 +185,8 @@ class DriftReport(ResultMixin):
         Allowed absolute deviation (unit).
     due : DueDate or None
     due_date : datetime or None
+    as_of : datetime or None
+        The date "overdue" is judged at (default: when the report was made).
     """
 
     serial: str
@@ -204,12 +206,22 @@ class DriftReport(ResultMixin):
     tolerance: float | None
     due: DueDate | None
     due_date: datetime | None
+    as_of: datetime | None = None
+
+    @property
+    def overdue(self) -> bool | None:
+        """Due at ``as_of`` or earlier: the due date has passed, or the bound already reached the
+        tolerance at the last calibration (None without a tolerance)."""
+        if self.due is None:
+            return None
+        passed = self.due_date is not None and self.as_of is not None and self.due_date <= self.as_of
+        return bool(self.due.overdue or passed)
 
     def to_dict(self) -> dict[str, Any]:
         d = super().to_dict()
-        for key in ("epoch", "first_date", "last_date", "due_date"):
+        for key in ("epoch", "first_date", "last_date", "due_date", "as_of"):
             d[key] = _iso(getattr(self, key))
-        d["overdue"] = bool(self.due.overdue) if self.due is not None else None
+        d["overdue"] = self.overdue
         return d
 
 
@@ -644,7 +656,8 @@ class Registry:
 
     @_db_errors
     def drift(self, serial: str, quantity: str, *, tolerance: float | None = None, relative: bool = True,
-              nominal: float | None = None, k: float = 2.0, alpha: float = 0.05) -> DriftReport:
+              nominal: float | None = None, k: float = 2.0, alpha: float = 0.05,
+              as_of: datetime | str | None = None) -> DriftReport:
         """Drift rate of a quantity and the date the sensor is due.
 
         Parameters
@@ -660,6 +673,8 @@ class Registry:
             Coverage factor of the prediction uncertainty added to the deviation.
         alpha : float
             Significance level of the drift test.
+        as_of : datetime or ISO 8601 str, optional
+            Date at which :attr:`DriftReport.overdue` is judged (default now).
 
         Raises
         ------
@@ -693,7 +708,7 @@ class Registry:
             relative_drift_per_year=fit.drift_per_year / scale, u_relative_drift_per_year=fit.u_drift_per_year / scale,
             significant=fit.significant, reference=reference,
             reference_source="nominal" if nominal is not None else "first record",
-            tolerance=tol_abs, due=due, due_date=due_date)
+            tolerance=tol_abs, due=due, due_date=due_date, as_of=parse_date(as_of, what="as_of"))
 
     # integrity -----------------------------------------------------------------
 
