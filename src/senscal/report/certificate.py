@@ -55,6 +55,7 @@ REPORT_SUFFIXES = (".html", ".htm", ".pdf")
 _TEMPLATE = jinja2.Template(
     """<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>Calibration certificate {{ cert_id }}</title>
+<meta name="author" content="{{ lab.name }}"><meta name="generator" content="senscal {{ version }}">
 <style>
 @page{size:A4;margin:20mm 16mm 20mm 16mm;font-family:"DejaVu Sans",Helvetica,Arial,sans-serif;
  @top-left{content:string(labname);font-size:8pt;color:#555}
