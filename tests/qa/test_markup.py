@@ -88,7 +88,7 @@ def test_registry_fields_round_trip_literally(cli, tmp_path, serial):
 
 def test_markup_in_error_messages_is_literal(cli, tmp_path):
     db = str(tmp_path / "reg.sqlite")
-    r = _clean(cli("registry", "history", STYLED, "--db", db), code=2)
+    r = _clean(cli("registry", "history", STYLED, "--db", db, "--create"), code=2)
     lines = r.err.strip().splitlines()
     assert len(lines) == 1 and STYLED in lines[0], r.err
 
