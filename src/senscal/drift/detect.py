@@ -75,7 +75,11 @@ def _threshold(arl0: float, k: float) -> float:
         hi *= 2.0
         if hi > 1e3:
             raise InputError(f"false-alarm rate too small to reach (run length {arl0:.3g} samples)")
-    return float(brentq(f, 1e-6, hi, xtol=1e-5, rtol=1e-5))
+    h = brentq(f, 1e-6, hi, xtol=1e-5, rtol=1e-5)
+    # The ARL's linear solve rounds differently with another BLAS thread count (a Dask
+    # worker against the command line); six digits, well inside the solver's tolerance,
+    # make the threshold -- and the alarms it decides -- the same in every process.
+    return float(f"{h:.6g}")
 
 
 @nb.njit(cache=True)
