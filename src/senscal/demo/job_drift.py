@@ -7,9 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from senscal.demo import DemoSection
-from senscal.drift import correct_drift, redundant_setup
 from senscal.drift.plot import plot_drift
 from senscal.io import Recording, write_recording
+from senscal.jobs.drift import DriftOptions, drift
 from senscal.simulate.common import write_truth
 from senscal.simulate.drift import simulate_drift
 
@@ -22,15 +22,13 @@ def run(out: Path, seed: int) -> DemoSection:
     rec, truth = simulate_drift(days=8.0, dt=600.0, seed=seed)
     write_recording(rec, folder / "drift.csv")
     write_truth(truth, folder / "drift_truth.json")
-    chans = ["ref", "drift", "thermal"]
-    setup = redundant_setup(chans, trusted=["ref"], covariate="temperature")
     # The alternative-model fits (compare) would double the demo's run time;
     # the innovation checks still run and their verdict is shown.
-    res = correct_drift(setup, rec.data(chans), rec.time, {"temperature": rec["temperature"]}, compare=False)
-    cols = {}
-    for i, c in enumerate(res.channels):
-        cols.update({f"{c}_corrected": res.corrected[i], f"{c}_bias": res.bias[i], f"{c}_bias_std": res.bias_std[i]})
-    write_recording(Recording(cols, t=res.t), folder / "drift_corrected.csv")
+    job = drift(rec, DriftOptions(preset="redundant", channels=("ref", "drift", "thermal"), trusted=("ref",),
+                                  covariate="temperature", compare=False))
+    res = job.result
+    t, cols, units = job.columns()
+    write_recording(Recording(cols, t=t, units=units), folder / "drift_corrected.csv")
     plot_drift(res, {c: rec[c] for c in res.channels}, folder / "drift.png", truth_signal=truth["signal"],
                truth_bias={"drift": truth["bias_drift"], "thermal": truth["bias_thermal"]}, unit="kPa")
 
