@@ -154,8 +154,9 @@ def test_high_snr_large_offset_residual_is_exact():
 def test_serial_and_parallel_kernels_have_distinct_cache_keys():
     # Numba caches by qualified name: a shared key let processes load the
     # threaded build where the serial one was asked for.
-    from senscal.sinefit import _kernels as k
+    from senscal.sinefit import _kernels as kk
 
+    k = kk.compiled()
     pairs = [(k.project_rotated, k.project_rotated_serial), (k.project_parallel, k.project_serial),
              (k.harmonic_basis_parallel, k.harmonic_basis_serial)]
     for par, ser in pairs:

@@ -1,4 +1,4 @@
-"""Compiled kernels for the uniform-time, unweighted fast path of the sine fit.
+"""Kernels for the uniform-time, unweighted fast path of the sine fit.
 
 The projections ``A^T y`` and ``sum(y^2)`` of every channel are taken in one
 streaming pass over the data.  For the fundamental the sin/cos basis is never
@@ -7,6 +7,15 @@ stored: each block of ``_TEMPLATE`` samples is the template
 sin/cos per block), so the only memory traffic is the data itself and the
 basis is exact to rounding (no accumulated recurrence error).  Harmonics and
 drift use a stored basis from a re-anchored rotation recurrence.
+
+Compilation is a first-use cost (about 10 s of numba on a quiet machine for
+these kernels, several times that on a busy one), so the compiled loops are
+built only for records of at least :data:`COMPILED_MIN_SAMPLES` values
+(channels x samples); below that, plain NumPy computes the same sums (to
+rounding) in a few milliseconds, and numba is not even imported.  The public functions
+(``gram_rotated``, ``project_rotated_serial``, ``project_serial``,
+``harmonic_basis``, ``residual_ss`` ...) choose the path; :func:`compiled`
+returns the numba dispatchers.
 """
 
 from __future__ import annotations
@@ -14,7 +23,6 @@ from __future__ import annotations
 import math
 import types
 
-import numba as nb
 import numpy as np
 
 _ANCHOR = 512   # samples between exact re-anchoring of the recurrence
@@ -94,8 +102,7 @@ def _project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, p
     return aty, yy, l1
 
 
-@nb.njit(cache=True, parallel=True, fastmath=False)
-def residual_ss(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, coef: np.ndarray, rows: np.ndarray):
+def _residual_ss(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, coef: np.ndarray, rows: np.ndarray):
     """Second pass: exact residual sum of squares and lag-one sum for the channels in ``rows``."""
     nb_ = basis.shape[0]
     n = y.shape[1]
@@ -127,13 +134,11 @@ def residual_ss(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool
     return out, lag
 
 
-@nb.njit(cache=True)
 def _template(w_dt: float):
     k = np.arange(_TEMPLATE) * w_dt
     return np.sin(k), np.cos(k)
 
 
-@nb.njit(cache=True, fastmath=True)
 def _row_rotated(yr, ts, tc, sa, ca, pv):
     # b0 = sin(a + k w dt), b1 = cos(a + k w dt) by the angle-sum identities:
     # independent per sample, so the loop vectorises.
@@ -183,8 +188,7 @@ def _project_rotated(y: np.ndarray, w_dt: float, tau0_w: float, pilot: np.ndarra
     return aty, yy, l1
 
 
-@nb.njit(cache=True, fastmath=True)
-def gram_rotated(n: int, w_dt: float, tau0_w: float):
+def _gram_rotated(n: int, w_dt: float, tau0_w: float):
     """Normal matrix of [sin, cos, 1] on the same on-the-fly basis, shape (3, 3)."""
     ts, tc = _template(w_dt)
     ss = 0.0
@@ -217,7 +221,16 @@ def gram_rotated(n: int, w_dt: float, tau0_w: float):
 
 # Threads pay only on large arrays; on small ones (and on a busy machine)
 # the serial build is much faster than waking the thread pool.
-def _build(fn, parallel: bool):
+PARALLEL_MIN_SAMPLES = 1 << 20
+# Below this many values (channels x samples) NumPy's vectorised sums cost a
+# few ms a call (the compiled pass: a tenth of that), far less than the ~10 s
+# the compilation costs once; every record of `senscal demo` (at most 8300
+# values) and most single calibration records stay below it.  Measured with
+# benchmarks/bench_cli.py --cold-demo.
+COMPILED_MIN_SAMPLES = 1 << 16
+
+
+def _build(nb, fn, parallel: bool):
     """Compile ``fn`` serial or parallel under its own name.
 
     Numba's on-disk cache is keyed by the function's qualified name and line:
@@ -233,16 +246,131 @@ def _build(fn, parallel: bool):
     return nb.njit(cache=True, parallel=parallel)(copy)
 
 
-project_rotated = _build(_project_rotated, True)
-project_rotated_serial = _build(_project_rotated, False)
-project_parallel = _build(_project, True)
-project_serial = _build(_project, False)
-harmonic_basis_parallel = _build(_harmonic_basis, True)
-harmonic_basis_serial = _build(_harmonic_basis, False)
+_COMPILED: types.SimpleNamespace | None = None
+
+
+def compiled() -> types.SimpleNamespace:
+    """The numba dispatchers (numba imported and the kernels declared on first call; each compiles on first use).
+
+    Attributes ``project_rotated`` / ``project_rotated_serial``,
+    ``project_parallel`` / ``project_serial``, ``harmonic_basis_parallel`` /
+    ``harmonic_basis_serial``, ``gram_rotated``, ``residual_ss``.
+    """
+    global _COMPILED
+    if _COMPILED is None:
+        import numba as nb
+
+        g = globals()
+        # The kernels' bodies call nb.prange and the helpers below as globals, resolved when they compile.
+        g["nb"] = nb
+        g["_template"] = nb.njit(cache=True)(_template)
+        g["_row_rotated"] = nb.njit(cache=True, fastmath=True)(_row_rotated)
+        _COMPILED = types.SimpleNamespace(
+            project_rotated=_build(nb, _project_rotated, True),
+            project_rotated_serial=_build(nb, _project_rotated, False),
+            project_parallel=_build(nb, _project, True),
+            project_serial=_build(nb, _project, False),
+            harmonic_basis_parallel=_build(nb, _harmonic_basis, True),
+            harmonic_basis_serial=_build(nb, _harmonic_basis, False),
+            gram_rotated=nb.njit(cache=True, fastmath=True)(_gram_rotated),
+            residual_ss=nb.njit(cache=True, parallel=True, fastmath=False)(_residual_ss),
+        )
+    return _COMPILED
+
+
+def num_threads() -> int:
+    """Threads the parallel kernels use (numba's setting)."""
+    import numba as nb
+
+    return int(nb.get_num_threads())
+
+
+# --- NumPy: the same sums for records below COMPILED_MIN_SAMPLES -------------------------------------------
+
+
+def _angles(n: int, w_dt: float, tau0_w: float) -> np.ndarray:
+    return tau0_w + np.arange(n) * w_dt
+
+
+def _sums(v: np.ndarray, design: np.ndarray):
+    """``design @ v`` per channel, ``sum(v^2)`` and the lag-one sum ``sum v_i v_(i-1)``."""
+    aty = v @ design.T
+    yy = np.einsum("ij,ij->i", v, v)
+    l1 = np.einsum("ij,ij->i", v[:, 1:], v[:, :-1])
+    return aty, yy, l1
+
+
+def _np_rotated_design(n: int, w_dt: float, tau0_w: float) -> np.ndarray:
+    a = _angles(n, w_dt, tau0_w)
+    return np.stack([np.sin(a), np.cos(a), np.ones(n)])
+
+
+def _np_full_design(basis: np.ndarray, tau: np.ndarray, use_tau: bool) -> np.ndarray:
+    rows = [basis, np.ones((1, basis.shape[1]))] + ([tau[None, :]] if use_tau else [])
+    return np.concatenate(rows, axis=0)
+
+
+def _small(values: int) -> bool:
+    return values < COMPILED_MIN_SAMPLES
+
+
+# --- what the sine fit calls --------------------------------------------------------------------------------
+
+
+def gram_rotated(n: int, w_dt: float, tau0_w: float) -> np.ndarray:
+    """Normal matrix of [sin, cos, 1] on the fundamental's basis, shape (3, 3)."""
+    if _small(n):
+        a = _np_rotated_design(n, w_dt, tau0_w)
+        return a @ a.T
+    return compiled().gram_rotated(n, float(w_dt), float(tau0_w))
+
+
+def project_rotated(y: np.ndarray, w_dt: float, tau0_w: float, pilot: np.ndarray):
+    """``A^T (y - pilot)``, ``sum((y - pilot)^2)``, lag-one sum for fundamental + offset (threaded when compiled)."""
+    if _small(y.size):
+        return _sums(y - pilot[:, None], _np_rotated_design(y.shape[1], w_dt, tau0_w))
+    return compiled().project_rotated(y, float(w_dt), float(tau0_w), pilot)
+
+
+def project_rotated_serial(y: np.ndarray, w_dt: float, tau0_w: float, pilot: np.ndarray):
+    """As :func:`project_rotated`, one thread."""
+    if _small(y.size):
+        return _sums(y - pilot[:, None], _np_rotated_design(y.shape[1], w_dt, tau0_w))
+    return compiled().project_rotated_serial(y, float(w_dt), float(tau0_w), pilot)
+
+
+def project_parallel(y, basis, tau, use_tau: bool, pilot, nthreads: int):
+    """``A^T (y - pilot)``, ``sum((y - pilot)^2)``, lag-one sum with a stored basis (threaded when compiled)."""
+    if _small(y.size):
+        return _sums(y - pilot[:, None], _np_full_design(basis, tau, use_tau))
+    return compiled().project_parallel(y, basis, tau, use_tau, pilot, nthreads)
+
+
+def project_serial(y, basis, tau, use_tau: bool, pilot, nthreads: int):
+    """As :func:`project_parallel`, one thread."""
+    if _small(y.size):
+        return _sums(y - pilot[:, None], _np_full_design(basis, tau, use_tau))
+    return compiled().project_serial(y, basis, tau, use_tau, pilot, nthreads)
 
 
 def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
     """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics, shape (2K, n)."""
-    fn = harmonic_basis_parallel if n * harmonics >= PARALLEL_MIN_SAMPLES // 4 else harmonic_basis_serial
+    if _small(n * harmonics):
+        a = _angles(n, w_dt, tau0_w)
+        return np.stack([f(k * a) for k in range(1, harmonics + 1) for f in (np.sin, np.cos)])
+    c = compiled()
+    fn = c.harmonic_basis_parallel if n * harmonics >= PARALLEL_MIN_SAMPLES // 4 else c.harmonic_basis_serial
     return fn(n, float(w_dt), float(tau0_w), int(harmonics))
-PARALLEL_MIN_SAMPLES = 1 << 20
+
+
+def residual_ss(y, basis, tau, use_tau: bool, coef, rows):
+    """Second pass: exact residual sum of squares and lag-one sum for the channels in ``rows``."""
+    if _small(y.shape[1] * rows.size):
+        c = coef[rows]
+        nb_ = basis.shape[0]
+        m = c[:, :nb_] @ basis + c[:, nb_, None]
+        if use_tau:
+            m = m + c[:, nb_ + 1, None] * tau[None, :]
+        d = y[rows] - m
+        return np.einsum("ij,ij->i", d, d), np.einsum("ij,ij->i", d[:, 1:], d[:, :-1])
+    return compiled().residual_ss(y, basis, tau, use_tau, coef, rows)

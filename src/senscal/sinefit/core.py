@@ -383,9 +383,7 @@ def _check_rank(s: np.ndarray) -> None:
 
 
 def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harmonics: int, drift: bool):
-    """Known frequency, uniform time, no weights: the compiled one-pass path."""
-    import numba as nb
-
+    """Known frequency, uniform time, no weights: the one-pass path (compiled for large records)."""
     from senscal.sinefit import _kernels as kern
 
     p = 2 * harmonics + 1 + int(drift)
@@ -422,7 +420,7 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
         aty, yy, l1v = (kern.project_rotated if big else kern.project_rotated_serial)(yc, w * dt, w * tau0, pilot)
     else:
         proj = kern.project_parallel if big else kern.project_serial
-        aty, yy, l1v = proj(yc, basis, tau, drift, pilot, int(nb.get_num_threads()) if big else 1)
+        aty, yy, l1v = proj(yc, basis, tau, drift, pilot, kern.num_threads() if big else 1)
     if not (np.all(np.isfinite(aty)) and np.all(np.isfinite(yy))):
         # NaN/inf poisons the sums: locate it for the message.
         _check_y(y2, full=True)
