@@ -14,9 +14,11 @@ and 2 worker processes (one thread each) times
   store (reading, filtering every channel, saving every block's state after
   every row group).
 
-It prints throughput [samples/s], the peak resident memory of each worker
-(``ru_maxrss``; a fresh cluster per measurement) and the ratio of the fleet
-time to the plain time, and the speed-up of 2 workers over 1.  ``--small``:
+It prints throughput [samples/s], the CPU seconds the workers used (what a
+pass costs per core whatever else runs on the machine), the peak resident
+memory of each worker (``ru_maxrss``; a fresh cluster per measurement), the
+ratio of the fleet time to the plain time, and the speed-up of 2 workers
+over 1.  ``--small``:
 1,000 channels x 3 h (1.08e7 samples) for a quick look.
 """
 
@@ -47,10 +49,12 @@ def plain_block(file: str, channels: tuple) -> int:
     return n
 
 
-def _maxrss_mb() -> float:
+def _usage() -> tuple[float, float]:
+    """(peak resident memory [MB], CPU seconds used) of this worker process."""
     import resource
 
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    return ru.ru_maxrss / 1024.0, ru.ru_utime + ru.ru_stime
 
 
 def _warm() -> None:
@@ -75,8 +79,8 @@ def _cluster(workers: int):
     return cl, client
 
 
-def measure(dataset: Path, groups, workers: int, what: str, store: Path) -> tuple[float, int, list[float]]:
-    """(seconds, samples, peak RSS per worker [MB]) of one pass on a fresh cluster."""
+def measure(dataset: Path, groups, workers: int, what: str, store: Path) -> tuple[float, int, list[float], float]:
+    """(seconds, samples, peak RSS per worker [MB], worker CPU seconds) of one pass on a fresh cluster."""
     from dask.distributed import wait
 
     from senscal.drift.fleet import plan_blocks, run_fleet
@@ -84,6 +88,7 @@ def measure(dataset: Path, groups, workers: int, what: str, store: Path) -> tupl
     cl, client = _cluster(workers)
     try:
         blocks, _ = plan_blocks(dataset, groups)
+        cpu0 = sum(u[1] for u in client.run(_usage).values())
         t0 = time.perf_counter()
         if what == "plain":
             futs = [client.submit(plain_block, b.file, b.channels, pure=False) for b in blocks]
@@ -94,11 +99,13 @@ def measure(dataset: Path, groups, workers: int, what: str, store: Path) -> tupl
                 shutil.rmtree(store)
             n = run_fleet(dataset, groups, state=store, client=client).n_samples
         sec = time.perf_counter() - t0
-        rss = sorted(client.run(_maxrss_mb).values())
+        use = client.run(_usage).values()
+        rss = sorted(u[0] for u in use)
+        cpu = sum(u[1] for u in use) - cpu0
     finally:
         client.close()
         cl.close()
-    return sec, n, rss
+    return sec, n, rss, cpu
 
 
 def main() -> None:
@@ -131,16 +138,19 @@ def main() -> None:
         print(f"fleet: {C} channels x {T} s at 1 Hz = {C * T:.3g} samples, {size / 1e9:.2f} GB Parquet "
               f"(float32, 500 channels/file, 1 h row groups); written in {t_gen:.0f} s")
         print("set-up: known value, random-walk bias (shared-covariance kernel), state saved every row group")
-        print(f"{'pass':<8}{'workers':>8}{'seconds':>10}{'samples/s':>12}{'per worker':>12}{'peak RSS/worker MB':>22}")
-        for (what, w), (sec, n, rss) in rows.items():
-            print(f"{what:<8}{w:>8}{sec:>10.1f}{n / sec:>12.3g}{n / sec / w:>12.3g}"
+        print(f"{'pass':<8}{'workers':>8}{'seconds':>10}{'samples/s':>12}{'per worker':>12}{'worker CPU s':>14}"
+              f"{'samples/CPU-s':>15}{'peak RSS/worker MB':>22}")
+        for (what, w), (sec, n, rss, cpu) in rows.items():
+            print(f"{what:<8}{w:>8}{sec:>10.1f}{n / sec:>12.3g}{n / sec / w:>12.3g}{cpu:>14.1f}{n / cpu:>15.3g}"
                   f"{'  ' + ', '.join(f'{r:.0f}' for r in rss):>22}")
         for w in (1, 2):
-            print(f"fleet / plain time on {w} worker{'s' if w > 1 else ''}: "
-                  f"{rows[('fleet', w)][0] / rows[('plain', w)][0]:.2f} (target <= 10)")
+            f, p = rows[("fleet", w)], rows[("plain", w)]
+            print(f"fleet / plain on {w} worker{'s' if w > 1 else ''}: wall time {f[0] / p[0]:.2f}, "
+                  f"worker CPU time {f[3] / p[3]:.2f} (target <= 10)")
         for what in ("plain", "fleet"):
             print(f"{what}: 2 workers / 1 worker throughput {rows[(what, 1)][0] / rows[(what, 2)][0]:.2f} "
-                  "(2.0 = linear)")
+                  f"(2.0 = linear; needs 2 idle cores), CPU per sample {rows[(what, 2)][3] / rows[(what, 1)][3]:.2f}"
+                  " (1.0 = no cost of parallelism)")
     finally:
         if not args.keep:
             shutil.rmtree(root, ignore_errors=True)
