@@ -38,6 +38,25 @@ def _sym(P):
             P[j, i] = a
 
 
+# Whole-array assignments (``a[t] = b``, ``a[:, :] = b``) are written as the
+# loops below: numba compiles its broadcasting setitem with shape-mismatch
+# messages built from strings, which alone cost ~15 s of compilation on a
+# user's first run; these loops compile in a fraction of a second.
+@nb.njit(cache=True)
+def _copy1(dst, src):
+    """dst[:] = src for vectors."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+@nb.njit(cache=True)
+def _copy2(dst, src):
+    """dst[:, :] = src for matrices."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
+
+
 @nb.njit(cache=True)
 def _mm(A, B, out):
     """out = A @ B for small square matrices (no allocation)."""
@@ -140,8 +159,8 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
     for t in range(T):
         # ---- predict
         if t == 0:
-            xp[:] = x0
-            Pp[:, :] = P0
+            _copy1(xp, x0)
+            _copy2(Pp, P0)
         else:
             Ft = _at(F, t)
             Bt = _at(B, t)
@@ -154,7 +173,7 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                     acc += Bt[i, j] * u[t - 1, j]
                 xp[i] = acc
             _mm(Ft, P, tmp)
-            Pp[:, :] = Qt
+            _copy2(Pp, Qt)
             _abt_sym(tmp, Ft, n, Pp, True)
         # ---- innovation
         Ht = _at(H, t)
@@ -182,18 +201,18 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                 obs[mo] = a
                 mo += 1
         if store:
-            xp_out[t] = xp
-            Pp_out[t] = Pp
-            v_out[t] = v
-            S_out[t] = S
+            _copy1(xp_out[t], xp)
+            _copy2(Pp_out[t], Pp)
+            _copy1(v_out[t], v)
+            _copy2(S_out[t], S)
             for a in range(m):
                 e_out[t, a] = np.nan
         if mo == 0:
-            x[:] = xp
-            P[:, :] = Pp
+            _copy1(x, xp)
+            _copy2(P, Pp)
             if store:
-                xf[t] = x
-                Pf[t] = P
+                _copy1(xf[t], x)
+                _copy2(Pf[t], P)
             continue
         # ---- Cholesky of the observed block, whitened innovation
         if not _chol(S, obs, mo, L):
@@ -211,11 +230,11 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                 e_out[t, obs[a]] = es[a]
         if gate > 0.0 and nis > gate:
             rej[t] = True
-            x[:] = xp
-            P[:, :] = Pp
+            _copy1(x, xp)
+            _copy2(P, Pp)
             if store:
-                xf[t] = x
-                Pf[t] = P
+                _copy1(xf[t], x)
+                _copy2(Pf[t], P)
             continue
         loglik += -0.5 * (mo * _LOG_2PI + logdet + nis)
         # ---- gain K = Pp Hs^T Ss^-1, row by row through the Cholesky factor
@@ -244,8 +263,8 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
         _abt_sym(tmp, IKH, n, P, False)
         _abt_sym(KR, Kg, mo, P, True)
         if store:
-            xf[t] = x
-            Pf[t] = P
+            _copy1(xf[t], x)
+            _copy2(Pf[t], P)
         if allow_ss and t > 0:
             # Converged when the predicted covariance stops changing.
             scale = 0.0
@@ -259,8 +278,26 @@ def filter_series(F, B, H, Q, R, x0, P0, y, u, gate, allow_ss, store,
                 loglik += _steady(F[0], B[0], H[0], Kg, L, P, x, y, u, t + 1, store, xf, Pf, xp_out,
                                   Pp_out, v_out, S_out, e_out, logdet, Pp, S)
                 return loglik, t + 1
-        Pp_prev[:, :] = Pp
+        _copy2(Pp_prev, Pp)
     return loglik, -1
+
+
+@nb.njit(cache=True)
+def _tril_inv(L, m):
+    """Inverse of the lower-triangular L[:m, :m] by forward substitution.
+
+    np.linalg.inv (a general LU through LAPACK) costs ~8 s of compilation on
+    a first run, and the triangle is all the whitening uses.
+    """
+    Li = np.zeros((m, m))
+    for j in range(m):
+        Li[j, j] = 1.0 / L[j, j]
+        for i in range(j + 1, m):
+            acc = 0.0
+            for c in range(j, i):
+                acc -= L[i, c] * Li[c, j]
+            Li[i, j] = acc / L[i, i]
+    return Li
 
 
 @nb.njit(cache=True)
@@ -275,7 +312,7 @@ def _steady(F, B, H, K, L, P, x, y, u, t0, store, xf, Pf, xp_out, Pp_out, v_out,
     m = H.shape[0]
     k = B.shape[1]
     T = y.shape[0]
-    Linv = np.linalg.inv(L[:m, :m])
+    Linv = _tril_inv(L, m)
     const = -0.5 * (m * _LOG_2PI + logdet)
     ll = 0.0
     xp = np.empty(n)
@@ -309,13 +346,13 @@ def _steady(F, B, H, K, L, P, x, y, u, t0, store, xf, Pf, xp_out, Pp_out, v_out,
         ll += const - 0.5 * nis
         if not store:
             continue
-        xp_out[t] = xp
-        xf[t] = x
-        v_out[t] = v
-        e_out[t] = e
-        Pf[t] = P
-        Pp_out[t] = Pp
-        S_out[t] = S
+        _copy1(xp_out[t], xp)
+        _copy1(xf[t], x)
+        _copy1(v_out[t], v)
+        _copy1(e_out[t], e)
+        _copy2(Pf[t], P)
+        _copy2(Pp_out[t], Pp)
+        _copy2(S_out[t], S)
     return ll
 
 
@@ -341,7 +378,7 @@ def smoother_gains(F, Pf, Pp):
         Pt = Pf[t]
         _mm(Ft1, Pt, FP)
         if not _chol(A, idx, n, L):
-            C[t] = (np.linalg.pinv(A) @ FP).T
+            _copy2(C[t], (np.linalg.pinv(A) @ FP).T)
             continue
         for c in range(n):
             for i in range(n):
@@ -367,7 +404,7 @@ def _rts_step(Ct, xf_t, Pf_t, xp_n, Pp_n, x, P, D, CD):
         for j in range(n):
             D[i, j] = P[i, j] - Pp_n[i, j]
     _mm(Ct, D, CD)
-    P[:, :] = Pf_t
+    _copy2(P, Pf_t)
     _abt_sym(CD, Ct, n, P, True)
 
 
@@ -379,12 +416,12 @@ def rts_series(C, xf, Pf, xp, Pp, xs, Ps):
     P = Pf[T - 1].copy()
     D = np.empty((n, n))
     CD = np.empty((n, n))
-    xs[T - 1] = x
-    Ps[T - 1] = P
+    _copy1(xs[T - 1], x)
+    _copy2(Ps[T - 1], P)
     for t in range(T - 2, -1, -1):
         _rts_step(C[t], xf[t], Pf[t], xp[t + 1], Pp[t + 1], x, P, D, CD)
-        xs[t] = x
-        Ps[t] = P
+        _copy1(xs[t], x)
+        _copy2(Ps[t], P)
 
 
 @nb.njit(cache=True)
@@ -401,9 +438,9 @@ def fixed_lag_series(C, xf, Pf, xp, Pp, lag, xs, Ps):
     CD = np.empty((n, n))
     for t in range(T):
         end = min(t + lag, T - 1)
-        x[:] = xf[end]
-        P[:, :] = Pf[end]
+        _copy1(x, xf[end])
+        _copy2(P, Pf[end])
         for s in range(end - 1, t - 1, -1):
             _rts_step(C[s], xf[s], Pf[s], xp[s + 1], Pp[s + 1], x, P, D, CD)
-        xs[t] = x
-        Ps[t] = P
+        _copy1(xs[t], x)
+        _copy2(Ps[t], P)
