@@ -18,7 +18,7 @@ from senscal.drift.model import DriftSetup, augmented_model, check_observable
 from senscal.errors import DataError, InputError, TooFewSamplesError
 from senscal.kalman import fixed_lag_smoother, kalman_filter, rts_smoother
 
-__all__ = ["DriftResult", "correct_drift", "drift_prior", "DEFAULT_FALSE_ALARM_RATE"]
+__all__ = ["DriftResult", "correct_drift", "drift_prior", "channel_bias", "DEFAULT_FALSE_ALARM_RATE"]
 
 #: Default false-alarm rate of the drift-onset detector [alarms per hour per channel].
 DEFAULT_FALSE_ALARM_RATE = 1e-4
@@ -383,6 +383,34 @@ def _detect(build, setup: DriftSetup, levels: Mapping[str, float], yy: np.ndarra
     return det, onset, alarm
 
 
+def channel_bias(setup: DriftSetup, H: np.ndarray, x: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Total bias of each corrected channel and its variance, from augmented-state estimates.
+
+    The bias of a channel is ``E_t x_t`` with ``E_t`` the bias columns of
+    its row of ``H_t`` (a covariate-linked term weighted by the referenced
+    covariate), its variance ``E_t P_t E_t'``.
+
+    Parameters
+    ----------
+    setup : DriftSetup
+    H : ndarray, (T, m, n)
+        Measurement matrices.
+    x : ndarray, (T, n)
+        State estimates (time first).
+    P : ndarray, (T, n, n)
+        Their covariances.
+
+    Returns
+    -------
+    bias, variance : ndarray, (mc, T)
+        Rows: ``setup.biased_channels`` [unit] and [unit^2].
+    """
+    rows = [setup.channels.index(c) for c in setup.biased_channels]
+    E = np.array(H[:, rows, :], copy=True)
+    E[:, :, :setup.signal.n_states] = 0.0
+    return np.einsum("tcn,tn->ct", E, x), np.einsum("tcn,tnk,tck->ct", E, P, E)
+
+
 def drift_prior(setup: DriftSetup, y: np.ndarray, covariates: Mapping[str, np.ndarray],
                 duration: float, *, spread: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Prior mean and covariance of the augmented state from the data.
@@ -604,14 +632,10 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
     x, P = est.x, est.P
     state_std = est.std
 
-    # Total bias of a channel: E_t x_t with E_t the bias columns of H_t.
     Hb = np.broadcast_to(model.H, (T,) + model.H.shape[-2:]) if model.H.ndim == 2 else model.H
     chans = setup.biased_channels
     rows = [setup.channels.index(c) for c in chans]
-    E = np.array(Hb[:, rows, :], copy=True)
-    E[:, :, :ns] = 0.0
-    bias = np.einsum("tcn,nt->ct", E, x)
-    bias_var = np.einsum("tcn,nkt,tck->ct", E, P, E)
+    bias, bias_var = channel_bias(setup, Hb, np.moveaxis(x, -1, 0), np.moveaxis(P, -1, 0))
     shift = setup.signal.mean if setup.signal.kind in ("gauss_markov", "known") else 0.0
     y_c = yy[rows] + shift
     corrected = y_c - bias

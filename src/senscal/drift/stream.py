@@ -28,7 +28,7 @@ from typing import Any, Mapping
 import numpy as np
 
 from senscal._result import ResultMixin
-from senscal.drift.core import drift_prior
+from senscal.drift.core import channel_bias, drift_prior
 from senscal.drift.model import Bias, DriftSetup, SignalModel, augmented_model
 from senscal.errors import DataError, FileFormatError, InputError
 from senscal.kalman import _kernels as K
@@ -555,14 +555,9 @@ class DriftTracker:
         """Bias, its u and corrected values of time-major estimates ``x`` (k, n), ``P`` (k, n, n)."""
         setup = st.setup
         k, n = x.shape
-        ns = setup.signal.n_states
         chans = setup.biased_channels
         rows = [setup.channels.index(c) for c in chans]
-        # Total bias of a channel: E_t x_t, E_t the bias columns of H_t.
-        E = np.array(h[:, rows, :], copy=True)
-        E[:, :, :ns] = 0.0
-        bias = np.einsum("tcn,tn->ct", E, x)
-        bias_var = np.einsum("tcn,tnk,tck->ct", E, P, E)
+        bias, bias_var = channel_bias(setup, h, x, P)
         corrected = y[:, rows].T - bias
         state = x.T.copy()
         if setup.signal.kind in ("gauss_markov", "known"):
