@@ -137,7 +137,9 @@ class TrackerState(ResultMixin):
         ``xf``/``xp`` (k, n), ``Pf``/``Pp`` (k, n, n), ``F`` (k, n, n)
         transition into each sample.
     h_last : ndarray or None
-        Measurement matrix (m, n) of the last sample (its covariate values).
+        Measurement matrix (m, n) of the last sample (its covariate values);
+        None in a state built by hand (``current`` then leaves
+        covariate-linked terms unknown).
     n_samples : int
         Samples filtered so far.
     n_emitted : int
@@ -303,8 +305,21 @@ def _check_state(s: TrackerState, source: str) -> None:
         a = getattr(s, key)
         if a is not None and (a.shape != shape or not np.all(np.isfinite(a))):
             raise FileFormatError(f"{source}: {key} must be {shape} finite numbers")
-    if (s.x is None) != (s.t_last is None) or (s.x is None) != (s.h_last is None) or s.lag < 0 or k > max(s.lag, 0):
+    if (s.x is None) != (s.t_last is None) or (s.x is None and s.h_last is not None) or s.lag < 0 or k > max(s.lag, 0):
         raise FileFormatError(f"{source} is inconsistent (last state, time and window do not agree)")
+
+
+def _h_unknown_covariates(s: TrackerState) -> np.ndarray:
+    """Measurement matrix of a state built without its last sample's H: covariate columns unknown (NaN)."""
+    setup = s.setup
+    model = augmented_model(setup, np.ones(1), s.levels, {c: np.zeros(1) for c in setup.covariates})
+    h = np.array(model._H[0])
+    col = setup.signal.n_states
+    for b in setup.biases:
+        if b.covariate is not None:
+            h[setup.channels.index(b.channel), col] = np.nan
+        col += len(b.state_names)
+    return h
 
 
 # --------------------------------------------------------------------------- the tracker
@@ -544,7 +559,8 @@ class DriftTracker:
                                    np.zeros((0, len(s.setup.state_names))),
                                    np.zeros((0, len(s.setup.state_names), len(s.setup.state_names))))
         y_last = s.buffer["y"][-1:] if s.buffer["t"].size else np.full((1, len(s.setup.channels)), np.nan)
-        return self._emit_from(s, np.array([s.t_last]), y_last, s.h_last[None], s.x[None], s.P[None])
+        h = s.h_last if s.h_last is not None else _h_unknown_covariates(s)
+        return self._emit_from(s, np.array([s.t_last]), y_last, h[None], s.x[None], s.P[None])
 
     def flush(self) -> TrackerChunk:
         """Emit the samples still in the lag window (end of data: shorter windows, as a one-pass run)."""
