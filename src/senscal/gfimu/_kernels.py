@@ -16,7 +16,10 @@ def quaternion_integrate(omega, t, q0):
     """
     n = omega.shape[1]
     q = np.empty((4, n))
-    q[:, 0] = q0 / np.sqrt(np.sum(q0 * q0))
+    nrm = np.sqrt(np.sum(q0 * q0))
+    # Element loops, not q[:, 0] = ...: numba's broadcasting setitem compiles ~15 s of error-message code.
+    for i in range(4):
+        q[i, 0] = q0[i] / nrm
     for k in range(1, n):
         dt = t[k] - t[k - 1]
         rx = 0.5 * dt * (omega[0, k - 1] + omega[0, k])
@@ -184,8 +187,10 @@ def quadratic_ekf(wq, u, Q, Rinv, x0, P0, gate, reset_after=0, inflate=4.0):
                 xk[i] += dx[i]
                 for j in range(3):
                     Pk[i, j] = 0.5 * (Pn[i, j] + Pn[j, i])
-        x[:, k] = xk
-        P[:, :, k] = Pk
+        for i in range(3):
+            x[i, k] = xk[i]
+            for j in range(3):
+                P[i, j, k] = Pk[i, j]
     return x, P, nis, rejected
 
 
@@ -241,7 +246,8 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=
                     Pk[i, j] += Q[i, j]
         if skip is not None and skip[k]:
             nis[k] = np.nan
-            x[:, k] = xk
+            for i in range(xk.shape[0]):
+                x[i, k] = xk[i]
             for i in range(3):
                 for j in range(3):
                     Pw[i, j, k] = Pk[i, j]
@@ -323,7 +329,8 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=
                     v = 0.5 * ((Pk[i, j] - s) + (Pk[j, i] - s))
                     Pk[i, j] = v
                     Pk[j, i] = v
-        x[:, k] = xk
+        for i in range(xk.shape[0]):
+            x[i, k] = xk[i]
         for i in range(3):
             for j in range(3):
                 Pw[i, j, k] = Pk[i, j]
