@@ -207,3 +207,49 @@ def test_old_h5_response_converts_to_a_real_hdf5_file(tmp_path):
     save_response(resp, work)
     assert work.read_bytes()[:4] == b"\x89HDF"
     assert load_response(work).to_dict() == resp.to_dict()
+
+
+def _response_with(template, sens, u_a, u_b):
+    """The template's points with new sensitivities and budgets (type A own, type B 'input amplitude')."""
+    from dataclasses import replace
+
+    from senscal.vibration.budget import make_budget
+
+    pts = []
+    for p, s, ua, ub in zip(template.points, sens, u_a, u_b):
+        b = make_budget("sensitivity", s, template.unit, [("output fit (type A)", "A", ua), ("input amplitude", "B", ub)])
+        pts.append(replace(p, sensitivity=float(s), u_sensitivity=b.combined, sensitivity_budget=b))
+    return replace(template, points=tuple(pts))
+
+
+def test_interpolated_sensitivity_uncertainty_covers_95_percent():
+    """Monte Carlo: between two points, |S(f) - truth| <= 2 u(S(f)) in 95 % of calibrations.
+
+    Each simulated calibration has independent type A noise per point and one common input-amplitude
+    error (type B, the same reference for every point); the truth is linear in log frequency, so any
+    miss is the uncertainty's, not the interpolation's.
+    """
+    from senscal.validation import check_coverage, coverage_row, mc_seeds
+
+    template = senscal.load_calibration(DATA / "response_v1.json")
+    f = template.frequency
+    truth = 0.05 * (1.0 + 0.01 * np.log(f / f[0]))
+    u_a = truth * np.array([4e-4, 1e-4, 2.5e-4, 6e-4])[: f.size]
+    u_rel_b = 3e-4
+    rng = np.random.default_rng(20261123)
+    rows = []
+    for case, (lo, hi) in {"A and B": (1, 2), "A only": (2, 3)}.items():
+        n = mc_seeds(2000, 400)
+        mids = np.exp(np.linspace(np.log(f[lo]), np.log(f[hi]), 5)[1:-1])
+        est, u, tr = [], [], []
+        for _ in range(n):
+            b = u_rel_b if case == "A and B" else 0.0
+            meas = truth * (1.0 + b * rng.standard_normal()) + u_a * rng.standard_normal(f.size)
+            resp = _response_with(template, meas, u_a, truth * b)
+            for fm in mids:
+                s, us = resp.sensitivity_at(fm)
+                est.append(s)
+                u.append(us)
+                tr.append(0.05 * (1.0 + 0.01 * np.log(fm / f[0])))
+        rows.append(coverage_row("response", case, "sensitivity_at", est, u, tr))
+    check_coverage(rows)

@@ -507,24 +507,44 @@ class FrequencyResponse(ResultMixin):
     def sensitivity_at(self, frequency: float) -> tuple[float, float]:
         """Sensitivity and its standard uncertainty at ``frequency`` (Hz), sensitivity unit.
 
-        At a calibrated point its own values; between two points both are
-        interpolated linearly in log frequency (the response of an
-        accelerometer well below resonance is smooth there; the interpolated
-        ``u`` is the neighbours' weighted mean, not smaller than either's
-        share).  Outside the calibrated range it refuses: a calibration says
-        nothing about frequencies it did not visit.
+        At a calibrated point its own values.  Between two points the
+        sensitivity is interpolated linearly in log frequency (the response of
+        an accelerometer well below resonance is smooth there), with weights
+        ``w`` and ``1 - w``; its uncertainty propagates the two points'
+        budgets: type A components are independent between points
+        (``sum w_i^2 u_i^2``), type B components of the same source (the
+        input amplitude, the reference) are fully correlated
+        (``(sum w_i u_i)^2``).  Points without budgets count as independent.
+        Outside the calibrated range it refuses: a calibration says nothing
+        about frequencies it did not visit.
         """
         f = float(frequency)
-        fr, s, u = self.frequency, self.sensitivity, self.u_sensitivity
+        fr = self.frequency
         if not (math.isfinite(f) and f > 0):
             raise InputError(f"frequency must be a positive number of Hz, got {frequency!r}")
         tol = 1e-9 * fr.max()
         if f < fr.min() - tol or f > fr.max() + tol:
             raise InputError(f"{f:g} Hz lies outside the calibrated range {fr.min():g} to {fr.max():g} Hz; "
                              "calibrate at that frequency")
-        x = np.log(fr)
-        xf = math.log(min(max(f, fr.min()), fr.max()))
-        return float(np.interp(xf, x, s)), float(np.interp(xf, x, u))
+        j = int(np.clip(np.searchsorted(fr, f), 1, max(len(fr) - 1, 1)))
+        if len(fr) == 1 or abs(f - fr[j - 1]) <= tol:
+            return float(self.points[max(j - 1, 0)].sensitivity), float(self.points[max(j - 1, 0)].u_sensitivity)
+        if abs(f - fr[j]) <= tol:
+            return float(self.points[j].sensitivity), float(self.points[j].u_sensitivity)
+        w = math.log(fr[j] / f) / math.log(fr[j] / fr[j - 1])  # weight of the lower point
+        pair = ((w, self.points[j - 1]), (1.0 - w, self.points[j]))
+        value = sum(wi * p.sensitivity for wi, p in pair)
+        var_a, b_sum = 0.0, {}
+        for wi, p in pair:
+            comps = p.sensitivity_budget.components if p.sensitivity_budget is not None else ()
+            if not comps:
+                var_a += (wi * p.u_sensitivity) ** 2
+            for c in comps:
+                if c.kind == "B":
+                    b_sum[c.source] = b_sum.get(c.source, 0.0) + wi * c.standard_uncertainty
+                else:
+                    var_a += (wi * c.standard_uncertainty) ** 2
+        return float(value), float(math.sqrt(var_a + sum(v * v for v in b_sum.values())))
 
     def apply(self, output_amplitude, frequency: float, *, unit: str | None = None) -> np.ndarray:
         """Correct output amplitudes at one frequency: the input amplitude that caused them.
