@@ -97,6 +97,7 @@ def test_refusals_leave_the_state_untouched(days, tmp_path, cli):
         (["drift", days / "day3.csv", *OPTS, "--smooth", "--state", state], "either --window or --smooth"),
         (["drift", days / "day3.csv", *OPTS, "--state", tmp_path / "s.txt"], "extension"),
         (["drift", days / "day3.csv", *OPTS, "--fit-levels"], "for --state runs"),
+        (["batch", "drift", days / "day3.csv", *OPTS, "--state", state], "once per file"),
     ]
     for args, words in cases:
         r = cli(*args)

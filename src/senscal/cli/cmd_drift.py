@@ -44,8 +44,16 @@ def _drift_options(*, preset: str = "redundant", channels: str | None = None, tr
         time_unit=time_unit)
 
 
+def _batch_options(**params):
+    """The job's options for ``senscal batch``, which runs files in parallel: no state to carry between them."""
+    if params.get("state") is not None:
+        raise InputError("--state carries one sensor's filter from file to file in order; senscal batch runs files "
+                         "in parallel: run senscal drift FILE --state STATE once per file, oldest first")
+    return _drift_options(**params)
+
+
 # What `senscal batch` turns the job's option words into (see senscal.jobs).
-JOB_OPTIONS = {"drift": _drift_options}
+JOB_OPTIONS = {"drift": _batch_options}
 
 
 @app.command("drift")
