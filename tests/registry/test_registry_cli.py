@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -164,3 +165,39 @@ def test_simulated_history_import_due_plot(cli, tmp_path):
                              "--plot", png, "--json", "--db", db)).out)
     assert abs(due["drift_per_year"] - truth["drift_per_year"]) < 4 * due["u_drift_per_year"]
     assert due["significant"] and png.stat().st_size > 10_000
+
+
+def test_db_file_that_does_not_exist_needs_create(cli, tmp_path):
+    """A typo in --db must not open (and leave behind) an empty registry."""
+    typo = tmp_path / "lab.sqllite"
+    for args in (["sensors"], ["history", "A1"], ["due", "A1", "--quantity", "s", "--tolerance", "1%"], ["verify"],
+                 ["export", str(tmp_path / "x.json")],
+                 ["record", "A1", "--quantity", "s", "--value", "1", "--uncertainty", "0.1", "--unit", "V",
+                  "--date", "2024-01-01"]):
+        _one_line_error(cli("registry", *args, "--db", typo), f"registry file {typo} does not exist", "--create")
+        _one_line_error(cli("registry", *args, "--db", f"sqlite:///{typo}"), "does not exist")
+        assert not typo.exists()
+    assert not (tmp_path / "x.json").exists()
+    # --create makes it on purpose; add, import and record --create-sensor create it without being asked.
+    r = _ok(cli("registry", "sensors", "--db", typo, "--create", "--json"))
+    assert json.loads(r.out)["sensors"] == [] and typo.exists()
+    _ok(cli("registry", "add", "A1", "--kind", "accelerometer", "--db", tmp_path / "added.sqlite"))
+    _ok(cli("registry", "record", "B2", "--quantity", "s", "--value", "1", "--uncertainty", "0.1", "--unit", "V",
+            "--date", "2024-01-01", "--create-sensor", "accelerometer", "--db", tmp_path / "recorded.sqlite"))
+    exported = tmp_path / "e.json"
+    _ok(cli("registry", "export", exported, "--db", tmp_path / "added.sqlite"))
+    _ok(cli("registry", "import", exported, "--db", tmp_path / "imported.sqlite"))
+    for name in ("added", "recorded", "imported"):
+        assert (tmp_path / f"{name}.sqlite").exists()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="the default folder checked is the Linux one")
+def test_default_registry_is_created_on_first_use(cli, tmp_path, monkeypatch):
+    monkeypatch.setenv("SENSCAL_DB", str(tmp_path / "env" / "registry.sqlite"))
+    r = _ok(cli("registry", "sensors", "--json"))
+    assert json.loads(r.out)["sensors"] == [] and (tmp_path / "env" / "registry.sqlite").exists()
+    monkeypatch.delenv("SENSCAL_DB")
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    _ok(cli("registry", "sensors"))
+    assert (tmp_path / "xdg" / "senscal" / "registry.sqlite").exists()
