@@ -261,3 +261,29 @@ def test_a_channel_that_missed_a_sample_rejoins_the_shared_covariance():
         kinds.append(std.ndim)
         assert np.all(np.isfinite(bias))
     assert kinds[0] == 1 and kinds[1] == 2 and kinds[-1] == 1
+
+
+def test_a_channel_new_on_day_two_starts_beside_the_others(tmp_path):
+    import pyarrow as pa
+
+    rng = np.random.default_rng(3)
+    y = _known_data(rng, 3, 800)
+    t = np.arange(800.0)
+    (tmp_path / "d1").mkdir()
+    (tmp_path / "d2").mkdir()
+    pq.write_table(pa.table({"t": t[:400], "a": y[0, :400], "b": y[1, :400]}), tmp_path / "d1" / "p.parquet",
+                   row_group_size=150)
+    pq.write_table(pa.table({"t": t[400:], "a": y[0, 400:], "b": y[1, 400:], "c": y[2, 400:]}),
+                   tmp_path / "d2" / "p.parquet", row_group_size=150)
+    groups = (FleetGroup("g", known_setup([ROLE]), KNOWN, prior_scale=0.05),)
+    run_fleet(tmp_path / "d1", groups, state=tmp_path / "s")
+    res = run_fleet(tmp_path / "d2", groups, state=tmp_path / "s")
+    assert res.channels == ("a", "b", "c") and res.n_samples == 3 * 400
+    store = read_store(tmp_path / "s")
+    cuts1, cuts2 = [0, 150, 300, 400], [400, 550, 700, 800]
+    for i, c in enumerate("abc"):
+        _, st, _, _ = store[c]
+        cuts = cuts1 + cuts2[1:] if c != "c" else cuts2
+        bt, ut, tr = _tracker(groups[0].setup, KNOWN, y[i], t, prior=(st.x0, st.P0), cuts=cuts)
+        assert res.bias[i] == pytest.approx(bt[-1], rel=1e-9) and res.u_bias[i] == pytest.approx(ut[-1], rel=1e-9)
+        assert st.n_samples == (800 if c != "c" else 400)

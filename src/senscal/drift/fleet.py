@@ -961,28 +961,43 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
     outp = Path(out) if out else None
     for rg in range(pf.metadata.num_row_groups):
         t, y, cov = _read_chunk(pf, rg, block, kcov)
-        done = [s.t_last for s in st if s is not None]
-        if done:
-            keep = t > max(done)
-            n_skip += int((~keep).sum())
+        # Channels continue from where each stopped: those with the same last time run together
+        # (a channel new in this file starts from its prior beside the others).
+        parts: dict[float, list[int]] = {}
+        for i, s_ in enumerate(st):
+            parts.setdefault(s_.t_last if s_ is not None else -math.inf, []).append(i)
+        rows = np.zeros(t.size, dtype=bool)
+        bias = np.full((C, t.size), np.nan)
+        std = np.full((C, t.size), np.nan)
+        one = None
+        for t_done, idx in parts.items():
+            keep = t > t_done
+            n_skip += int((~keep).sum()) * len(idx)
             if not keep.any():
                 continue
-            if not keep.all():
-                t, y = t[keep], y[:, keep]
-                cov = cov[:, :, keep] if cov is not None else None
-        try:
-            bias, std, st = filter_block(group, y, t, st, cov, channels=block.channels, _model=gm)
-        except (DataError, InputError) as exc:
-            raise type(exc)(f"{block.file}, row group {rg}: {exc}") from None
-        shared += std.ndim == 1
+            ix = np.array(idx)
+            try:
+                b, u, new = filter_block(group, y[ix][:, keep], t[keep], [st[i] for i in idx],
+                                         cov[ix][:, :, keep] if cov is not None else None,
+                                         channels=[block.channels[i] for i in idx], _model=gm)
+            except (DataError, InputError) as exc:
+                raise type(exc)(f"{block.file}, row group {rg}: {exc}") from None
+            for k, i in enumerate(idx):
+                st[i] = new[k]
+            bias[np.ix_(ix, np.nonzero(keep)[0])] = b
+            std[np.ix_(ix, np.nonzero(keep)[0])] = np.broadcast_to(u, b.shape)
+            bias_last[ix], u_last[ix] = b[:, -1], np.broadcast_to(u, b.shape)[:, -1]
+            rows |= keep
+            one = u if len(parts) == 1 else None
+            n_new += b.size
+            n_missing += int(np.isnan(y[ix][:, keep]).sum())
+        if not rows.any():
+            continue
+        shared += one is not None and one.ndim == 1
         if outp is not None:
-            _write_chunk(outp, block, rg, t, y - bias, std)
-        bias_last = bias[:, -1].copy()
-        u_last = np.broadcast_to(std, bias.shape)[:, -1].copy()
+            _write_chunk(outp, block, rg, t[rows], (y - bias)[:, rows], std[:, rows])
         if storep is not None:
             _save_block_state(storep, block, st, bias_last, u_last)
-        n_new += t.size
-        n_missing += int(np.isnan(y).sum())
         chunks += 1
     return {"channels": block.channels, "group": block.group, "bias": bias_last, "u_bias": u_last,
             "t_last": np.array([s.t_last if s is not None else np.nan for s in st]),
@@ -1223,7 +1238,7 @@ def run_fleet(dataset: str | Path, groups: Sequence[FleetGroup], *, state: str |
     return FleetResult(dataset=str(dataset), state=store_s, out=out_s, channels=tuple(chans),
                        groups=tuple(r["group"] for r in rows for _ in r["channels"]), bias=bias, u_bias=u,
                        t_last=np.concatenate([r["t_last"] for r in rows]) if rows else np.zeros(0),
-                       n_samples=sum(r["n_samples"] * len(r["channels"]) for r in rows),
+                       n_samples=sum(r["n_samples"] for r in rows),
                        n_missing=sum(r["n_missing"] for r in rows), n_skipped=n_skip, n_blocks=len(blocks),
                        chunks=sum(r["chunks"] for r in rows), shared_chunks=sum(r["shared"] for r in rows),
                        workers=workers, wall_seconds=wall, warnings=tuple(warnings))
