@@ -967,8 +967,10 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
         for i, s_ in enumerate(st):
             parts.setdefault(s_.t_last if s_ is not None else -math.inf, []).append(i)
         rows = np.zeros(t.size, dtype=bool)
-        bias = np.full((C, t.size), np.nan)
-        std = np.full((C, t.size), np.nan)
+        bias = std = None
+        if len(parts) > 1 or any(k >= t[0] for k in parts):
+            bias = np.full((C, t.size), np.nan)
+            std = np.full((C, t.size), np.nan)
         one = None
         for t_done, idx in parts.items():
             keep = t > t_done
@@ -984,8 +986,11 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
                 raise type(exc)(f"{block.file}, row group {rg}: {exc}") from None
             for k, i in enumerate(idx):
                 st[i] = new[k]
-            bias[np.ix_(ix, np.nonzero(keep)[0])] = b
-            std[np.ix_(ix, np.nonzero(keep)[0])] = np.broadcast_to(u, b.shape)
+            if len(idx) == C and keep.all():
+                bias, std = b, u   # the usual case: every channel, every row, no copies
+            else:
+                bias[np.ix_(ix, np.nonzero(keep)[0])] = b
+                std[np.ix_(ix, np.nonzero(keep)[0])] = np.broadcast_to(u, b.shape)
             bias_last[ix], u_last[ix] = b[:, -1], np.broadcast_to(u, b.shape)[:, -1]
             rows |= keep
             one = u if len(parts) == 1 else None
@@ -995,7 +1000,7 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
             continue
         shared += one is not None and one.ndim == 1
         if outp is not None:
-            _write_chunk(outp, block, rg, t[rows], (y - bias)[:, rows], std[:, rows])
+            _write_chunk(outp, block, rg, t[rows], (y - bias)[:, rows], std[..., rows])
         if storep is not None:
             _save_block_state(storep, block, st, bias_last, u_last)
         chunks += 1
