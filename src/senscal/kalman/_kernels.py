@@ -356,7 +356,6 @@ def _steady(F, B, H, K, L, P, x, y, u, t0, store, xf, Pf, xp_out, Pp_out, v_out,
     return ll
 
 
-@nb.njit(cache=True)
 def smoother_gains(F, Pf, Pp):
     """RTS gains C_t = P_t F_{t+1}^T Pp_{t+1}^{-1}, t = 0..T-2 (time-major).
 
@@ -364,9 +363,23 @@ def smoother_gains(F, Pf, Pp):
     solve on preallocated buffers.  Otherwise (rounding broke definiteness,
     or a state is known exactly, e.g. held at a given value with zero prior
     and process variance) the pseudo-inverse: such a state's gain is zero.
+    That rare step runs in NumPy here: inside the compiled loop,
+    np.linalg.pinv would compile numba's SVD wrappers (seconds) on every
+    first run whether it is needed or not.
     """
+    C, bad = _smoother_gains(F, Pf, Pp)
+    for t in np.flatnonzero(bad):
+        Ft1 = F[0] if F.shape[0] == 1 else F[t + 1]
+        C[t] = (np.linalg.pinv(Pp[t + 1]) @ (Ft1 @ Pf[t])).T
+    return C
+
+
+@nb.njit(cache=True)
+def _smoother_gains(F, Pf, Pp):
+    """The Cholesky gains; ``bad[t]`` where Pp_{t+1} was not positive definite (C[t] left zero)."""
     T, n, _ = Pf.shape
     C = np.zeros((T, n, n))
+    bad = np.zeros(T, dtype=np.bool_)
     L = np.zeros((n, n))
     FP = np.empty((n, n))
     idx = np.arange(n)
@@ -378,7 +391,7 @@ def smoother_gains(F, Pf, Pp):
         Pt = Pf[t]
         _mm(Ft1, Pt, FP)
         if not _chol(A, idx, n, L):
-            _copy2(C[t], (np.linalg.pinv(A) @ FP).T)
+            bad[t] = True
             continue
         for c in range(n):
             for i in range(n):
@@ -386,7 +399,7 @@ def smoother_gains(F, Pf, Pp):
             _chol_solve(L, n, rhs, col)
             for i in range(n):
                 C[t, c, i] = col[i]
-    return C
+    return C, bad
 
 
 @nb.njit(cache=True)
