@@ -287,3 +287,20 @@ def test_a_channel_new_on_day_two_starts_beside_the_others(tmp_path):
         bt, ut, tr = _tracker(groups[0].setup, KNOWN, y[i], t, prior=(st.x0, st.P0), cuts=cuts)
         assert res.bias[i] == pytest.approx(bt[-1], rel=1e-9) and res.u_bias[i] == pytest.approx(ut[-1], rel=1e-9)
         assert st.n_samples == (800 if c != "c" else 400)
+
+
+def test_job_function_result_document_quantities_table(dataset, tmp_path):
+    d, truth = dataset
+    seg0 = truth["segments"][0]
+    res = fleet(seg0, FleetOptions(config=str(d / "data" / "fleet.json"), workers=0))
+    ref = run_fleet(seg0, load_fleet_config(d / "data" / "fleet.json"))
+    np.testing.assert_array_equal(res.bias, ref.bias)
+    doc = res.to_dict()
+    assert doc["n_channels"] == 20 and doc["n_samples"] == 20 * 1000 and doc["n_missing"] == res.n_missing > 0
+    assert set(doc["channels"]["s00007"]) == {"group", "bias", "u_bias", "t_last"}
+    q = {x.name: x for x in res.quantities()}
+    assert q["s00007.bias"].value == doc["channels"]["s00007"]["bias"] and q["s00007.bias"].uncertainty > 0
+    df = res.to_dataframe()
+    assert list(df.columns) == ["channel", "group", "bias", "u_bias", "t_last"] and len(df) == 20
+    with pytest.raises(InputError, match="--config"):
+        fleet(seg0, FleetOptions())

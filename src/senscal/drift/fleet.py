@@ -52,7 +52,8 @@ from senscal.jobs._base import JobResult
 from senscal.kalman import _kernels as KK
 from senscal.quantity import Quantity
 
-__all__ = ["FleetGroup", "FleetBlock", "FleetOptions", "FleetResult", "ChannelState", "load_fleet_config",
+__all__ = ["FleetGroup", "FleetBlock", "FleetOptions", "FleetResult", "ChannelState", "load_fleet_config", "channel_prior",
+           "dataset_files", "open_store", "run_block",
            "fleet_groups", "plan_blocks", "run_fleet", "fleet", "read_store", "filter_block", "FORMAT_VERSION",
            "ROLE"]
 
