@@ -52,9 +52,8 @@ from senscal.jobs._base import JobResult
 from senscal.kalman import _kernels as KK
 from senscal.quantity import Quantity
 
-__all__ = ["FleetGroup", "FleetBlock", "FleetOptions", "FleetResult", "ChannelState", "load_fleet_config", "channel_prior",
-           "dataset_files", "open_store", "run_block",
-           "fleet_groups", "plan_blocks", "run_fleet", "fleet", "read_store", "filter_block", "FORMAT_VERSION",
+__all__ = ["FleetGroup", "FleetBlock", "FleetOptions", "FleetResult", "ChannelState", "load_fleet_config",
+           "channel_prior", "dataset_files", "open_store", "run_block", "fleet_groups", "plan_blocks", "run_fleet", "fleet", "read_store", "filter_block", "FORMAT_VERSION",
            "ROLE"]
 
 #: Version of the state store layout (``<group>--<file>.npz`` per block).
@@ -105,7 +104,8 @@ class FleetGroup:
 
     def __post_init__(self) -> None:
         if self.prior_scale is not None and not (math.isfinite(self.prior_scale) and self.prior_scale > 0):
-            raise InputError(f"fleet group {self.name}: prior_scale must be a number > 0 [unit], got {self.prior_scale}")
+            raise InputError(f"fleet group {self.name}: prior_scale must be a number > 0 [unit], "
+                             f"got {self.prior_scale}")
         object.__setattr__(self, "channels", tuple(self.channels))
         object.__setattr__(self, "levels", {k: float(v) for k, v in dict(self.levels).items()})
         if not self.name or "--" in self.name or "/" in self.name:

@@ -188,6 +188,7 @@ def simulate_fleet(out: str | Path, *, n_channels: int = 20, n_samples: int = 20
         final.update({c: float(v) for c, v in zip(names, final_b)})
     config = _fleet_config(kind, noise, bias_rate, signal_rate, coefficient_rate)
     write_text(out / "fleet.json", json.dumps(config, indent=2) + "\n", what="fleet configuration")
-    return {"kind": kind, "n_channels": n_channels, "n_samples": n_samples, "fs": fs, "segments": [str(d) for d in seg_dirs],
+    return {"kind": kind, "n_channels": n_channels, "n_samples": n_samples, "fs": fs,
+            "segments": [str(d) for d in seg_dirs],
             "noise": noise, "bias_rate": bias_rate, "signal_rate": signal_rate, "coefficient_rate": coefficient_rate,
             "channels": channels, "config": config, "final_bias": final, "seed": seed}
