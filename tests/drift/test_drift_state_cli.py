@@ -139,11 +139,22 @@ def test_killed_run_leaves_the_previous_state(days, tmp_path):
     assert r.returncode == 0, r.stderr
 
 
-def test_stdin_needs_a_state_and_refuses_other_outputs(tmp_path, cli):
-    r = cli("drift", "-", "--preset", "known")
-    assert r.code == 2 and "--state" in r.err
+def test_stdin_with_a_state_refuses_other_outputs(tmp_path, cli):
     r = cli("drift", "-", "--preset", "known", "--state", tmp_path / "s.json", "--json")
     assert r.code == 2 and "standard output" in r.err
+
+
+def test_stdin_without_a_state_is_one_pass(tmp_path):
+    """Without --state, '-' is read whole, as any file: the document of the same file."""
+    from senscal.simulate.drift import simulate_drift_batch
+
+    d = simulate_drift_batch(1, seed=4, n=120, channels=("g",), trusted=(), signal="known", noise=0.1)
+    write_recording(Recording({"g": d["y"][0, 0]}, t=d["t"]), tmp_path / "g.csv")
+    a = _senscal("drift", tmp_path / "g.csv", "--preset", "known", "--no-compare", "--json")
+    b = _senscal("drift", "-", "--preset", "known", "--no-compare", "--json", stdin=(tmp_path / "g.csv").read_text())
+    assert a.returncode == b.returncode == 0, a.stderr + b.stderr
+    da, db = json.loads(a.stdout), json.loads(b.stdout)
+    assert da["channels"] == db["channels"] and da["noise"] == db["noise"]
 
 
 def test_stdin_is_read_line_by_line(tmp_path):

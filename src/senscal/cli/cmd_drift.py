@@ -58,7 +58,7 @@ JOB_OPTIONS = {"drift": _batch_options}
 
 @app.command("drift")
 def drift_cmd(
-    file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ), or - for CSV on standard input read in chunks (with --state: a live pipe).")],
+    file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ), or - for CSV on standard input (read whole; with --state in chunks as it arrives, corrected CSV on standard output).")],
     preset: Annotated[str, typer.Option("--preset", help="redundant | covariate | known (true value known, e.g. a gyro at rest) | model.")],
     channels: Annotated[Optional[str], typer.Option("--channels", help="Measured channels, comma separated (default: all but the covariate).")] = None,
     trusted: Annotated[Optional[str], typer.Option("--trusted", help="Channels that do not drift (redundant preset), comma separated.")] = None,
@@ -80,7 +80,7 @@ def drift_cmd(
     fit_levels: Annotated[bool, typer.Option("--fit-levels", help="With --state: estimate the noise levels again on this file (default: keep the state's).")] = False,
     levels_from_allan: Annotated[bool, typer.Option("--levels-from-allan", help="Start the noise-level estimation from Allan-deviation levels (white noise, random walks).")] = False,
     flush: Annotated[bool, typer.Option("--flush", help="With --state and --window: end of data, output the samples the window still holds.")] = False,
-    chunk_size: Annotated[int, typer.Option("--chunk-size", help="With FILE '-': rows per chunk (the first chunk starts a new state).")] = DEFAULT_CHUNK,
+    chunk_size: Annotated[int, typer.Option("--chunk-size", help="With FILE '-' and --state: rows per chunk (the first chunk starts a new state).")] = DEFAULT_CHUNK,
     strict: StrictOpt = False,
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
@@ -97,10 +97,7 @@ def drift_cmd(
         check_output(state, suffixes=(".json", ".npz"), what="drift state")
         if plot is not None:
             raise InputError("--plot draws a one-pass result; leave it out with --state (use --out for the values)")
-    if str(file) == "-":
-        if state is None:
-            raise InputError("reading standard input in chunks ('-') needs --state FILE (the state carries the "
-                             "levels and the filter from one chunk to the next)")
+    if str(file) == "-" and state is not None:
         if out is not None or plot is not None or json_out:
             raise InputError("with '-' the corrected values go to standard output as CSV; leave out --out, --plot "
                              "and --json")
