@@ -37,6 +37,8 @@ def test_job_names():
     assert check_job("fit") == "fit"
     with pytest.raises(InputError, match="unknown batch job 'nope'"):
         check_job("nope")
+    with pytest.raises(InputError, match="'linearity' combines"):
+        check_job("linearity")
 
 
 def test_expand_files(recordings):

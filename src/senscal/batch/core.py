@@ -68,11 +68,15 @@ def expand_files(patterns: Iterable[str]) -> list[str]:
     return out
 
 
+# Jobs that combine several recordings into one result: one task per recording cannot run them.
+NOT_PER_RECORDING = {"linearity": "combines one recording per input level into one straight line"}
+
+
 def batch_jobs() -> list[str]:
     """Names of the per-recording jobs ``senscal batch`` can run (the job table of :mod:`senscal.jobs`)."""
     from senscal import jobs
 
-    return jobs.names()
+    return [j for j in jobs.names() if j not in NOT_PER_RECORDING]
 
 
 def check_job(job: str) -> str:
@@ -83,6 +87,9 @@ def check_job(job: str) -> str:
     InputError
         For a name that is not a job, listing the jobs.
     """
+    if job in NOT_PER_RECORDING:
+        raise InputError(f"'{job}' {NOT_PER_RECORDING[job]}, so senscal batch (one task per recording) cannot "
+                         f"run it; run 'senscal {job} FILES...' on each set")
     jobs = batch_jobs()
     if job not in jobs:
         raise InputError(f"unknown batch job '{job}'; jobs are: {', '.join(jobs)}")
