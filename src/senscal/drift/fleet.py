@@ -560,6 +560,9 @@ def _shared_classes(k: int, y: np.ndarray, lev2: np.ndarray, r2: np.ndarray, sta
     if k:
         return []
     ok = ~np.isnan(y).any(axis=1)
+    if ok.all() and (lev2 == lev2[:1]).all() and (r2 == r2[0]).all() and (started == started[0]).all() \
+            and (P == P[:1]).all():
+        return [np.arange(y.shape[0])]   # the usual case, without a key per channel
     classes: dict[bytes, list[int]] = {}
     for c in np.nonzero(ok)[0]:
         key = lev2[c].tobytes() + r2[c].tobytes() + bytes([bool(started[c])]) + P[c].tobytes()
@@ -651,9 +654,13 @@ def filter_block(group: FleetGroup, y: np.ndarray, t: np.ndarray, states: Sequen
                         f"t = {prev:.9g} s")
     dts = np.diff(np.concatenate([[prev], t]))
     F, Qu = gm.matrices(setup, dts)
-    lev = [group.all_levels(c) for c in names]
-    lev2 = np.array([[lv[p] ** 2 for p in gm.params] for lv in lev], dtype=float).reshape(C, len(gm.params))
+    if group.channel_levels:
+        lev = [group.all_levels(c) for c in names]
+    else:
+        lev = [group.all_levels()]   # one set for every channel
+    lev2 = np.array([[lv[p] ** 2 for p in gm.params] for lv in lev], dtype=float).reshape(len(lev), len(gm.params))
     r2 = np.array([lv[f"{ROLE}_noise_std"] ** 2 for lv in lev])
+    lev2, r2 = np.ascontiguousarray(np.broadcast_to(lev2, (C, lev2.shape[1]))), np.broadcast_to(r2, (C,)).copy()
     k = gm.cov_cols.size
     cov = np.zeros((C, k, T))
     if k:
@@ -979,16 +986,19 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
             if not keep.any():
                 continue
             ix = np.array(idx)
+            whole = len(idx) == C and keep.all()
+            # The usual case (every channel, every row) passes the chunk itself: no copies.
+            yk = y if whole else y[np.ix_(ix, np.nonzero(keep)[0])]
+            ck = cov if whole or cov is None else cov[ix][:, :, keep]
             try:
-                b, u, new = filter_block(group, y[ix][:, keep], t[keep], [st[i] for i in idx],
-                                         cov[ix][:, :, keep] if cov is not None else None,
+                b, u, new = filter_block(group, yk, t[keep], [st[i] for i in idx], ck,
                                          channels=[block.channels[i] for i in idx], _model=gm)
             except (DataError, InputError) as exc:
                 raise type(exc)(f"{block.file}, row group {rg}: {exc}") from None
             for k, i in enumerate(idx):
                 st[i] = new[k]
-            if len(idx) == C and keep.all():
-                bias, std = b, u   # the usual case: every channel, every row, no copies
+            if whole:
+                bias, std = b, u
             else:
                 bias[np.ix_(ix, np.nonzero(keep)[0])] = b
                 std[np.ix_(ix, np.nonzero(keep)[0])] = np.broadcast_to(u, b.shape)
@@ -996,7 +1006,7 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
             rows |= keep
             one = u if len(parts) == 1 else None
             n_new += b.size
-            n_missing += int(np.isnan(y[ix][:, keep]).sum())
+            n_missing += int(np.count_nonzero(np.isnan(yk)))
         if not rows.any():
             continue
         shared += one is not None and one.ndim == 1
