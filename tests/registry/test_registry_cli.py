@@ -201,3 +201,18 @@ def test_default_registry_is_created_on_first_use(cli, tmp_path, monkeypatch):
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
     _ok(cli("registry", "sensors"))
     assert (tmp_path / "xdg" / "senscal" / "registry.sqlite").exists()
+
+
+def test_drift_compares_units_as_units(cli, tmp_path):
+    db = tmp_path / "r.sqlite"
+    for year, value, unit in ((2020, 0.01000, "V/(m/s^2)"), (2021, 0.01004, "V/(m/s²)"), (2022, 0.01008, "V s^2/m")):
+        _ok(cli("registry", "record", "A1", "--quantity", "s", "--value", value, "--uncertainty", "2e-6", "--k", "2",
+                "--unit", unit, "--date", f"{year}-03-01", "--create-sensor", "accelerometer", "--db", db))
+    due = json.loads(_ok(cli("registry", "due", "A1", "--quantity", "s", "--tolerance", "2%", "--json",
+                             "--db", db)).out)
+    assert due["n_records"] == 3 and due["unit"] == "V/(m/s^2)"
+    assert due["drift_per_year"] == pytest.approx(4e-5, rel=5e-3)
+    _ok(cli("registry", "record", "A1", "--quantity", "s", "--value", "10.1", "--uncertainty", "0.002", "--k", "2",
+            "--unit", "mV/(m/s^2)", "--date", "2023-03-01", "--db", db))
+    _one_line_error(cli("registry", "due", "A1", "--quantity", "s", "--tolerance", "2%", "--db", db),
+                    "different units", "mV/(m/s^2)")

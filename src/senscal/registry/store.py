@@ -682,8 +682,11 @@ class Registry:
             Fewer than two (non-superseded) records of the quantity.
         """
         pts = self.history(serial, quantity)
+        from senscal.persist.units import canonical_unit
+
+        # Spellings of one unit (V/(m/s^2), V/(m/s²)) are one unit; another scale (mV/...) is not.
         units = sorted({p.unit for p in pts})
-        if len(units) > 1:
+        if len({canonical_unit(u) for u in units}) > 1:
             raise DataError(f"records of {quantity!r} for {serial!r} use different units ({', '.join(units)}); "
                             "a drift needs one unit: supersede the odd records with converted values")
         if len(pts) < 2:
@@ -703,7 +706,7 @@ class Registry:
                 due_date = (epoch + timedelta(days=due.t_due * DAYS_PER_YEAR)).replace(microsecond=0)
         scale = abs(reference) if reference != 0 else math.nan
         return DriftReport(
-            serial=serial, quantity=quantity, unit=units[0], epoch=epoch, first_date=min(dates), last_date=max(dates),
+            serial=serial, quantity=quantity, unit=pts[0].unit, epoch=epoch, first_date=min(dates), last_date=max(dates),
             fit=fit, drift_per_year=fit.drift_per_year, u_drift_per_year=fit.u_drift_per_year,
             relative_drift_per_year=fit.drift_per_year / scale, u_relative_drift_per_year=fit.u_drift_per_year / scale,
             significant=fit.significant, reference=reference,
