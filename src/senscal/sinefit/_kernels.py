@@ -222,12 +222,14 @@ def _gram_rotated(n: int, w_dt: float, tau0_w: float):
 # Threads pay only on large arrays; on small ones (and on a busy machine)
 # the serial build is much faster than waking the thread pool.
 PARALLEL_MIN_SAMPLES = 1 << 20
-# Below this many values (channels x samples) NumPy's vectorised sums cost a
-# few ms a call (the compiled pass: a tenth of that), far less than the ~10 s
-# the compilation costs once; every record of `senscal demo` (at most 8300
-# values) and most single calibration records stay below it.  Measured with
+# Below this many values (channels x samples) NumPy's vectorised sums cost at
+# most ~20 ms a call (the compiled pass: a tenth of that), far less than the
+# ~10 s the compilation costs once; every record of `senscal demo` (the
+# largest: one 100,000-sample channel in the gfimu section) and most single
+# calibration records stay below it, while fit-array chunks and large batches
+# (256 channels x 1024 samples and up) get the compiled pass.  Measured with
 # benchmarks/bench_cli.py --cold-demo.
-COMPILED_MIN_SAMPLES = 1 << 16
+COMPILED_MIN_SAMPLES = 1 << 18
 
 
 def _build(nb, fn, parallel: bool):
