@@ -128,3 +128,19 @@ def test_a_real_pipe_simulate_into_fit(tmp_path):
     direct = subprocess.run([sys.executable, "-m", "senscal", "fit", "sine.csv", "--json"], capture_output=True,
                             env=env, cwd=tmp_path, timeout=300)
     assert json.loads(fit.stdout)["channels"] == json.loads(direct.stdout)["channels"]
+
+
+def test_side_files_from_stdin_and_only_one_input_per_pipe(cli, stdin, tmp_path):
+    from senscal.triaxial import TriaxialCalibration
+
+    hist = tmp_path / "sim"
+    assert cli("simulate", "registry", "--out", hist, "--seed", "2").code == 0
+    stdin((hist / "history.json").read_bytes())
+    r = cli("registry", "import", "-", "--db", tmp_path / "r.sqlite", "--json")
+    assert r.code == 0, r.err
+    assert json.loads(r.out)["calibrations"] == 7
+    params = TriaxialCalibration(model="offsets", method="ml", matrix=np.eye(3), offsets=np.zeros(3),
+                                 field=1.0).save(tmp_path / "p.json")
+    stdin(params.read_bytes())
+    r = cli("triaxial", "apply", "-", "--params", "-", "--channels", "x,y,z", "--out", tmp_path / "o.csv")
+    assert r.code == 2 and "both read standard input" in r.err

@@ -36,6 +36,7 @@ _inputs: set[str] | None = None
 STDIO = "-"
 _stdout_owner: str | None = None
 _stdin_data: bytes | None = None
+_stdin_owner: str | None = None
 
 
 def is_stdio(path: str | os.PathLike | None) -> bool:
@@ -51,7 +52,9 @@ def stdin_bytes(what: str = "input") -> bytes:
     InputError
         Standard input is a terminal (nothing piped in) or empty.
     """
-    global _stdin_data
+    global _stdin_data, _stdin_owner
+    if _stdin_owner is not None and _stdin_owner != what and _inputs is not None:
+        raise InputError(f"{_stdin_owner} and {what} both read standard input ('-'); give one of them as a file")
     if _stdin_data is not None and _inputs is not None:
         return _stdin_data
     stream = sys.stdin
@@ -63,7 +66,7 @@ def stdin_bytes(what: str = "input") -> bytes:
     if not data:
         raise InputError(f"{what} '-' (standard input) is empty; pipe a recording in or give a file name")
     if _inputs is not None:
-        _stdin_data = data
+        _stdin_data, _stdin_owner = data, what
     return data
 
 
@@ -94,14 +97,15 @@ def _key(path: str | os.PathLike) -> str:
 @contextmanager
 def protect_inputs() -> Iterator[None]:
     """Remember the files read inside the block and refuse to overwrite them."""
-    global _inputs, _stdout_owner, _stdin_data
+    global _inputs, _stdout_owner, _stdin_data, _stdin_owner
     saved, _inputs = _inputs, set()
-    saved_io, _stdout_owner, _stdin_data = (_stdout_owner, _stdin_data), None, None
+    saved_io = (_stdout_owner, _stdin_data, _stdin_owner)
+    _stdout_owner, _stdin_data, _stdin_owner = None, None, None
     try:
         yield
     finally:
         _inputs = saved
-        _stdout_owner, _stdin_data = saved_io
+        _stdout_owner, _stdin_data, _stdin_owner = saved_io
 
 
 def note_input(path: str | os.PathLike) -> None:

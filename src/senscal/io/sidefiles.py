@@ -19,7 +19,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from senscal.errors import FileFormatError
-from senscal.io.guard import note_input
+from senscal.io.guard import is_stdio, note_input, stdin_bytes
 
 __all__ = ["read_text", "read_json", "read_yaml", "array_field"]
 
@@ -33,7 +33,7 @@ def read_text(path: str | os.PathLike, what: str = "file") -> str:
     Parameters
     ----------
     path : path-like
-        The file.
+        The file; ``-`` reads standard input.
     what : str
         What the file is (``"model file"``), used in messages.
 
@@ -47,6 +47,13 @@ def read_text(path: str | os.PathLike, what: str = "file") -> str:
     FileFormatError
         Missing, a folder, unreadable, too large or not UTF-8.
     """
+    if is_stdio(path):
+        data = stdin_bytes(what)
+        try:
+            return data.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise FileFormatError(f"{what} on standard input is not UTF-8 text (bad byte at offset {exc.start}); "
+                                  "give the file name") from None
     path = Path(path)
     note_input(path)
     if not path.exists():

@@ -32,7 +32,7 @@ from typing import Any, Mapping
 from senscal.errors import FileFormatError
 
 __all__ = ["FORMAT_VERSION", "TYPES", "HDF5_SUFFIXES", "load_calibration", "read_document", "write_document",
-           "calibration_type", "check_version"]
+           "document", "calibration_type", "check_version"]
 
 #: Layout version every saved calibration is written with.
 FORMAT_VERSION = 2
