@@ -10,7 +10,8 @@ Mapping (readable by any HDF5 tool, e.g. ``h5dump`` or ``h5py``):
 - any other list (of objects, mixed, ragged, empty) is a group marked with
   the attribute ``senscal_list`` = its length, members named ``0``, ``1``, ...
 
-Names are percent-escaped where HDF5 forbids them (``/``, a lone ``.``).
+Names are percent-escaped where HDF5 forbids them (``/``, a lone ``.``, an
+empty name).
 """
 
 from __future__ import annotations
@@ -28,11 +29,13 @@ LIST_MARK = "senscal_list"
 
 def _name(key: str) -> str:
     key = str(key).replace("%", "%25").replace("/", "%2F")
-    return "%2E" if key == "." else key
+    return {".": "%2E", "": "%00"}.get(key, key)
 
 
 def _key(name: str) -> str:
-    return name.replace("%2E", ".").replace("%2F", "/").replace("%25", "%")
+    if name in ("%2E", "%00"):
+        return {"%2E": ".", "%00": ""}[name]
+    return name.replace("%2F", "/").replace("%25", "%")
 
 
 def _is_scalar(v: Any) -> bool:
@@ -46,7 +49,18 @@ def _numeric_array(v: list) -> np.ndarray | None:
         return None
     if arr.size == 0 or arr.dtype.kind not in "biuf":
         return None
+    # Only when the array gives the same document back: no int rounded to float, no bool made a number.
+    if arr.tolist() != v or (arr.dtype.kind != "b" and any(isinstance(x, bool) for x in _leaves(v))):
+        return None
     return arr
+
+
+def _leaves(v: Any):
+    for x in v:
+        if isinstance(x, (list, tuple)):
+            yield from _leaves(x)
+        else:
+            yield x
 
 
 def _put(group, key: str, value: Any) -> None:
