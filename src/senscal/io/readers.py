@@ -365,6 +365,11 @@ def _sep_of(line: str) -> str:
     return r"\s+"
 
 
+def _data_like(fields: list[str]) -> bool:
+    """True for a row of numbers, some of which may be empty (missing values)."""
+    return any(fields) and all(_is_number(f) for f in fields if f)
+
+
 def _fields(line: str, sep: str) -> list[str]:
     parts = line.split() if sep == r"\s+" else line.rstrip("\r\n").split(sep)
     return [f.strip() for f in parts]
@@ -396,8 +401,8 @@ def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
         content = [i for i in content if not head[i].lstrip().startswith(_COMMENT)]
     if not content:
         raise FileFormatError(f"{path} is empty (no data rows)")
-    first_data = next((i for i in content
-                       if all(f and _is_number(f) for f in _fields(head[i], _sep_of(head[i])))), None)
+    # A data row may have empty fields (NaN, as pandas and senscal write them), never a name.
+    first_data = next((i for i in content if _data_like(_fields(head[i], _sep_of(head[i])))), None)
     header_i: int | None
     if first_data is None:
         header_i = content[0]  # no numeric row near the top: the first line is the header
