@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-import senscal.cli.common as common
+import senscal.io as sio
 from senscal.io import Recording, write_recording
 
 
@@ -24,7 +24,7 @@ def _boom(*a, **k):
 
 
 def test_unexpected_exception_is_one_line_exit_1(cli, sine, monkeypatch):
-    monkeypatch.setattr(common, "read_recording", _boom)
+    monkeypatch.setattr(sio, "read_recording", _boom)
     r = cli("fit", sine)
     assert r.code == 1
     assert r.err == ("senscal: internal error (RuntimeError: boom second line); please report it; "
@@ -33,7 +33,7 @@ def test_unexpected_exception_is_one_line_exit_1(cli, sine, monkeypatch):
 
 @pytest.mark.parametrize("how", ["flag", "flag-after", "env"])
 def test_debug_shows_the_traceback(cli, sine, monkeypatch, how):
-    monkeypatch.setattr(common, "read_recording", _boom)
+    monkeypatch.setattr(sio, "read_recording", _boom)
     args = {"flag": ("--debug", "fit", sine), "flag-after": ("fit", sine, "--debug"), "env": ("fit", sine)}[how]
     if how == "env":
         monkeypatch.setenv("SENSCAL_DEBUG", "1")
@@ -45,7 +45,7 @@ def test_os_error_on_a_user_path_is_exit_2_naming_it(cli, sine, monkeypatch):
     def denied(*a, **k):
         raise PermissionError(13, "Permission denied", "/data/run1.csv")
 
-    monkeypatch.setattr(common, "read_recording", denied)
+    monkeypatch.setattr(sio, "read_recording", denied)
     r = cli("fit", sine)
     assert (r.code, r.err) == (2, "senscal: error: /data/run1.csv: permission denied\n")
 
@@ -76,7 +76,7 @@ def test_simulator_argument_edges(cli, tmp_path, args, match):
 
 def test_real_entry_point_in_a_pipe_is_one_line(tmp_path, sine):
     # stderr is a pipe here (not a terminal): no Rich boxes or wrapping, one line per message.
-    code = ("import senscal.cli.common as c\n"
+    code = ("import senscal.io as c\n"
             "def boom(*a, **k): raise KeyError('k' * 300)\n"
             "c.read_recording = boom\n"
             "from senscal.cli import main\n"
