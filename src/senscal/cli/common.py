@@ -118,24 +118,6 @@ def load(path: Path | str, *, time_column: str = "t", fs: float | None = None,
                           time_required=time_required)
 
 
-def time_checked(rec: Recording, job: str, result: T, *, channel: str | None = None,
-                 known_hz: float | None = None) -> T:
-    """``result`` (a frozen dataclass with ``warnings``) plus a ``time-unit-suspect`` warning if one fires.
-
-    The checks (:mod:`senscal.io.plausibility`) look at the recording's time
-    stamps for ``job`` and, with ``channel`` and ``known_hz``, compare the
-    channel's dominant frequency with the known one.
-    """
-    from dataclasses import replace
-
-    from senscal.io.plausibility import check_time
-
-    found = check_time(rec.time, job, y=rec[channel] if channel is not None and known_hz is not None else None,
-                       known_hz=known_hz)
-    new = tuple(w for w in found if w not in result.warnings)
-    return replace(result, warnings=tuple(result.warnings) + new) if new else result
-
-
 def print_json(obj: Any) -> None:
     """Print ``obj`` as indented JSON on stdout.
 

@@ -32,7 +32,7 @@ from senscal.diagnostics import named
 __all__ = ["TIME_UNIT_WARNING", "UNIT_FACTORS", "MIN_SAMPLE_RATE_HZ", "MAX_SPAN_S", "dominant_frequency",
            "check_known_frequency", "check_sample_rate", "check_angular_rate", "check_epoch_ms", "check_logger_interval",
            "check_span",
-           "check_time"]
+           "check_time", "with_time_warnings"]
 
 TIME_UNIT_WARNING = "time-unit-suspect"
 
@@ -255,3 +255,12 @@ def check_time(t: np.ndarray, job: str, *, y: np.ndarray | None = None, known_hz
     if y is not None and known_hz is not None:
         found = check_known_frequency(dominant_frequency(y, t), known_hz, what=what) + found
     return found[:1]
+
+
+def with_time_warnings(result, t: np.ndarray, job: str, *, y: np.ndarray | None = None,
+                       known_hz: float | None = None):
+    """``result`` (a frozen dataclass with ``warnings``) plus the :func:`check_time` warning, if one fires and is new."""
+    from dataclasses import replace
+
+    new = tuple(w for w in check_time(t, job, y=y, known_hz=known_hz) if w not in result.warnings)
+    return replace(result, warnings=tuple(result.warnings) + new) if new else result

@@ -21,13 +21,14 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, ClassVar, Iterable, Optional, Sequence, Tuple, Union
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
 from senscal.io import Recording, read_recording
+from senscal.io.plausibility import with_time_warnings
 from senscal.jobs._base import JobResult
 from senscal.quantity import Quantity
 
@@ -87,15 +88,6 @@ def _read(source: Source, opts, channels: Sequence[str], index: int) -> tuple[Re
     rec = read_recording(source, time_column=opts.time_column, fs=opts.fs, names=_names(opts.names),
                          channels=list(channels), time_unit=opts.time_unit)
     return rec, str(source)
-
-
-def _time_checked(rec: Recording, job: str, result, *, channel: str, known_hz: float | None):
-    """``result`` plus a ``time-unit-suspect`` warning when the time stamps look like another unit."""
-    from senscal.io.plausibility import check_time
-
-    found = check_time(rec.time, job, y=rec[channel] if known_hz is not None else None, known_hz=known_hz)
-    new = tuple(w for w in found if w not in result.warnings)
-    return replace(result, warnings=tuple(result.warnings) + new) if new else result
 
 
 def _unit(rec: Recording, name: str, given: str | None) -> str:
@@ -279,9 +271,10 @@ def velocity(sources: Sources, options: VelocityOptions = VelocityOptions(), *,
     for i, (src, f) in enumerate(progress(list(zip(srcs, freqs)), "fitting")):
         rec, label = _read(src, o, [o.position, o.velocity], i)
         unit = unit or _unit(rec, o.velocity, o.output_unit) + "/(m/s)"
-        points.append(_time_checked(rec, "velocity", velocity_point(
+        points.append(with_time_warnings(velocity_point(
             rec[o.position], rec[o.velocity], rec.time, freq=f, drift=o.drift, harmonics=o.harmonics,
-            u_position=o.u_position, source=label, unit=unit), channel=o.position, known_hz=f))
+            u_position=o.u_position, source=label, unit=unit), rec.time, "velocity",
+            y=rec[o.position] if f is not None else None, known_hz=f))
     cal = velocity_calibration(points, u_position=o.u_position, unit=unit)
     return VelocityResult(calibration=cal, unit=unit, warnings=tuple(cal.warnings))
 
@@ -380,13 +373,14 @@ def _response_points(srcs, freqs, amplitudes, o, *, progress: Progress, job: str
     for i, (src, f, a) in enumerate(progress(list(zip(srcs, freqs, amplitudes)), "fitting")):
         rec, label = _read(src, o, chans, i)
         unit = unit or _unit(rec, o.output, o.output_unit) + "/(m/s^2)"
-        points.append(_time_checked(rec, job, response_point(
+        points.append(with_time_warnings(response_point(
             rec[o.output], rec.time, input_amplitude=a, reference=rec[o.reference] if o.reference else None,
             reference_sensitivity=o.reference_sensitivity, angle_deg=rec[o.angle] if o.angle else None, freq=f,
             static_sensitivity=o.static_sensitivity, initial_phase=phi0,
             u_input_phase=math.radians(o.u_initial_phase_deg), u_input=o.u_input,
             u_reference_sensitivity=o.u_reference, u_static_sensitivity=o.u_static_sensitivity, drift=o.drift,
-            harmonics=o.harmonics, source=label, unit=unit), channel=o.output, known_hz=f))
+            harmonics=o.harmonics, source=label, unit=unit), rec.time, job,
+            y=rec[o.output] if f is not None else None, known_hz=f))
     return points, unit
 
 
