@@ -20,6 +20,8 @@ from typing import Sequence
 import typer
 
 from senscal.cli import _clickcompat as cx
+from senscal.cli._help import plain_help
+from senscal.cli._params import install_tree
 from senscal.cli.app import app, simulate_app
 from senscal.errors import InputError, SenscalError
 from senscal.io.guard import protect_inputs
@@ -148,7 +150,7 @@ class _LazyGroup:
         module, short_help = entry
         if self.listing:
             # Listing for --help: a stand-in with the manifest's help, nothing imported.
-            return cx.click.Command(cmd_name, help=short_help, short_help=short_help)
+            return typer.core.TyperCommand(cmd_name, help=short_help, short_help=short_help)
         importlib.import_module(f"{__name__}.{module}")
         node = typer.main.get_command(app)
         for part in self.path:
@@ -156,6 +158,7 @@ class _LazyGroup:
         cmd = node.commands.get(cmd_name)
         if cmd is None:
             return None
+        _prepare(cmd)
         _with_common_checks(_Holder({cmd_name: cmd}), " ".join(("senscal", *self.path)))
         self.group.commands[cmd_name] = cmd
         return cmd
@@ -166,6 +169,11 @@ class _LazyGroup:
             return self._format_help(ctx, formatter)
         finally:
             self.listing = False
+
+
+def _prepare(command):
+    """Plain help and light parameter conversion for ``command`` and its subcommands (see _help, _params)."""
+    return install_tree(plain_help(command))
 
 
 class _Holder:
@@ -184,7 +192,7 @@ def _lazy_root():
     sim.commands = {}
     _LazyGroup(sim, SIMULATORS, ("simulate",))
     _LazyGroup(root, {**COMMANDS, "simulate": ("", "")}, ())
-    return root
+    return _prepare(root)
 
 
 def debug_enabled() -> bool:
@@ -222,10 +230,6 @@ def main(argv: Sequence[str] | None = None) -> None:
         # the same for every call (in-process test runners, batch workers), so it is built once.
         _command = _lazy_root()
     command = _command
-    from senscal.cli.common import err_console
-
-    # Messages stay one line when stderr is a file or pipe (Rich would wrap them at 80 columns).
-    err_console.soft_wrap = True
     args = list(argv) if argv is not None else sys.argv[1:]
     if "--debug" in args[1:args.index("--") if "--" in args else len(args)]:
         # Accepted after the command too ("senscal fit x.csv --debug"), where users type it on a rerun.

@@ -16,7 +16,8 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
-    rich_markup_mode="rich",
+    # Plain Click help (grouped by panel in senscal.cli._help): no Rich import to print it, same text in a pipe.
+    rich_markup_mode=None,
 )
 
 simulate_app = typer.Typer(

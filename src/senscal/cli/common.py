@@ -2,53 +2,96 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import sys
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable, Iterator, Optional, Sequence, TypeVar
+from typing import TYPE_CHECKING, Any, Callable, Iterable, Iterator, Optional, Sequence, TypeVar
 
 import typer
-from rich.console import Console
-from rich.table import Table
-from rich.text import Text
 from typing_extensions import Annotated
 
 from senscal.errors import InputError
 from senscal.io.guard import check_output
 
 if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.table import Table
+
     from senscal.io import Recording
 
-# numpy (through senscal._result and senscal.io), rich.progress and the readers load where they are used:
-# `senscal --help` and `senscal fit --help` import this module and must start as fast as typer itself.
+# numpy (through senscal._result and senscal.io), Rich and the readers load where they are used: `senscal --help`
+# and `senscal fit --help` import this module and must start as fast as typer itself.
 
 T = TypeVar("T")
+
+
+class LazyConsole:
+    """A Rich console built on first use (Rich costs ~50 ms to import; ``--help`` prints without it).
+
+    Every attribute read or written goes to the console, so ``console.print``,
+    ``console.width = 120`` and monkeypatching behave as on the console itself.
+    """
+
+    def __init__(self, build: Callable[[], Console]):
+        object.__setattr__(self, "_build", build)
+        object.__setattr__(self, "_real", None)
+
+    def real(self) -> Console:
+        """The Rich console itself (built now if it was not yet)."""
+        con = object.__getattribute__(self, "_real")
+        if con is None:
+            con = object.__getattribute__(self, "_build")()
+            object.__setattr__(self, "_real", con)
+        return con
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.real(), name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        setattr(self.real(), name, value)
+
+    def __delattr__(self, name: str) -> None:
+        delattr(self.real(), name)
+
 
 # Markup and emoji codes off: file names, serials, units and notes are user
 # strings, and '[/' in one crashed the output (after a registry write had
 # committed) while '[link=...]' made a hyperlink.  The few deliberate styles
 # pass markup=True and escape whatever user text they carry.
-class _Console(Console):
-    """A stdout console that moves to stderr once data went to stdout (``--out -``)."""
+def _stdout_console() -> Console:
+    from rich.console import Console
 
-    @property
-    def file(self):
-        from senscal.io.guard import stdout_claimed
+    class _Console(Console):
+        """A stdout console that moves to stderr once data went to stdout (``--out -``)."""
 
-        if not self.stderr and self._file is None and stdout_claimed():
-            # Tables and "wrote ..." lines would corrupt the data a pipe reads.
-            return sys.stderr
-        return super().file
+        @property
+        def file(self):
+            from senscal.io.guard import stdout_claimed
 
-    @file.setter
-    def file(self, new_file) -> None:
-        self._file = new_file
+            if not self.stderr and self._file is None and stdout_claimed():
+                # Tables and "wrote ..." lines would corrupt the data a pipe reads.
+                return sys.stderr
+            return super().file
+
+        @file.setter
+        def file(self, new_file) -> None:
+            self._file = new_file
+
+    return _Console(highlight=False, markup=False, emoji=False)
 
 
-console = _Console(highlight=False, markup=False, emoji=False)
-err_console = Console(stderr=True, highlight=False, markup=False, emoji=False)
+def _stderr_console() -> Console:
+    from rich.console import Console
+
+    # soft_wrap: messages stay one line when stderr is a file or pipe (Rich would wrap them at 80 columns).
+    return Console(stderr=True, highlight=False, markup=False, emoji=False, soft_wrap=True)
+
+
+console: Console = LazyConsole(_stdout_console)  # type: ignore[assignment]
+err_console: Console = LazyConsole(_stderr_console)  # type: ignore[assignment]
 
 # Options every command that reads recordings shares (same words everywhere).
 TimeColumnOpt = Annotated[str, typer.Option("--time-column", help="Name of the time column (seconds).")]
@@ -145,46 +188,63 @@ def write_json(obj: Any, path: Path | str) -> Path:
     return path
 
 
-class StackingTable(Table):
-    """A Rich table that never elides a number.
+@functools.lru_cache(maxsize=None)
+def _stacking_table_class() -> type:
+    from rich.table import Table
+    from rich.text import Text
 
-    Where the table fits the terminal (or pipe: 80 columns) it prints as a
-    table; where it does not, each row prints as a block of ``column: value``
-    lines under the row's first cell, so every digit stays readable.
-    """
+    class StackingTable(Table):
+        """A Rich table that never elides a number.
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
-        self._plain_rows: list[list[str]] = []
+        Where the table fits the terminal (or pipe: 80 columns) it prints as a
+        table; where it does not, each row prints as a block of ``column: value``
+        lines under the row's first cell, so every digit stays readable.
+        """
 
-    def add_plain_row(self, cells: Sequence[str]) -> None:
-        self._plain_rows.append([str(c) for c in cells])
-        self.add_row(*[Text(c) for c in cells])
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            self._plain_rows: list[list[str]] = []
 
-    def natural_width(self) -> int:
-        """Characters the table needs on one line: cells, padding (2) and borders (1 per column + 1)."""
-        heads = [c.header.plain if isinstance(c.header, Text) else str(c.header) for c in self.columns]
-        widths = [max([len(h)] + [len(r[i]) for r in self._plain_rows if i < len(r)]) for i, h in enumerate(heads)]
-        return sum(widths) + 3 * len(widths) + 1
+        def add_plain_row(self, cells: Sequence[str]) -> None:
+            self._plain_rows.append([str(c) for c in cells])
+            self.add_row(*[Text(c) for c in cells])
 
-    def __rich_console__(self, console, options):
-        if self.natural_width() <= options.max_width or not self._plain_rows:
-            yield from super().__rich_console__(console, options)
-            return
-        heads = [c.header.plain if isinstance(c.header, Text) else str(c.header) for c in self.columns]
-        if self.title is not None:
-            yield Text(self.title.plain if isinstance(self.title, Text) else str(self.title), style="italic")
-        pad = max(len(h) for h in heads[1:]) if len(heads) > 1 else 0
-        for row in self._plain_rows:
-            yield Text(f"{heads[0]}: {row[0]}" if heads[0] else row[0], style="bold")
-            for h, v in zip(heads[1:], row[1:]):
-                yield Text(f"  {h.ljust(pad)}  {v}")
+        def natural_width(self) -> int:
+            """Characters the table needs on one line: cells, padding (2) and borders (1 per column + 1)."""
+            heads = [c.header.plain if isinstance(c.header, Text) else str(c.header) for c in self.columns]
+            widths = [max([len(h)] + [len(r[i]) for r in self._plain_rows if i < len(r)])
+                      for i, h in enumerate(heads)]
+            return sum(widths) + 3 * len(widths) + 1
+
+        def __rich_console__(self, console, options):
+            if self.natural_width() <= options.max_width or not self._plain_rows:
+                yield from super().__rich_console__(console, options)
+                return
+            heads = [c.header.plain if isinstance(c.header, Text) else str(c.header) for c in self.columns]
+            if self.title is not None:
+                yield Text(self.title.plain if isinstance(self.title, Text) else str(self.title), style="italic")
+            pad = max(len(h) for h in heads[1:]) if len(heads) > 1 else 0
+            for row in self._plain_rows:
+                yield Text(f"{heads[0]}: {row[0]}" if heads[0] else row[0], style="bold")
+                for h, v in zip(heads[1:], row[1:]):
+                    yield Text(f"  {h.ljust(pad)}  {v}")
+
+    return StackingTable
+
+
+def __getattr__(name: str) -> Any:
+    # `from senscal.cli.common import StackingTable` still works; Rich is imported only then.
+    if name == "StackingTable":
+        return _stacking_table_class()
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def table(title: str, columns: Sequence[str], rows: Iterable[Sequence[Any]]) -> Table:
     """A Rich table with right-aligned numeric columns that stacks rather than elide (see StackingTable)."""
+    from rich.text import Text
+
     # Text objects are never parsed as markup, whichever console renders the table.
-    tab = StackingTable(title=Text(str(title)), title_justify="left")
+    tab = _stacking_table_class()(title=Text(str(title)), title_justify="left")
     for i, c in enumerate(columns):
         tab.add_column(Text(str(c)), justify="left" if i == 0 else "right", overflow="fold")
     for r in rows:
@@ -211,7 +271,7 @@ def progress_bar(description: str, total: int | None, *, disable: bool = False) 
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
     prog = Progress(TextColumn("{task.description}", markup=False), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                    console=err_console, transient=True, disable=disable or not err_console.is_terminal)
+                    console=err_console.real(), transient=True, disable=disable or not err_console.is_terminal)
     with prog:
         task = prog.add_task(description, total=total)
         yield lambda n=1: prog.advance(task, n)
