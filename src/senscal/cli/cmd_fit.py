@@ -13,14 +13,15 @@ from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnO
                                 print_json, table)
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
+from senscal.jobs._base import with_read_options
 from senscal.jobs.fit import FitOptions, fit
 
 
-def fit_options(*, channel=None, freq=None, harmonics=1, noise_model="auto", time_column="t", fs=None, names=None,
-                **_) -> FitOptions:
+@with_read_options
+def fit_options(*, channel=None, freq=None, harmonics=1, noise_model="auto", **_) -> FitOptions:
     """The fit job's options from ``senscal fit``'s parameters (output-only ones ignored)."""
     return FitOptions(channels=tuple(channel) if channel else None, freq=freq, harmonics=harmonics,
-                      noise_model=noise_model, time_column=time_column, fs=fs, names=names)
+                      noise_model=noise_model)
 
 
 JOB_OPTIONS = {"fit": fit_options}

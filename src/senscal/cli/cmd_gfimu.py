@@ -13,16 +13,17 @@ from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console,
                                 emit_warnings, err_console, parse_floats, print_json, table)
 from senscal.errors import InputError
+from senscal.jobs._base import with_read_options
 
 _AXES = ("wx", "wy", "wz")
 
 
+@with_read_options
 def _options(*, layout_file: Path | str | None = None, distance: float | None = None, method: str = "kalman",
              observation: str = "quadratic", initial_omega: str | None = None, truth: Path | str | None = None,
              attitude: bool = False, lag: int = 1, noise_std: float | None = None, bias_std: float | None = None,
              plain: bool = False, rest: str | None = None, differential_max_u: float | None = None,
-             smooth: bool = False, time_column: str = "t", fs: float | None = None, names: str | None = None,
-             time_unit: str | None = None, **_):
+             smooth: bool = False, **_):
     """``GfimuOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.gfimu import GfimuOptions
 
@@ -39,7 +40,7 @@ def _options(*, layout_file: Path | str | None = None, distance: float | None = 
     return GfimuOptions(layout=layout_file, distance=distance, method=method, observation=observation,
                         initial_omega=w0, truth=truth, attitude=attitude, lag=lag, noise_std=noise_std,
                         bias_std=bias_std, plain=plain, rest=span, differential_max_u=differential_max_u,
-                        smooth=smooth, time_column=time_column, fs=fs, names=names, time_unit=time_unit)
+                        smooth=smooth)
 
 
 # What `senscal batch` turns the job's option words into (see senscal.jobs).

@@ -15,6 +15,7 @@ from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnO
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.errors import InputError
+from senscal.jobs._base import with_read_options
 
 shaft_app = typer.Typer(help="Rotating shaft: gravity identification and compensation (angular acceleration "
                              "from one tangential accelerometer).", no_args_is_help=True)
@@ -30,11 +31,11 @@ PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Before/after co
 
 
 
+@with_read_options
 def _calibrate_options(*, angle: str = "angle", accel: str = "accel", angle_unit: str | None = None,
                        sensitivity: float = 1.0, u_sensitivity: float = 0.0, radius: float | None = None,
                        ripple_correction: bool = True, g: float = 9.80665, window: float | None = None,
-                       max_speed_variation: str = "10%", time_column: str = "t", fs: float | None = None,
-                       names: str | None = None, **_):
+                       max_speed_variation: str = "10%", **_):
     """``ShaftCalibrateOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.cli.common import parse_relative
     from senscal.jobs.shaft import ShaftCalibrateOptions
@@ -42,19 +43,18 @@ def _calibrate_options(*, angle: str = "angle", accel: str = "accel", angle_unit
     return ShaftCalibrateOptions(
         angle=angle, accel=accel, angle_unit=angle_unit, sensitivity=sensitivity, u_sensitivity=u_sensitivity,
         radius=radius, ripple_correction=ripple_correction, g=g, window=window,
-        max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"),
-        time_column=time_column, fs=fs, names=names)
+        max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"))
 
 
+@with_read_options
 def _compensate_options(*, model_path: Path | str | None = None, radius: float | None = None, angle: str = "angle",
                         accel: str = "accel", angle_unit: str | None = None, window: float | None = None,
-                        centripetal: bool = False, time_column: str = "t", fs: float | None = None,
-                        names: str | None = None, **_):
+                        centripetal: bool = False, **_):
     """``ShaftCompensateOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.shaft import ShaftCompensateOptions
 
     return ShaftCompensateOptions(model=model_path, radius=radius, angle=angle, accel=accel, angle_unit=angle_unit,
-                                  window=window, centripetal=centripetal, time_column=time_column, fs=fs, names=names)
+                                  window=window, centripetal=centripetal)
 
 
 # What `senscal batch` turns a job's option words into (see senscal.jobs).

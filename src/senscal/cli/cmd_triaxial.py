@@ -17,32 +17,33 @@ from senscal.cli.registry_opts import (
     CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, save_if_requested,
 )
 from senscal.errors import InputError
+from senscal.jobs._base import with_read_options
 
 triaxial_app = typer.Typer(help="Three-axis magnetometer / accelerometer calibration without a reference.",
                            no_args_is_help=True)
 app.add_typer(triaxial_app, name="triaxial")
 
 
+@with_read_options
 def _calibrate_options(*, channels: str = "x,y,z", field: float | None = None, method: str = "auto",
                        model: str | None = None, lr: float = 0.01, epochs: int = 50, strict: bool = False,
                        static: bool = False, static_window: float = 0.5, min_pose: float = 1.0,
-                       outlier_sigma: float = 5.0, accel_channels: str | None = None, time_column: str = "t",
-                       fs: float | None = None, names: str | None = None, skip_rows: int | None = None, **_):
+                       outlier_sigma: float = 5.0, accel_channels: str | None = None, **_):
     """``TriaxialCalibrateOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.triaxial import TriaxialCalibrateOptions
 
     return TriaxialCalibrateOptions(
         channels=channels, field=field, method=method, model=model, lr=lr, epochs=epochs, strict=strict,
         static=static, static_window=static_window, min_pose=min_pose, outlier_sigma=outlier_sigma,
-        accel_channels=accel_channels, time_column=time_column, fs=fs, names=names, skip_rows=skip_rows)
+        accel_channels=accel_channels)
 
 
-def _apply_options(*, params: Path | str | None = None, channels: str = "x,y,z", time_column: str = "t",
-                   fs: float | None = None, names: str | None = None, **_):
+@with_read_options
+def _apply_options(*, params: Path | str | None = None, channels: str = "x,y,z", **_):
     """``TriaxialApplyOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.triaxial import TriaxialApplyOptions
 
-    return TriaxialApplyOptions(params=params, channels=channels, time_column=time_column, fs=fs, names=names)
+    return TriaxialApplyOptions(params=params, channels=channels)
 
 
 # What `senscal batch` turns a job's option words into (see senscal.jobs).

@@ -16,8 +16,9 @@ from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, CustomerOpt, DccOpt, E
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console, emit_warnings,
-                                err_console, parse_floats, parse_relative, print_json, split_names, table, track)
+                                err_console, parse_floats, parse_relative, print_json, table, track)
 from senscal.errors import InputError
+from senscal.jobs._base import with_read_options
 from senscal.jobs.vibration import LinearityOptions, ResponseOptions, VelocityOptions
 from senscal.jobs.vibration import linearity as linearity_job
 from senscal.jobs.vibration import response as response_job
@@ -65,25 +66,20 @@ def _u2(u) -> str:
     return "-" if u is None else f"{u:.2g}"
 
 
-def _read_words(time_column="t", fs=None, names=None, time_unit=None, output_unit=None) -> dict:
-    """The reading options every vibration command shares, as the jobs' option fields."""
-    listed = split_names(names)
-    return dict(time_column=time_column, fs=fs, names=None if listed is None else tuple(listed), time_unit=time_unit,
-                output_unit=output_unit)
-
-
+@with_read_options
 def velocity_options(*, position=None, velocity=None, freq=None, u_position=None, drift=True, harmonics=1,
-                     output_unit=None, time_column="t", fs=None, names=None, time_unit=None, **_) -> VelocityOptions:
+                     output_unit=None, **_) -> VelocityOptions:
     """:class:`~senscal.jobs.vibration.VelocityOptions` from the ``senscal velocity`` parameters."""
     return VelocityOptions(position=position, velocity=velocity, freq=_freq_values(freq),
                            u_position=_rel(u_position, "--u-position"), drift=drift, harmonics=harmonics,
-                           **_read_words(time_column, fs, names, time_unit, output_unit))
+                           output_unit=output_unit)
 
 
+@with_read_options
 def response_options(*, output=None, input_amplitude=None, reference=None, reference_sensitivity=None, angle=None,
                      static_sensitivity=None, initial_phase_deg=None, u_initial_phase_deg=0.0, phase_reference=None,
                      freq=None, u_input=None, u_reference=None, u_static=None, drift=False, harmonics=1,
-                     output_unit=None, time_column="t", fs=None, names=None, time_unit=None, **_) -> ResponseOptions:
+                     output_unit=None, **_) -> ResponseOptions:
     """:class:`~senscal.jobs.vibration.ResponseOptions` from the ``senscal response`` parameters."""
     return ResponseOptions(
         output=output, input_amplitude=input_amplitude, reference=reference,
@@ -91,19 +87,18 @@ def response_options(*, output=None, input_amplitude=None, reference=None, refer
         initial_phase_deg=initial_phase_deg, u_initial_phase_deg=u_initial_phase_deg, phase_reference=phase_reference,
         freq=_freq_values(freq), u_input=_rel(u_input, "--u-input"), u_reference=_rel(u_reference, "--u-reference"),
         u_static_sensitivity=_rel(u_static, "--u-static-sensitivity"), drift=drift, harmonics=harmonics,
-        **_read_words(time_column, fs, names, time_unit, output_unit))
+        output_unit=output_unit)
 
 
+@with_read_options
 def linearity_options(*, output=None, input_amplitudes=None, freq=None, angle=None, drift=False, harmonics=1,
-                      u_input=None, output_unit=None, time_column="t", fs=None, names=None, time_unit=None,
-                      **_) -> LinearityOptions:
+                      u_input=None, output_unit=None, **_) -> LinearityOptions:
     """:class:`~senscal.jobs.vibration.LinearityOptions` from the ``senscal linearity`` parameters."""
     if input_amplitudes is None:
         raise InputError("give --input-amplitudes A1,A2,... (peak input of each file, m/s^2)")
     return LinearityOptions(output=output, input_amplitudes=tuple(parse_floats(input_amplitudes, "--input-amplitudes")),
                             freq=freq, angle=angle, drift=drift, harmonics=harmonics,
-                            u_input=_rel(u_input, "--u-input"),
-                            **_read_words(time_column, fs, names, time_unit, output_unit))
+                            u_input=_rel(u_input, "--u-input"), output_unit=output_unit)
 
 
 # What `senscal batch` uses to turn a job's option words into its options (without running the command).

@@ -1,16 +1,20 @@
-"""What every job result shares: the JSON document, the registry quantities, a table."""
+"""What every job shares: how it reads a recording; what every result shares: the JSON document, the
+registry quantities, a table."""
 
 from __future__ import annotations
 
 import dataclasses
+import functools
+import inspect
 from pathlib import Path
-from typing import Any, ClassVar, Sequence
+from typing import Any, Callable, ClassVar, Mapping, Sequence
 
 from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import InputError
 from senscal.quantity import Quantity
 
-__all__ = ["JobResult", "Quantity", "read_source", "source_name", "document_fields"]
+__all__ = ["JobResult", "Quantity", "ReadOptions", "read_source", "with_read_options", "source_name", "document_fields",
+           "given_or_loaded"]
 
 
 class JobResult(ResultMixin):
@@ -60,6 +64,104 @@ class JobResult(ResultMixin):
         from senscal.diagnostics import warning_name
 
         return tuple(n for n in (warning_name(w) for w in getattr(self, "warnings", ())) if n)
+
+
+@dataclasses.dataclass(frozen=True)
+class ReadOptions:
+    """How a job reads a recording file: the reading words every job shares.
+
+    Each job's options class derives from this one, so ``FitOptions(fs=1000.0)``
+    and ``DriftOptions(time_unit="ms")`` read the same way; a
+    :class:`~senscal.io.Recording` given instead of a path is used as is.
+
+    Attributes
+    ----------
+    time_column : str
+        Name of the time column (s) when reading a file.
+    fs : float, optional
+        Sample rate in Hz for a file without a time column.
+    names : str or tuple of str, optional
+        Column names of a text file without header (comma-separated string or tuple).
+    time_unit : str, optional
+        Unit of a time column whose header gives none (s, ms, us, min).
+    skip_rows : int, optional
+        Lines to skip before the header of a text file.
+    """
+
+    time_column: str = "t"
+    fs: float | None = None
+    names: str | tuple[str, ...] | None = None
+    time_unit: str | None = None
+    skip_rows: int | None = None
+
+    def read(self, source: Any, *, channels: Sequence[str] | None = None, allow_nan: bool = False,
+             time_required: bool = True):
+        """The :class:`~senscal.io.Recording` of ``source`` read with these options (see :func:`read_source`)."""
+        return read_source(source, time_column=self.time_column, fs=self.fs, names=self.names, channels=channels,
+                           allow_nan=allow_nan, time_unit=self.time_unit, skip_rows=self.skip_rows,
+                           time_required=time_required)
+
+    @staticmethod
+    def words(params: Mapping[str, Any]) -> dict[str, Any]:
+        """The reading fields among a command's keyword parameters (``--fs`` ... as given, others left out)."""
+        return {k: params[k] for k in _READ_FIELDS if k in params}
+
+
+_READ_FIELDS = tuple(f.name for f in dataclasses.fields(ReadOptions))
+
+
+def with_read_options(builder: Callable[..., Any]) -> Callable[..., Any]:
+    """A command's options builder that also takes the reading words (``--time-column``, ``--fs`` ...).
+
+    ``builder(**params)`` turns a command's keyword parameters into the job's
+    options from the job's own words only; the wrapped builder copies the
+    reading words among ``params`` (:meth:`ReadOptions.words`) into them. Its
+    signature lists the reading words too, so that ``senscal batch``, which
+    refuses an option the builder does not name, passes them through.
+    """
+    sig = inspect.signature(builder)
+
+    @functools.wraps(builder)
+    def build(**params: Any) -> Any:
+        opts = builder(**params)
+        words = ReadOptions.words(params)
+        return dataclasses.replace(opts, **words) if words else opts
+
+    given = list(sig.parameters.values())
+    tail = [p for p in given if p.kind is p.VAR_KEYWORD]
+    added = [inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default)
+             for f in dataclasses.fields(ReadOptions) if f.name not in sig.parameters]
+    build.__signature__ = sig.replace(  # type: ignore[attr-defined]
+        parameters=[p for p in given if p not in tail] + added + tail)
+    return build
+
+
+def given_or_loaded(value: Any, kind: type, load: Callable[[Any], Any], *, label: str, what: str) -> tuple[Any, str]:
+    """An input a job takes in memory or as a file (a gravity model, a calibration, a layout).
+
+    Parameters
+    ----------
+    value : object, str or Path
+        An instance of ``kind`` (used as is) or a path (read with ``load``).
+    kind : type
+        The in-memory class (``GravityModel`` ...).
+    load : callable
+        Reads a path into a ``kind`` (raises SenscalError with the fix when it cannot).
+    label : str
+        How the result names an input given in memory (``"<model>"``).
+    what : str
+        How the error names the input (``"the shaft model (--model)"``).
+
+    Returns
+    -------
+    (object, str)
+        The input and how the result names it: the path as given, or ``label``.
+    """
+    if isinstance(value, kind):
+        return value, label
+    if isinstance(value, (str, Path)):
+        return load(value), str(value)
+    raise InputError(f"{what} must be a file path or a {kind.__name__}, got {type(value).__name__}")
 
 
 def document_fields(obj: Any, *names: str) -> dict[str, Any]:

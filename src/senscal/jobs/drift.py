@@ -32,7 +32,7 @@ import numpy as np
 
 from senscal.diagnostics import named
 from senscal.errors import DataError, InputError
-from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+from senscal.jobs._base import JobResult, Quantity, ReadOptions, source_name
 
 __all__ = ["PRESETS", "BIAS_DYNAMICS", "DriftOptions", "DriftJobResult", "drift", "drift_setup_for",
            "start_tracker", "stream_document"]
@@ -42,7 +42,7 @@ BIAS_DYNAMICS = ("random_walk", "ramp")
 
 
 @dataclass(frozen=True)
-class DriftOptions:
+class DriftOptions(ReadOptions):
     """Options of the ``drift`` job (``senscal drift`` spells them ``--preset`` ...).
 
     Attributes
@@ -83,8 +83,8 @@ class DriftOptions:
     flush : bool
         With ``state`` and a window: end of data, emit the samples the
         window still holds.
-    time_column, fs, names, time_unit :
-        How to read the file.
+    time_column, fs, names, time_unit, skip_rows
+        How to read the file (:class:`~senscal.jobs._base.ReadOptions`).
     """
 
     preset: str = "redundant"
@@ -106,10 +106,6 @@ class DriftOptions:
     fit_levels: bool = False
     levels_from_allan: bool = False
     flush: bool = False
-    time_column: str = "t"
-    fs: float | None = None
-    names: str | None = None
-    time_unit: str | None = None
 
     def __post_init__(self):
         for key in ("channels", "trusted"):
@@ -379,8 +375,7 @@ def drift(source: Any, options: DriftOptions = DriftOptions(), *,
     from senscal.drift.stream import TrackerState
     from senscal.io.plausibility import check_time
 
-    rec = read_source(source, time_column=options.time_column, fs=options.fs, names=options.names, allow_nan=True,
-                      time_unit=options.time_unit)
+    rec = options.read(source, allow_nan=True)
     name = source_name(source)
     setup = drift_setup_for(rec, options)
     y, t, cov = _arrays(rec, setup, name)

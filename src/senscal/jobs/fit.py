@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Mapping
 
 from senscal.diagnostics import named, warning_name
 from senscal.errors import DataError, InputError, SenscalError
-from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+from senscal.jobs._base import JobResult, Quantity, ReadOptions, source_name
 
 if TYPE_CHECKING:  # numpy and the engine (scipy.linalg) load when a fit runs, not for `senscal fit --help`
     import numpy as np
@@ -31,7 +31,7 @@ NOISE_MODELS = ("auto", "white", "coloured")
 
 
 @dataclass(frozen=True)
-class FitOptions:
+class FitOptions(ReadOptions):
     """Options of the ``fit`` job (``senscal fit`` spells them ``--freq`` ...).
 
     Attributes
@@ -45,21 +45,14 @@ class FitOptions:
         Number of harmonics K (1 = the fundamental only).
     noise_model : {"auto", "white", "coloured"}
         How the uncertainties treat the residual (see :func:`senscal.fit_sine`).
-    time_column : str
-        Name of the time column (s) when reading a file.
-    fs : float, optional
-        Sample rate in Hz for a file without a time column.
-    names : str, optional
-        Comma-separated column names for a text file without header.
+    time_column, fs, names, time_unit, skip_rows
+        How a file is read (:class:`~senscal.jobs._base.ReadOptions`).
     """
 
     channels: tuple[str, ...] | None = None
     freq: float | None = None
     harmonics: int = 1
     noise_model: str = "auto"
-    time_column: str = "t"
-    fs: float | None = None
-    names: str | None = None
 
     def __post_init__(self):
         if self.noise_model not in NOISE_MODELS:
@@ -228,8 +221,7 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
 
     options = FitOptions() if options is None else options
     # NaN in one channel should not stop the others: checked per channel below.
-    rec = read_source(source, time_column=options.time_column, fs=options.fs, names=options.names,
-                      channels=options.channels, allow_nan=True)
+    rec = options.read(source, channels=options.channels, allow_nan=True)
     name = source_name(source)
     chans = list(rec.names)
     y = rec.data(chans)

@@ -17,7 +17,7 @@ import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.jobs._base import JobResult, read_source, source_name
+from senscal.jobs._base import JobResult, ReadOptions, given_or_loaded, read_source, source_name
 
 if TYPE_CHECKING:  # the engines load when a job runs, not when the CLI starts
     from senscal.gfimu import AttitudeError, ErrorStatistics, Layout, RateEstimate
@@ -29,7 +29,7 @@ _QUATERNION = ("qw", "qx", "qy", "qz")
 
 
 @dataclass(frozen=True)
-class GfimuOptions:
+class GfimuOptions(ReadOptions):
     """Options of :func:`gfimu` (the ``senscal gfimu`` options).
 
     Attributes
@@ -64,8 +64,8 @@ class GfimuOptions:
         Differential method: reject samples whose u exceeds this, rad/s.
     smooth : bool
         The fixed-interval (RTS) smoother instead of the causal filter.
-    time_column, fs, names, time_unit
-        How the recording is read.
+    time_column, fs, names, time_unit, skip_rows
+        How the recording is read (:class:`~senscal.jobs._base.ReadOptions`).
     """
 
     layout: str | Path | Layout | None = None
@@ -82,10 +82,6 @@ class GfimuOptions:
     rest: tuple[float, float] | None = None
     differential_max_u: float | None = None
     smooth: bool = False
-    time_column: str = "t"
-    fs: float | None = None
-    names: str | tuple[str, ...] | None = None
-    time_unit: str | None = None
 
 
 @dataclass(frozen=True)
@@ -262,9 +258,7 @@ def _layout_of(o: GfimuOptions) -> tuple[Any, str]:
     if o.layout is None:
         d = 0.04 if o.distance is None else o.distance
         return paper_layout(d), f"paper, L = {d} m"
-    if isinstance(o.layout, Layout):
-        return o.layout, "<layout>"
-    return read_layout(o.layout), str(o.layout)
+    return given_or_loaded(o.layout, Layout, read_layout, label="<layout>", what="the layout (--layout)")
 
 
 def _truth_on(rec_t: np.ndarray, path, need_q: bool) -> tuple[np.ndarray, np.ndarray | None]:
@@ -339,7 +333,7 @@ def gfimu(source, options: GfimuOptions = GfimuOptions()) -> GfimuResult:
     methods = METHODS if o.method == "all" else (o.method,)
     w0 = tuple(float(v) for v in o.initial_omega)
     span = None if o.rest is None else tuple(float(v) for v in o.rest)
-    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names, time_unit=o.time_unit)
+    rec = o.read(source)
     y = rec.data(list(layout.names))
     est = angular_velocity(y, rec.time, layout, methods=methods, observation=o.observation, initial=w0,
                            noise_std=o.noise_std, lag=o.lag, bias_std=o.bias_std, smooth=o.smooth, plain=o.plain,

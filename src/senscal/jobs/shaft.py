@@ -19,7 +19,7 @@ import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+from senscal.jobs._base import JobResult, Quantity, ReadOptions, given_or_loaded, source_name
 
 if TYPE_CHECKING:  # the engines load when a job runs, not when the CLI starts
     from senscal.shaft import GravityModel, ShaftCompensation
@@ -99,7 +99,7 @@ def _quantity(name: str, value: float, u: float, unit: str) -> Quantity:
 # ---------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class ShaftCalibrateOptions:
+class ShaftCalibrateOptions(ReadOptions):
     """Options of :func:`shaft_calibrate` (the ``senscal shaft calibrate`` options).
 
     Attributes
@@ -122,8 +122,8 @@ class ShaftCalibrateOptions:
         Savitzky-Golay window of the encoder derivatives, s (None: 0.1 s).
     max_speed_variation : float
         Warn above this speed std/mean (fraction, 0.1 = 10 %).
-    time_column, fs, names
-        How the recording is read (see :func:`senscal.io.read_recording`).
+    time_column, fs, names, time_unit, skip_rows
+        How the recording is read (:class:`~senscal.jobs._base.ReadOptions`).
     """
 
     angle: str = "angle"
@@ -136,9 +136,6 @@ class ShaftCalibrateOptions:
     g: float = 9.80665
     window: float | None = None
     max_speed_variation: float = 0.10
-    time_column: str = "t"
-    fs: float | None = None
-    names: str | tuple[str, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -231,7 +228,7 @@ def shaft_calibrate(source, options: ShaftCalibrateOptions = ShaftCalibrateOptio
     o = options
     if not 0 <= o.max_speed_variation < 1e6:
         raise InputError(f"--max-speed-variation must be a fraction >= 0, got {o.max_speed_variation!r}")
-    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names, channels=[o.angle, o.accel])
+    rec = o.read(source, channels=[o.angle, o.accel])
     unit = angle_unit_of(rec, o.angle, o.angle_unit)
     name = source_name(source)
     model = calibrate_gravity(
@@ -249,7 +246,7 @@ def shaft_calibrate(source, options: ShaftCalibrateOptions = ShaftCalibrateOptio
 # ---------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class ShaftCompensateOptions:
+class ShaftCompensateOptions(ReadOptions):
     """Options of :func:`shaft_compensate` (the ``senscal shaft compensate`` options).
 
     Attributes
@@ -267,8 +264,8 @@ class ShaftCompensateOptions:
         Savitzky-Golay window, s (None: the calibration's).
     centripetal : bool
         Estimate and remove the centripetal leakage ``k r (w^2 - w_cal^2)``.
-    time_column, fs, names
-        How the recording is read.
+    time_column, fs, names, time_unit, skip_rows
+        How the recording is read (:class:`~senscal.jobs._base.ReadOptions`).
     """
 
     model: str | Path | GravityModel | None = None
@@ -278,9 +275,6 @@ class ShaftCompensateOptions:
     angle_unit: str | None = None
     window: float | None = None
     centripetal: bool = False
-    time_column: str = "t"
-    fs: float | None = None
-    names: str | tuple[str, ...] | None = None
 
 
 _OUTPUT_UNITS = {"tangential_acceleration": "m/s^2", "angular_acceleration": "rad/s^2",
@@ -348,11 +342,7 @@ def _model_of(model) -> tuple[Any, str]:
     if model is None:
         raise InputError("shaft compensation needs the gravity model: give --model MODEL.json from "
                          "'senscal shaft calibrate --out MODEL.json'")
-    if isinstance(model, GravityModel):
-        return model, "<model>"
-    if isinstance(model, (str, Path)):
-        return load_model(model), str(model)
-    raise InputError(f"the shaft model must be a MODEL.json path or a GravityModel, got {type(model).__name__}")
+    return given_or_loaded(model, GravityModel, load_model, label="<model>", what="the shaft model (--model)")
 
 
 def shaft_compensate(source, options: ShaftCompensateOptions = ShaftCompensateOptions()) -> ShaftCompensateResult:
@@ -381,7 +371,7 @@ def shaft_compensate(source, options: ShaftCompensateOptions = ShaftCompensateOp
     if o.radius is None:
         raise InputError("shaft compensation needs the sensor radius: give --radius R (m, distance from the axis)")
     model, model_source = _model_of(o.model)
-    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names, channels=[o.angle, o.accel])
+    rec = o.read(source, channels=[o.angle, o.accel])
     unit = angle_unit_of(rec, o.angle, o.angle_unit)
     res = compensate(model, rec[o.accel], rec[o.angle], rec.time, radius=o.radius, angle_unit=unit, window=o.window,
                      remove_centripetal=o.centripetal, accel_unit=rec.unit(o.accel))

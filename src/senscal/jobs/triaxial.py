@@ -18,7 +18,7 @@ import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.jobs._base import JobResult, Quantity, read_source, source_name
+from senscal.jobs._base import JobResult, Quantity, ReadOptions, given_or_loaded, source_name
 
 if TYPE_CHECKING:  # the engines load when a job runs, not when the CLI starts
     from senscal.io import Recording
@@ -66,7 +66,7 @@ def _finite(x: Any) -> bool:
 # ---------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class TriaxialCalibrateOptions:
+class TriaxialCalibrateOptions(ReadOptions):
     """Options of :func:`triaxial_calibrate` (the ``senscal triaxial calibrate`` options).
 
     Attributes
@@ -98,8 +98,8 @@ class TriaxialCalibrateOptions:
     accel_channels : str, tuple of 3 str or None
         An accelerometer recorded alongside: calibrated too, and the
         tilt-compensated heading is compared before/after.
-    time_column, fs, names, skip_rows
-        How the recording is read.
+    time_column, fs, names, time_unit, skip_rows
+        How the recording is read (:class:`~senscal.jobs._base.ReadOptions`).
     """
 
     channels: str | tuple[str, str, str] = ("x", "y", "z")
@@ -114,10 +114,6 @@ class TriaxialCalibrateOptions:
     min_pose: float = 1.0
     outlier_sigma: float = 5.0
     accel_channels: str | tuple[str, str, str] | None = None
-    time_column: str = "t"
-    fs: float | None = None
-    names: str | tuple[str, ...] | None = None
-    skip_rows: int | None = None
 
 
 @dataclass(frozen=True)
@@ -256,8 +252,7 @@ def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalib
     extra = _three(o.accel_channels, "--accel-channels") if o.accel_channels is not None else None
     outlier = None if o.outlier_sigma == 0 else o.outlier_sigma
     # Only static poses use time: a headerless x,y,z file needs no sample rate otherwise.
-    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names,
-                      channels=list(chans) + list(extra or ()), skip_rows=o.skip_rows, time_required=o.static)
+    rec = o.read(source, channels=list(chans) + list(extra or ()), time_required=o.static)
     h = rec.data(list(chans))
     unit = rec.units.get(chans[0], "")
     st = None
@@ -292,7 +287,7 @@ def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalib
 # ---------------------------------------------------------------------------
 
 @dataclass(frozen=True)
-class TriaxialApplyOptions:
+class TriaxialApplyOptions(ReadOptions):
     """Options of :func:`triaxial_apply` (the ``senscal triaxial apply`` options).
 
     Attributes
@@ -301,15 +296,12 @@ class TriaxialApplyOptions:
         The parameter file of ``triaxial calibrate --out`` (or a calibration in memory).
     channels : str or tuple of 3 str
         The X, Y, Z channels to correct.
-    time_column, fs, names
-        How the recording is read.
+    time_column, fs, names, time_unit, skip_rows
+        How the recording is read (:class:`~senscal.jobs._base.ReadOptions`).
     """
 
     params: str | Path | TriaxialCalibration | None = None
     channels: str | tuple[str, str, str] = ("x", "y", "z")
-    time_column: str = "t"
-    fs: float | None = None
-    names: str | tuple[str, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -361,12 +353,8 @@ def _calibration_of(params) -> tuple[Any, str]:
     if params is None:
         raise InputError("triaxial apply needs the calibration: give --params PARAMS.json from "
                          "'senscal triaxial calibrate --out PARAMS.json'")
-    if isinstance(params, TriaxialCalibration):
-        return params, "<calibration>"
-    if isinstance(params, (str, Path)):
-        return load_calibration(params), str(params)
-    raise InputError(f"the calibration must be a parameter file or a TriaxialCalibration, "
-                     f"got {type(params).__name__}")
+    return given_or_loaded(params, TriaxialCalibration, load_calibration, label="<calibration>",
+                           what="the calibration (--params)")
 
 
 def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions()) -> TriaxialApplyResult:
@@ -394,7 +382,7 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
     o = options
     cal, params_source = _calibration_of(o.params)
     chans = _three(o.channels, "--channels")
-    rec = read_source(source, time_column=o.time_column, fs=o.fs, names=o.names)
+    rec = o.read(source)
     rec.data(list(chans))  # unknown channel -> one-line error listing the channels
     # Units compared as units (m/s² is m/s^2); a channel of unknown unit passes.
     cal.check_units({c: rec.units.get(c, "") for c in chans}, source=source_name(source))

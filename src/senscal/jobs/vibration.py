@@ -27,9 +27,9 @@ from typing import Any, Callable, ClassVar, Iterable, Optional, Sequence, Tuple,
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.io import Recording, read_recording
+from senscal.io import Recording
 from senscal.io.plausibility import with_time_warnings
-from senscal.jobs._base import JobResult
+from senscal.jobs._base import JobResult, ReadOptions
 from senscal.quantity import Quantity
 
 __all__ = ["VelocityOptions", "VelocityResult", "velocity", "ResponseOptions", "ResponseResult", "response",
@@ -70,23 +70,13 @@ def _distinct(sources: Sequence[Source]) -> None:
         seen[key] = s
 
 
-def _names(names: str | Sequence[str] | None) -> list[str] | None:
-    if names is None:
-        return None
-    listed = [s.strip() for s in (names.split(",") if isinstance(names, str) else names) if s.strip()]
-    if not listed:
-        raise InputError(f"expected comma-separated column names, got {names!r}")
-    return listed
-
-
 def _read(source: Source, opts, channels: Sequence[str], index: int) -> tuple[Recording, str]:
     """The recording and the label its point carries (the path as given, or the recording's source)."""
     if isinstance(source, Recording):
         for ch in channels:
             source[ch]  # an unknown channel is one clean InputError naming the channels there are
         return source, source.source or f"recording {index + 1}"
-    rec = read_recording(source, time_column=opts.time_column, fs=opts.fs, names=_names(opts.names),
-                         channels=list(channels), time_unit=opts.time_unit)
+    rec = opts.read(source, channels=channels)
     return rec, str(source)
 
 
@@ -132,28 +122,16 @@ def _points_frame(points: Sequence[dict]):
 
 
 @dataclass(frozen=True)
-class _ReadOptions:
-    """How the recordings are read (the same words as every command that reads recordings).
+class _ReadOptions(ReadOptions):
+    """How the recordings are read (:class:`~senscal.jobs._base.ReadOptions`) and the output's unit.
 
     Attributes
     ----------
     output_unit : str, optional
         Unit of the sensor output (default: from the file, else V).
-    time_column : str
-        Name of the time column (s).
-    fs : float, optional
-        Sample rate (Hz) for files without a time column.
-    names : str or tuple of str, optional
-        Column names of a headerless text file.
-    time_unit : str, optional
-        Unit of a time column whose header gives none (s, ms, us, min).
     """
 
     output_unit: Optional[str] = None
-    time_column: str = "t"
-    fs: Optional[float] = None
-    names: Optional[Union[str, Tuple[str, ...]]] = None
-    time_unit: Optional[str] = None
 
 
 def _need(value, option: str, what: str):
@@ -698,5 +676,4 @@ def _as_response(o: LinearityOptions) -> ResponseOptions:
     The input level's own u enters the line fit (random from level to level), not each point's budget.
     """
     return ResponseOptions(output=o.output, angle=o.angle, drift=o.drift, harmonics=o.harmonics, u_input=0.0,
-                           output_unit=o.output_unit, time_column=o.time_column, fs=o.fs, names=o.names,
-                           time_unit=o.time_unit)
+                           output_unit=o.output_unit, **ReadOptions.words(vars(o)))
