@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import inspect
 from pathlib import Path
 from typing import Optional
 
@@ -14,6 +15,7 @@ from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnO
 from senscal.cli.common import TimeUnitOpt
 from senscal.errors import InputError
 from senscal.io import Recording, write_recording
+from senscal.jobs._base import with_read_options
 
 # The set-up rules live with the job; re-exported for the callers that import them from here.
 from senscal.jobs.drift import BIAS_DYNAMICS, PRESETS, drift_setup_for  # noqa: E402,F401
@@ -22,15 +24,14 @@ from senscal.jobs.drift import BIAS_DYNAMICS, PRESETS, drift_setup_for  # noqa: 
 DEFAULT_CHUNK = 1000
 
 
+@with_read_options
 def _drift_options(*, preset: str = "redundant", channels: str | None = None, trusted: str | None = None,
                    covariate: str | None = None, model: Path | str | None = None, window: int | None = None,
                    smooth: bool = False, false_alarm_rate: float = 1e-4, signal: str = "random_walk",
                    signal_tau: float | None = None, signal_mean: float = 0.0,
                    covariate_reference: float | None = None, bias_dynamics: str = "random_walk",
                    true_value: float = 0.0, compare: bool = True, state: Path | str | None = None,
-                   fit_levels: bool = False, levels_from_allan: bool = False, flush: bool = False,
-                   time_column: str = "t", fs: float | None = None, names: str | None = None,
-                   time_unit: str | None = None, **_):
+                   fit_levels: bool = False, levels_from_allan: bool = False, flush: bool = False, **_):
     """``DriftOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.drift import DriftOptions
 
@@ -40,8 +41,7 @@ def _drift_options(*, preset: str = "redundant", channels: str | None = None, tr
         false_alarm_rate=false_alarm_rate, signal=signal, signal_tau=signal_tau, signal_mean=signal_mean,
         covariate_reference=covariate_reference, bias_dynamics=bias_dynamics, true_value=true_value,
         compare=compare, state=None if state is None else str(state), fit_levels=fit_levels,
-        levels_from_allan=levels_from_allan, flush=flush, time_column=time_column, fs=fs, names=names,
-        time_unit=time_unit)
+        levels_from_allan=levels_from_allan, flush=flush)
 
 
 def _batch_options(**params):
@@ -51,6 +51,9 @@ def _batch_options(**params):
                          "in parallel: run senscal drift FILE --state STATE once per file, oldest first")
     return _drift_options(**params)
 
+
+# senscal batch refuses an option its builder does not name; without this, every option passed unchecked.
+_batch_options.__signature__ = inspect.signature(_drift_options)  # type: ignore[attr-defined]
 
 # What `senscal batch` turns the job's option words into (see senscal.jobs).
 JOB_OPTIONS = {"drift": _batch_options}
