@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 import textwrap
@@ -20,7 +21,8 @@ def test_manifest_matches_the_code():
         "the command table is stale: run python -m senscal.cli._manifest > src/senscal/cli/_manifest_data.py")
 
 
-def _loaded_after(args: list[str]) -> tuple[int, set[str], str]:
+def _loaded_after(args: list[str], watch: tuple[str, ...] = HEAVY) -> tuple[int, set[str], str]:
+    """Exit code, which of ``watch`` were imported, and stdout of ``senscal ARGS`` in a fresh interpreter."""
     code = textwrap.dedent(f"""
         import sys
         from senscal.cli import main
@@ -28,7 +30,7 @@ def _loaded_after(args: list[str]) -> tuple[int, set[str], str]:
             main({args!r})
         except SystemExit as exc:
             code = exc.code
-        print("LOADED", " ".join(m for m in {HEAVY!r} if m in sys.modules), "CODE", code)
+        print("LOADED", " ".join(m for m in {watch!r} if m in sys.modules), "CODE", code)
     """)
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
     line = [ln for ln in out.stdout.splitlines() if ln.startswith("LOADED")][-1]
@@ -61,3 +63,23 @@ def test_version(cli):
 
     r = cli("--version")
     assert r.code == 0 and r.out.strip() == f"senscal {__version__}"
+
+
+# What start-up must not pay for: help is plain Click text (no Rich), values convert without pydantic.
+STARTUP = ("pydantic", "rich", "numpy", "pandas")
+
+
+@pytest.mark.parametrize("args", [["--help"], ["fit", "--help"], ["registry", "--help"]])
+def test_help_imports_neither_pydantic_nor_rich_nor_numpy(args):
+    rc, loaded, out = _loaded_after(args, STARTUP)
+    assert rc == 0 and "Usage: senscal" in out
+    assert not loaded, loaded
+
+
+def test_a_fit_converts_its_options_without_pydantic(tmp_path):
+    path = tmp_path / "small.csv"
+    path.write_text("t,x\n" + "".join(f"{i / 100},{math.sin(2 * math.pi * 5 * i / 100) + (i * 7 % 11 - 5) / 100}\n"
+                                       for i in range(300)))
+    rc, loaded, out = _loaded_after(["fit", str(path), "--harmonics", "1", "--freq", "5", "--json"], STARTUP)
+    assert rc == 0 and '"channels"' in out, out
+    assert "pydantic" not in loaded and "numpy" in loaded, loaded  # numpy: the fit did run

@@ -270,8 +270,9 @@ def progress_bar(description: str, total: int | None, *, disable: bool = False) 
     """A Rich progress bar on stderr (so ``--json`` stdout stays clean)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+    con = err_console.real()  # Rich's Live display wants the console itself, not the lazy stand-in
     prog = Progress(TextColumn("{task.description}", markup=False), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                    console=err_console.real(), transient=True, disable=disable or not err_console.is_terminal)
+                    console=con, transient=True, disable=disable or not con.is_terminal)
     with prog:
         task = prog.add_task(description, total=total)
         yield lambda n=1: prog.advance(task, n)
