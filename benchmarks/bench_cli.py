@@ -13,12 +13,16 @@ interleave all commands, so load hits baseline and command alike:
 - a few other commands' ``--help`` and the old eager start (every command module
   imported first) for comparison, against ``python -c pass``.
 
+``--registry-loop N`` also times a shell-style loop of N ``senscal registry
+record`` calls into a fresh registry file (issue 16's first complaint: 40 calls
+took minutes); off by default because each call opens the database.
+
 ``--cold-demo`` also times ``senscal demo`` twice with a fresh, empty numba cache
 (``NUMBA_CACHE_DIR`` in a temporary folder): the first run is what a user meets on
 a fresh install (every kernel the demo uses compiles), the second what they meet
 afterwards.
 
-Run: ``python benchmarks/bench_cli.py [--repeat 5] [--cold-demo]``.
+Run: ``python benchmarks/bench_cli.py [--repeat 5] [--registry-loop 40] [--cold-demo]``.
 """
 
 from __future__ import annotations
@@ -95,6 +99,22 @@ def fit_in_process(path: Path, repeat: int) -> float:
     return min(times)
 
 
+def registry_loop(n: int) -> float:
+    """Wall time (s) of ``n`` successive ``senscal registry record`` calls, each a fresh process, as a shell loop."""
+    with tempfile.TemporaryDirectory() as d:
+        db = str(Path(d) / "reg.sqlite")
+        t0 = time.perf_counter()
+        for i in range(n):
+            argv = [*SENSCAL, "registry", "record", f"SN-{i % 4}", "--quantity", "sensitivity", "--value",
+                    f"{0.01 + i * 1e-6:.6f}", "--uncertainty", "2e-5", "--unit", "V/g", "--k", "2",
+                    "--date", f"2024-01-01T00:{i // 60:02d}:{i % 60:02d}", "--create-sensor", "accelerometer",
+                    "--db", db, "--create"]
+            r = subprocess.run(argv, capture_output=True)
+            if r.returncode != 0:
+                raise SystemExit(f"senscal registry record failed: {r.stderr.decode()[-500:]}")
+        return time.perf_counter() - t0
+
+
 def cold_demo() -> tuple[float, float]:
     """(first, second) wall time (s) of ``senscal demo`` on a fresh numba cache."""
     with tempfile.TemporaryDirectory() as d:
@@ -112,6 +132,8 @@ def cold_demo() -> tuple[float, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--registry-loop", type=int, default=0, metavar="N",
+                    help="also time N successive senscal registry record calls (e.g. 40)")
     ap.add_argument("--cold-demo", action="store_true", help="also time senscal demo on a fresh numba cache")
     args = ap.parse_args()
     r = args.repeat
@@ -145,6 +167,11 @@ def main() -> None:
     for name, t, base_name, base in rows:
         target = "  (target <= 2)" if base_name != "python -c pass" and not name.startswith("typer") else ""
         print(f"{name:38s} {t:7.3f}  {t / base:6.2f}  {base_name} ({base:.3f} s){target}")
+    if args.registry_loop > 0:
+        n = args.registry_loop
+        total = registry_loop(n)
+        print(f"{n} x senscal registry record (shell loop): {total:.1f} s, {total / n:.3f} s a call "
+              f"({total / n / t_pass:.1f}x python -c pass)")
     if args.cold_demo:
         first, second = cold_demo()
         print(f"senscal demo, fresh numba cache: first run {first:.1f} s, second run {second:.1f} s "

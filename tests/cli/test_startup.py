@@ -227,3 +227,10 @@ def test_fit_help_shows_defaults_and_panels(cli, monkeypatch):
     assert "Number of harmonics K (1 = fundamental). [default: 1]" in flat
     assert out.index("\nOptions:") < out.index("\nSensor registry:")
     assert re.search(r"^  --json +Print", out, re.M)  # a flag shows no type
+
+
+@pytest.mark.parametrize("args", [[], ["registry"]])
+def test_no_command_prints_the_help_and_one_line(cli, args):
+    r = cli(*args)
+    assert r.code == 2 and r.out.startswith(f"Usage: {' '.join(['senscal', *args])} ") and "Commands:" in r.out
+    assert r.err.strip().splitlines() == [f"senscal: error: missing command; see '{' '.join(['senscal', *args])} --help'"]

@@ -250,8 +250,12 @@ def main(argv: Sequence[str] | None = None) -> None:
     except cx.Exit as exc:
         sys.exit(exc.exit_code)
     except cx.ClickException as exc:
-        # Click prints usage + a boxed message over several lines; one line says the same.
         ctx = getattr(exc, "ctx", None)
+        if type(exc).__name__ == "NoArgsIsHelpError" and ctx is not None:
+            # `senscal` or `senscal registry` alone: the help is what the user wants to see, then one line.
+            print(exc.format_message())
+            _fail(f"error: missing command; see '{ctx.command_path} --help'", exc.exit_code)
+        # Click prints usage + a boxed message over several lines; one line says the same.
         hint = f"; see '{ctx.command_path} --help'" if ctx is not None else ""
         _fail(f"error: {exc.format_message().rstrip('.')}{hint}", exc.exit_code)
     except BrokenPipeError:
