@@ -81,7 +81,7 @@ def calibration_summary(model) -> dict[str, Any]:
         "u_ripple_coefficient": model.u_ripple_coefficient, "ripple_leak": model.ripple_leak,
         "synchronous_ripple": model.synchronous_ripple, "nuisance": list(model.nuisance),
         "centripetal_coefficient": model.centripetal_coefficient,
-        "u_centripetal_coefficient": model.u_centripetal_coefficient,
+        "u_centripetal_coefficient": model.u_centripetal_coefficient, "diagnostic": list(model.diagnostic),
         "n_samples": model.n_samples, "window_s": model.window, "warnings": list(model.warnings),
     }
 
