@@ -184,9 +184,17 @@ def _stdin_chunks(chunk_size: int, opts):
     if stream is None or stream.isatty():
         raise InputError("'-' means standard input, but nothing is piped in; use 'tail -f FILE.csv | senscal drift - "
                          "...' or give the file name")
+
+    def readline() -> str:
+        try:
+            return stream.readline()
+        except UnicodeDecodeError as exc:
+            raise InputError(f"standard input is not UTF-8 text (bad byte {exc.object[exc.start:exc.start + 1]!r}); "
+                             "pipe CSV text, or give a binary recording as a file name") from None
+
     head = []
     while True:
-        line = stream.readline()
+        line = readline()
         if not line:
             raise InputError("standard input ended before a CSV header row")
         head.append(line)
@@ -198,7 +206,7 @@ def _stdin_chunks(chunk_size: int, opts):
         while True:
             lines = []
             while len(lines) < chunk_size:
-                line = stream.readline()
+                line = readline()
                 if not line:
                     break
                 if line.strip():
@@ -225,6 +233,7 @@ def _stream_stdin(opts, chunk_size: int, strict: bool) -> None:
     import sys
 
     from senscal.drift.stream import TrackerState
+    from senscal.errors import TooFewSamplesError
     from senscal.jobs.drift import drift_setup_for, start_tracker
 
     state_path = Path(opts.state)
@@ -239,7 +248,13 @@ def _stream_stdin(opts, chunk_size: int, strict: bool) -> None:
                     raise InputError(f"channel '{c}' is not on standard input (channels: {', '.join(rec.names)})")
             y, cov = rec.data(list(setup.channels)), {c: rec[c] for c in setup.covariates}
             old = TrackerState.load(state_path) if state_path.exists() else None
-            tracker, _, _, warnings = start_tracker(setup, y, t, cov, opts, old)
+            try:
+                tracker, _, _, warnings = start_tracker(setup, y, t, cov, opts, old)
+            except TooFewSamplesError as exc:
+                if old is not None or rec.n_samples < chunk_size:
+                    raise
+                raise TooFewSamplesError(f"{exc} in the first chunk, which starts the state; give a larger "
+                                         f"--chunk-size than {chunk_size}") from None
             write("t," + ",".join(f"{c}_corrected,{c}_bias,{c}_bias_std" for c in tracker.channels) + "\n")
         else:
             y, cov = rec.data(list(setup.channels)), {c: rec[c] for c in setup.covariates}

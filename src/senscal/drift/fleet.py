@@ -38,6 +38,7 @@ import fnmatch
 import math
 import os
 import time
+import zipfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Callable, ClassVar, Mapping, Sequence
@@ -124,7 +125,8 @@ class FleetGroup:
                              "estimate them; fit them on one channel with senscal drift --json, or from Allan "
                              "deviation)")
         for k, v in {**self.levels, **{k: v for lv in self.channel_levels.values() for k, v in lv.items()}}.items():
-            if not (math.isfinite(v) and v >= 0) or (k.endswith("_noise_std") and not v > 0):
+            # v * v: the filter works with variances, which must stay finite too (1e200 overflowed).
+            if not (math.isfinite(v * v) and v >= 0) or (k.endswith("_noise_std") and not v > 0):
                 raise InputError(f"fleet group {self.name}: noise level {k} must be a finite number "
                                  f"{'> 0' if k.endswith('_noise_std') else '>= 0'}, got {v}")
         for b in self.setup.biases:
@@ -203,6 +205,10 @@ def load_fleet_config(path: str | Path) -> tuple[FleetGroup, ...]:
         path, "fleet configuration")
     if not isinstance(doc.get("groups"), list) or not doc["groups"]:
         raise FileFormatError(f"fleet configuration {path} needs a non-empty list 'groups' (see docs/drift.md#fleet)")
+    if set(doc) != {"groups"}:
+        # A misspelt key (``group:`` beside ``groups:``) would otherwise be ignored without a word.
+        raise FileFormatError(f"fleet configuration {path} has unknown top-level keys "
+                              f"{sorted(map(str, set(doc) - {'groups'}))[:5]}; it holds one list 'groups'")
     return fleet_groups(doc, base=path.parent, source=str(path))
 
 
@@ -217,19 +223,30 @@ def fleet_groups(doc: Mapping[str, Any], *, base: Path | str = ".", source: str 
         bad = set(g) - {"name", "channels", "setup", "levels", "channel_levels", "covariate_column", "prior_scale"}
         if bad:
             raise FileFormatError(f"{source}: group {g.get('name', i)} has unknown keys {sorted(bad)}")
-        name = str(g.get("name", f"group{i}"))
+        name = g.get("name", f"group{i}")
+        if not isinstance(name, str):
+            raise FileFormatError(f"{source}: group {i}: name must be a text, got {type(name).__name__}")
         chans = g.get("channels", ["*"])
-        chans = [chans] if isinstance(chans, str) else list(chans)
+        chans = [chans] if isinstance(chans, str) else chans
+        if not isinstance(chans, list) or not all(isinstance(c, str) for c in chans):
+            raise FileFormatError(f"{source}: group {name}: channels must be a name or pattern, or a list of them "
+                                  f"(texts), got {str(chans)[:60]}")
         per = g.get("channel_levels") or {}
         if isinstance(per, str):
             per = _read_channel_levels(base / per, name)
+        if not isinstance(per, dict) or not all(isinstance(v, dict) for v in per.values()):
+            raise FileFormatError(f"{source}: group {name}: channel_levels must be a CSV file name or a mapping "
+                                  "channel -> {level: value}")
+        if not isinstance(g.get("levels") or {}, dict):
+            raise FileFormatError(f"{source}: group {name}: levels must be a mapping level -> value, e.g. "
+                                  "{y_noise_std: 0.05}")
         try:
             groups.append(FleetGroup(name=name, setup=_setup_from(g.get("setup"), name, base),
                                      levels=dict(g.get("levels") or {}), channels=tuple(str(c) for c in chans),
                                      covariate_column=str(g.get("covariate_column", "{channel}.{covariate}")),
                                      channel_levels={str(k): dict(v) for k, v in per.items()},
                                      prior_scale=None if g.get("prior_scale") is None else float(g["prior_scale"])))
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise FileFormatError(f"{source}: group {name}: {exc}") from None
     names = [g.name for g in groups]
     if len(set(names)) != len(names):
@@ -755,6 +772,17 @@ def dataset_files(dataset: str | Path) -> list[Path]:
     return files
 
 
+def _check_column_types(f: Path) -> None:
+    """Every column must hold plain numbers: a timestamp ``t`` read as nanoseconds would be taken for seconds."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    for fld in pq.read_schema(f):
+        if not (pa.types.is_floating(fld.type) or pa.types.is_integer(fld.type)):
+            fix = ("seconds as float64" if fld.name == "t" else "numbers (float64, NaN for a missing sample)")
+            raise FileFormatError(f"fleet dataset file {f}: column {fld.name} has type {fld.type}; store {fix}")
+
+
 def plan_blocks(dataset: str | Path, groups: Sequence[FleetGroup]) -> tuple[list[FleetBlock], list[str]]:
     """Assign every channel column of the dataset to the first group whose patterns match it.
 
@@ -777,6 +805,7 @@ def plan_blocks(dataset: str | Path, groups: Sequence[FleetGroup]) -> tuple[list
             raise FileFormatError(f"fleet dataset file {f} is not a readable Parquet file ({exc})") from None
         if "t" not in names:
             raise FileFormatError(f"fleet dataset file {f} has no time column t [s]")
+        _check_column_types(f)
         cols = set(names)
         taken: dict[str, list[tuple[str, tuple[str, ...]]]] = {g.name: [] for g in groups}
         cov_cols = {c for g in groups for name in names for c in g.covariate_columns(name) if c in cols}
@@ -842,6 +871,9 @@ def open_store(store: str | Path, groups: Sequence[FleetGroup]) -> Path:
             raise FileFormatError(f"fleet state store {path} has format_version {doc.get('format_version')!r}; "
                                   f"this senscal reads {FORMAT_VERSION}")
         old = doc.get("groups") or {}
+        if not isinstance(old, dict):
+            raise FileFormatError(f"fleet state store {man} is damaged ('groups' is not a mapping); restore it from "
+                                  "a backup or start a new --state folder")
         for name, d in docs.items():
             if name in old and json.loads(json.dumps(old[name])) != json.loads(json.dumps(d)):
                 raise InputError(f"group {name} of the state store {path} was filtered with another set-up, levels "
@@ -851,6 +883,23 @@ def open_store(store: str | Path, groups: Sequence[FleetGroup]) -> Path:
     write_text(man, json.dumps({"format_version": FORMAT_VERSION, "kind": "senscal drift fleet state",
                                 "groups": docs}, indent=1) + "\n", what="fleet state store")
     return path
+
+
+def _check_store_arrays(f: Path, a: Mapping[str, np.ndarray]) -> None:
+    """Shapes and finiteness of one block's stored states: a damaged file must not skip rows or crash a worker."""
+    C = a["channels"].shape[0] if a["channels"].ndim == 1 and a["channels"].dtype.kind == "U" else -1
+    n = a["x"].shape[1] if a["x"].ndim == 2 else -1
+    want = {"x": (C, n), "P": (C, n, n), "x0": (C, n), "P0": (C, n, n), "t_last": (C,), "n_samples": (C,),
+            "bias": (C,), "u_bias": (C,)}
+    bad = ["channels"] if C < 0 else ["x"] if n < 0 else [k for k, shape in want.items() if a[k].shape != shape]
+    if not bad:
+        bad = [k for k in ("x", "P", "x0", "P0", "t_last", "n_samples")
+               if a[k].dtype.kind not in "fiu" or not np.all(np.isfinite(a[k]))]
+    if not bad and np.any(a["n_samples"] < 0):
+        bad = ["n_samples"]
+    if bad:
+        raise FileFormatError(f"fleet state file {f} is damaged ({', '.join(bad)} of the wrong shape or not finite); "
+                              "restore it from a backup or start a new --state folder")
 
 
 def read_store(store: str | Path) -> dict[str, tuple[str, ChannelState, float, float]]:
@@ -874,9 +923,11 @@ def read_store(store: str | Path) -> dict[str, tuple[str, ChannelState, float, f
                 group = str(z["group"])
                 arrs = {k: np.array(z[k]) for k in ("channels", "x", "P", "x0", "P0", "t_last", "n_samples",
                                                     "bias", "u_bias")}
-        except (OSError, ValueError, KeyError) as exc:
+        except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
+            # EOFError: an empty file; BadZipFile: a truncated one; TypeError: a non-scalar version.
             raise FileFormatError(f"fleet state file {f} cannot be read ({type(exc).__name__}); restore it from "
                                   "a backup or start a new --state folder") from None
+        _check_store_arrays(f, arrs)
         for i, c in enumerate(arrs["channels"].tolist()):
             st = ChannelState(x=arrs["x"][i], P=arrs["P"][i], t_last=float(arrs["t_last"][i]),
                               n_samples=int(arrs["n_samples"][i]), x0=arrs["x0"][i], P0=arrs["P0"][i])
@@ -969,6 +1020,11 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
     outp = Path(out) if out else None
     for rg in range(pf.metadata.num_row_groups):
         t, y, cov = _read_chunk(pf, rg, block, kcov)
+        if t.size == 0:
+            continue
+        if not np.all(np.isfinite(t)):
+            raise DataError(f"{block.file}, row group {rg}: time stamps must be finite and strictly increasing "
+                            f"(t has NaN or inf at row {int(np.argmin(np.isfinite(t)))})")
         # Channels continue from where each stopped: those with the same last time run together
         # (a channel new in this file starts from its prior beside the others).
         parts: dict[float, list[int]] = {}
@@ -1175,6 +1231,19 @@ class _Client:
         return False
 
 
+def _outside_dataset(dataset: str | Path, **folders: str | Path | None) -> None:
+    """Refuse a state or output folder inside the dataset: it would change the input (and the next run's files)."""
+    data = Path(dataset).resolve()
+    if not data.is_dir():
+        return
+    for opt, folder in folders.items():
+        if folder is not None:
+            f = Path(folder).resolve()
+            if f == data or data in f.parents:
+                raise InputError(f"--{opt} {folder} is inside the dataset {dataset}, which is an input; give a "
+                                 "folder outside it")
+
+
 def run_fleet(dataset: str | Path, groups: Sequence[FleetGroup], *, state: str | Path | None = None,
               out: str | Path | None = None, client: Any = None,
               progress: Callable[[dict], None] | None = None) -> FleetResult:
@@ -1206,6 +1275,7 @@ def run_fleet(dataset: str | Path, groups: Sequence[FleetGroup], *, state: str |
         raise InputError("a fleet run needs at least one channel group")
     by_name = {g.name: g for g in groups}
     blocks, warnings = plan_blocks(dataset, groups)
+    _outside_dataset(dataset, state=state, out=out)
     stored = {}
     if state is not None:
         open_store(state, groups)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping
@@ -186,6 +187,10 @@ class TrackerState(ResultMixin):
         """Rebuild a state from :meth:`to_dict`; a bad document raises a one-line FileFormatError."""
         if not isinstance(doc, Mapping):
             raise FileFormatError(f"{source} is not a drift tracker state (not a mapping)")
+        if "type" in doc and "setup" not in doc:
+            # A saved calibration (shaft model, triaxial parameters, ...) given where the state belongs.
+            raise FileFormatError(f"{source} is a saved calibration (type {str(doc['type'])[:60]!r}), not a drift "
+                                  "tracker state; give another --state file name (it is started on this data)")
         ver = doc.get("format_version")
         if ver != STATE_FORMAT_VERSION:
             raise FileFormatError(f"{source} has format_version {ver!r}; this senscal reads version "
@@ -206,10 +211,12 @@ class TrackerState(ResultMixin):
                         t_last=None if doc["t_last"] is None else float(doc["t_last"]),
                         x=arr(doc["x"]), P=arr(doc["P"]), buffer=buffer, h_last=arr(doc["h_last"]), n_samples=int(doc["n_samples"]),
                         n_emitted=int(doc["n_emitted"]), loglik=float(doc["loglik"]))
-        except (KeyError, TypeError, ValueError) as exc:
-            raise FileFormatError(f"{source} is not a valid drift tracker state ({type(exc).__name__}: {exc})") from None
         except InputError as exc:
             raise FileFormatError(f"{source} holds an invalid drift set-up ({exc})") from None
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError, OverflowError) as exc:
+            # AttributeError: a mapping replaced by a list or a string in a hand-edited file.
+            raise FileFormatError(f"{source} is not a valid drift tracker state ({type(exc).__name__}: "
+                                  f"{str(exc)[:120]}); restore the previous state file or start a new one") from None
         _check_state(state, source)
         return state
 
@@ -264,8 +271,10 @@ class TrackerState(ResultMixin):
                 stored = {k: np.array(z[k]) for k in z.files if k != "state_json"}
         except FileNotFoundError:
             raise FileFormatError(f"{what} does not exist") from None
-        except (OSError, ValueError, KeyError) as exc:
-            raise FileFormatError(f"{what} is not a drift state NPZ ({type(exc).__name__})") from None
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            # EOFError: an empty file; BadZipFile: a truncated one (a disk that filled up elsewhere).
+            raise FileFormatError(f"{what} is not a drift state NPZ ({type(exc).__name__}); restore the previous "
+                                  "state file or start a new one") from None
 
         def back(v):
             if isinstance(v, dict) and "npz" in v:
@@ -291,6 +300,15 @@ def _check_state(s: TrackerState, source: str) -> None:
     missing = [k for k in s.setup.level_names() if k not in s.levels]
     if missing:
         raise FileFormatError(f"{source} lacks noise levels {', '.join(missing)}")
+    # A NaN or negative level, time or count would be filtered silently into wrong biases.
+    bad = [k for k, v in s.levels.items() if not 0 <= v < math.inf]
+    bad += [k for k, v in s.references.items() if not math.isfinite(v)]
+    if s.t_last is not None and not math.isfinite(s.t_last):
+        bad.append("t_last")
+    bad += [k for k in ("n_samples", "n_emitted", "lag") if getattr(s, k) < 0]
+    if bad:
+        raise FileFormatError(f"{source}: {', '.join(bad[:5])} must be finite numbers >= 0 (a hand-edited or "
+                              "damaged file?); restore the previous state file or start a new one")
     want = {"t": (None,), "y": (None, m), "h": (None, m, n), "xf": (None, n), "Pf": (None, n, n),
             "xp": (None, n), "Pp": (None, n, n), "F": (None, n, n)}
     k = None
