@@ -17,6 +17,7 @@ import numpy as np
 
 from senscal.errors import DataError, FileFormatError, InputError, SenscalError
 from senscal.io.guard import atomic_output, check_output, claim_stdout, is_stdio, note_input, stdin_bytes
+from senscal.io._textfast import read_plain_columns
 from senscal.io.recording import Recording
 
 __all__ = ["read_recording", "write_recording", "FORMATS"]
@@ -376,8 +377,6 @@ def _fields(line: str, sep: str) -> list[str]:
 
 
 def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
-    import pandas as pd
-
     head: list[str] = []
     try:
         with open(path, "r", encoding="utf-8-sig", newline="") as fh:
@@ -457,30 +456,46 @@ def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
             cols_meta.append((f, nm.strip(), unit.strip()))
         else:
             cols_meta.append((f, f, None))
+    # Plain numbers (nearly every recording) are read without importing pandas; anything else goes to pandas.
+    body = read_plain_columns(path, sep=sep, width=len(fields), skip=body_start)
+    if body is None:
+        body = _read_body_pandas(path, sep=sep, width=len(fields), skip=body_start)
+    _check_not_truncated(path, sep, len(fields))
+    units: dict[str, str] = {}
+    cols: dict[str, np.ndarray] = {}
+    raw: dict[str, str] = {}
+    for k, (f, nm, unit) in enumerate(cols_meta):
+        _add_column(cols, raw, nm, f, _numeric(nm, body[k], path), path)
+        if unit is not None:
+            units[nm] = unit
+    return cols, units, meta, file_fs, 0.0
+
+
+def _read_body_pandas(path: Path, *, sep: str, width: int, skip: int) -> list[np.ndarray]:
+    """The body's ``width`` columns as text (object arrays, NaN for empty fields), read by pandas.
+
+    Every field stays text so that :func:`_numeric` converts it with Python's
+    ``float()`` (correctly rounded, like the fast path) and names the first
+    cell that is not a number.
+    """
+    import pandas as pd
+
     try:
         df = pd.read_csv(path, sep=sep, comment="#", skipinitialspace=True, header=None,
-                         names=list(range(len(fields))), skiprows=body_start, skip_blank_lines=True,
+                         names=list(range(width)), skiprows=skip, skip_blank_lines=True,
                          index_col=False, dtype=object, encoding="utf-8-sig",
                          engine="python" if sep == r"\s+" else "c", on_bad_lines="error")
     except pd.errors.EmptyDataError:
         raise FileFormatError(f"{path} has a header but no data rows") from None
     except pd.errors.ParserError as exc:
         raise FileFormatError(f"{path} is not a readable CSV: {_describe(exc).split(': ', 1)[-1]}; every row "
-                              f"needs the header's {len(fields)} columns") from None
+                              f"needs the header's {width} columns") from None
     except UnicodeDecodeError as exc:
         raise FileFormatError(f"{path} is not UTF-8 text (bad byte at offset {exc.start}); "
                               "save it as UTF-8 CSV") from None
     if len(df) == 0:
         raise FileFormatError(f"{path} has a header but no data rows")
-    _check_not_truncated(path, sep, len(fields))
-    units: dict[str, str] = {}
-    cols: dict[str, np.ndarray] = {}
-    raw: dict[str, str] = {}
-    for k, (f, nm, unit) in enumerate(cols_meta):
-        _add_column(cols, raw, nm, f, _numeric(nm, df[k].to_numpy(), path), path)
-        if unit is not None:
-            units[nm] = unit
-    return cols, units, meta, file_fs, 0.0
+    return [df[k].to_numpy() for k in range(width)]
 
 
 def _check_not_truncated(path: Path, sep: str, width: int, tail_bytes: int = 65536) -> None:
