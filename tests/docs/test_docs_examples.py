@@ -6,14 +6,16 @@ data/sine.csv``), with a private registry (``SENSCAL_DB``) and Matplotlib's
 Agg backend.  A block that cannot run as is (it installs the package, or
 names a cluster or a file the reader brings) is marked by the line
 ``<!-- docs-test: skip (reason) -->`` just above its fence; the reason is
-required so a skipped block is a decision, not an accident.
+required so a skipped block is a decision, not an accident.  A page with no
+runnable block at all is listed in ``NO_RUNNABLE`` with its reason, so a page
+that loses its last block by accident fails instead of being skipped.
 """
 
 from __future__ import annotations
 
 import os
 import re
-import shutil
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -25,6 +27,11 @@ PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 FENCE = re.compile(r"^```(\w+)?\s*$")
 SKIP = re.compile(r"<!--\s*docs-test:\s*skip\s*\((.+)\)\s*-->")
 RUNNABLE = {"bash", "sh", "shell", "python", "console"}
+# Pages that show no runnable block on purpose, and why.
+NO_RUNNABLE = {
+    "uncertainty.md": "reference tables of measured coverage; the Monte-Carlo runs behind them are "
+                      "tests/*/test_coverage_*.py (mc_seeds) and benchmarks/bench_coverage.py",
+}
 
 
 def console_commands(code: str) -> str:
@@ -60,23 +67,46 @@ def blocks(page: Path) -> list[tuple[int, str, str, str | None]]:
     return out
 
 
+def runnable_blocks(page: Path) -> list[tuple[int, str, str, str | None]]:
+    return [b for b in blocks(page) if b[1] in RUNNABLE and b[3] is None]
+
+
+RUN_PAGES = [p for p in PAGES if runnable_blocks(p)]
+
+
 def _senscal_cmd() -> str:
-    exe = shutil.which("senscal")
-    return exe if exe else f"{sys.executable} -m senscal"
+    # The console script of the interpreter running the tests, not the first `senscal` on PATH
+    # (a pyenv shim there costs a few hundred ms per command and may pick another interpreter).
+    exe = Path(sys.executable).with_name("senscal")
+    return shlex.quote(str(exe)) if exe.is_file() else f"{shlex.quote(sys.executable)} -m senscal"
 
 
-@pytest.mark.parametrize("page", PAGES, ids=[p.name for p in PAGES])
+def test_every_page_is_considered():
+    names = {p.name for p in PAGES}
+    assert {p.name for p in (ROOT / "docs").glob("*.md")} <= names
+    assert set(NO_RUNNABLE) <= names, f"NO_RUNNABLE names a page that does not exist: {set(NO_RUNNABLE) - names}"
+    for page in PAGES:
+        if page in RUN_PAGES:
+            assert page.name not in NO_RUNNABLE, f"{page.name} now has runnable blocks: remove it from NO_RUNNABLE"
+        else:
+            assert page.name in NO_RUNNABLE, (
+                f"{page.name} has no runnable block; add one, or list the page in NO_RUNNABLE with the reason")
+
+
+@pytest.mark.parametrize("page", RUN_PAGES, ids=[p.name for p in RUN_PAGES])
 def test_page_blocks_run(page: Path, tmp_path: Path):
-    runnable = [b for b in blocks(page) if b[1] in RUNNABLE and b[3] is None]
-    if not runnable:
-        pytest.skip(f"{page.name} has no runnable block")
+    runnable = runnable_blocks(page)
     env = dict(os.environ, SENSCAL_DB=str(tmp_path / "registry.sqlite"), MPLBACKEND="Agg",
                PYTHONPATH=str(ROOT / "src") + os.pathsep + os.environ.get("PYTHONPATH", ""))
     shim = tmp_path / "_bin"
     shim.mkdir()
-    # The blocks say `senscal ...`; run this checkout's senscal whether or not it is on PATH.
-    (shim / "senscal").write_text(f"#!/bin/sh\nexec {_senscal_cmd()} \"$@\"\n")
-    (shim / "senscal").chmod(0o755)
+    # The blocks say `senscal ...` and `python3 ...`; run this checkout's senscal and the interpreter
+    # of the tests, whatever is first on PATH.
+    # (Scripts, not symlinks: a virtual environment's python finds its pyvenv.cfg from its own path.)
+    for name, cmd in (("senscal", _senscal_cmd()), ("python3", shlex.quote(sys.executable)),
+                      ("python", shlex.quote(sys.executable))):
+        (shim / name).write_text(f"#!/bin/sh\nexec {cmd} \"$@\"\n")
+        (shim / name).chmod(0o755)
     env["PATH"] = f"{shim}{os.pathsep}{env['PATH']}"
     for line, lang, code, _ in runnable:
         if lang == "python":
