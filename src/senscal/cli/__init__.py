@@ -12,7 +12,6 @@ import functools
 import importlib
 import math
 import os
-import pkgutil
 import sys
 import warnings
 from typing import Sequence
@@ -37,6 +36,8 @@ def load_commands() -> typer.Typer:
     """Import every ``senscal.cli.cmd_*`` module so its commands register."""
     global _loaded
     if not _loaded:
+        import pkgutil  # only here: every other run loads one command's module by name
+
         for mod in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
             if mod.name.startswith("cmd_"):
                 importlib.import_module(f"{__name__}.{mod.name}")
