@@ -24,7 +24,10 @@ def test_every_job_reads_with_the_shared_options(job):
     assert issubclass(cls, ReadOptions)
     # Keyword construction (what tests, docs and batch use) takes every reading word.
     opts = cls(time_column="time", fs=250.0, names="a,b", time_unit="ms", skip_rows=2)
-    assert (opts.time_column, opts.fs, opts.names, opts.time_unit, opts.skip_rows) == ("time", 250.0, "a,b", "ms", 2)
+    got = (opts.time_column, opts.fs, opts.names, opts.time_unit, opts.skip_rows)
+    assert got == ("time", 250.0, ("a", "b"), "ms", 2)
+    # One spelling: the command line's "a, b" and the API's tuple are the same options.
+    assert cls(names=" a, b") == cls(names=("a", "b"))
 
 
 @pytest.mark.parametrize("job", jobs.names())
@@ -51,7 +54,7 @@ def test_the_wrapper_copies_the_words_given_and_keeps_the_rest():
 
     assert list(inspect.signature(build).parameters)[:2] == ["gain", "time_column"]
     o = build(gain=2.0, fs=100.0, names="x", plot="p.png")
-    assert (o.gain, o.fs, o.names, o.time_column) == (2.0, 100.0, "x", "t")
+    assert (o.gain, o.fs, o.names, o.time_column) == (2.0, 100.0, ("x",), "t")
     assert build(gain=3.0) == Opts(gain=3.0)
 
 
@@ -61,7 +64,7 @@ def test_batch_passes_the_reading_words_through(tmp_path):
     f = tmp_path / "x.csv"
     f.write_text("1,2\n3,4\n")
     opts, strict = job_options("fit", str(f), ["--freq", "5", "--fs", "100", "--names", "a,b", "--time-column", "T"])
-    assert (opts.freq, opts.fs, opts.names, opts.time_column, strict) == (5.0, 100.0, "a,b", "T", False)
+    assert (opts.freq, opts.fs, opts.names, opts.time_column, strict) == (5.0, 100.0, ("a", "b"), "T", False)
 
 
 def test_a_time_unit_reaches_the_fit(tmp_path):

@@ -66,6 +66,49 @@ def _u2(u) -> str:
     return "-" if u is None else f"{u:.2g}"
 
 
+def _with_certificate(doc: dict, cert_warns: list[str], report: Path | None) -> None:
+    """The certificate's warnings and file in the command's JSON document."""
+    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
+    if report is not None:
+        doc["report"] = str(report)
+
+
+def _finish(result, doc: dict, cert_warns: list[str], params: dict, *, method: str, figure, show) -> None:
+    """What every vibration command does once its job has run: --save, --plot, the JSON or the table, the warnings.
+
+    Parameters
+    ----------
+    result : JobResult
+        The job's result (what ``--save`` stores).
+    doc : dict
+        The command's JSON document (printed with ``--json``).
+    cert_warns : list of str
+        Named warnings of the certificate.
+    params : dict
+        The command's parameters (``locals()``): files, report, plot, json_out, strict and the registry options.
+    method : str
+        How the registry describes the measurement.
+    figure : callable
+        Makes the ``--plot`` figure (called only when a plot is asked for).
+    show : callable
+        Prints the table (called only without ``--json``).
+    """
+    report = params["report"]
+    save_if_requested(result, save=params["save"], sensor=params["sensor"], db=params["db"],
+                      create_sensor=params["create_sensor"], date=params["date"], operator=params["operator"],
+                      method=method, input_files=params["files"], certificate=report,
+                      conditions=_conditions(params["condition"]))
+    if params["plot"] is not None:
+        _save_plot(figure(), params["plot"])
+    if params["json_out"]:
+        print_json(doc)
+    else:
+        show()
+        if report is not None:
+            console.print(f"certificate written to {report}")
+    emit_warnings([*result.warnings, *cert_warns], params["strict"])
+
+
 @with_read_options
 def velocity_options(*, position=None, velocity=None, freq=None, u_position=None, drift=True, harmonics=1,
                      output_unit=None, **_) -> VelocityOptions:
@@ -143,28 +186,23 @@ def velocity_cmd(
                                       "position reference u (type B)": f"{100 * opts.u_position:g} %",
                                       **_conditions(condition)},
                          warnings=result.warnings, **cert_fields(locals()))
-    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
-    if report is not None:
-        doc["report"] = str(report)
-    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
-                      method="sine fit against a position reference (Yang et al. 2014)",
-                      input_files=files, certificate=report, conditions=_conditions(condition))
-    if plot is not None:
+    _with_certificate(doc, cert_warns, report)
+
+    def figure():
         from senscal.report.certificate import velocity_figure
 
-        _save_plot(velocity_figure(cal), plot)
-    if json_out:
-        print_json(doc)
-    else:
+        return velocity_figure(cal)
+
+    def show():
         rows = [[Path(p.source).stem, p.frequency, p.sensitivity, _u2(p.budget.expanded), math.degrees(p.phase),
                  _u2(2 * math.degrees(p.u_phase)), f"{p.snr_db:.1f}"] for p in cal.points]
         console.print(table(f"Velocity-sensor sensitivity ({unit}; U = expanded, k=2)",
                             ["file", "f (Hz)", "S", "U S", "phase vs v (deg)", "U phase", "SNR dB"], rows))
         console.print(f"mean S = {cal.sensitivity:.6g} {unit}, U = {cal.budget.expanded:.2g} "
                       f"(k={cal.budget.coverage_factor:.3g}), std over points = {cal.sensitivity_std:.2g}")
-        if report is not None:
-            console.print(f"certificate written to {report}")
-    emit_warnings([*result.warnings, *cert_warns], strict)
+
+    _finish(result, doc, cert_warns, locals(), method="sine fit against a position reference (Yang et al. 2014)",
+            figure=figure, show=show)
 
 
 # ---------------------------------------------------------------------------
@@ -226,22 +264,18 @@ def response_cmd(
                          files=[str(f) for f in files]
                          + ([f"{phase_reference} (phase reference)"] if phase_reference is not None else []),
                          warnings=result.warnings, **cert_fields(locals()))
-    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
-    if report is not None:
-        doc["report"] = str(report)
+    _with_certificate(doc, cert_warns, report)
     if save_response_to is not None:
         from senscal.vibration import save_response
 
         doc["saved"] = str(save_response(resp, save_response_to))
-    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
-                      method=doc["method"], input_files=files, certificate=report, conditions=_conditions(condition))
-    if plot is not None:
+
+    def figure():
         from senscal.report.certificate import response_figure
 
-        _save_plot(response_figure(resp), plot)
-    if json_out:
-        print_json(doc)
-    else:
+        return response_figure(resp)
+
+    def show():
         rows = [[p["frequency_hz"], p["sensitivity"], _u2(p["U_sensitivity"]), p["normalized_sensitivity"],
                  _u2(p["U_normalized_sensitivity"]), p["phase_delay_deg"], _u2(p["U_phase_delay_deg"])]
                 for p in doc["points"]]
@@ -255,9 +289,8 @@ def response_cmd(
             console.print(table("Repeats combined (U = expanded with the k shown: 2, or Student's t when type A "
                                 "comes from the spread of few repeats)",
                                 ["f (Hz)", "n", "S", "U S", "S/S0", "U S/S0", "phase delay (deg)", "U (deg)", "k"], rows))
-        if report is not None:
-            console.print(f"certificate written to {report}")
-    emit_warnings([*result.warnings, *cert_warns], strict)
+
+    _finish(result, doc, cert_warns, locals(), method=doc["method"], figure=figure, show=show)
 
 
 # ---------------------------------------------------------------------------
@@ -298,19 +331,14 @@ def linearity_cmd(
                                       "input level u (random per level)": f"{100 * opts.u_input:g} %",
                                       "angle synchronisation": "yes" if angle else "no", **_conditions(condition)},
                          warnings=result.warnings, **cert_fields(locals()))
-    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
-    if report is not None:
-        doc["report"] = str(report)
-    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date, operator=operator,
-                      method="amplitude linearity, best straight line (Qin, seed 003)",
-                      input_files=files, certificate=report, conditions=_conditions(condition))
-    if plot is not None:
+    _with_certificate(doc, cert_warns, report)
+
+    def figure():
         from senscal.report.certificate import linearity_figure
 
-        _save_plot(linearity_figure(lin, f"({out_unit})"), plot)
-    if json_out:
-        print_json(doc)
-    else:
+        return linearity_figure(lin, f"({out_unit})")
+
+    def show():
         rows = [[Path(p.source).stem, p.input_amplitude, p.output_amplitude, _u2(2 * p.u_output_amplitude),
                  f"{p.deviation:.3g}", f"{p.deviation_percent:.3g}"] for p in lin.points]
         console.print(table("Amplitude linearity (U = expanded, k=2)",
@@ -324,9 +352,9 @@ def linearity_cmd(
         else:
             console.print(f"linearity = {lin.linearity_percent:.3g} % of full scale {lin.full_scale_output:.6g} "
                           f"(U = {2 * lin.u_linearity_percent:.2g} %, k=2, Monte Carlo)")
-        if report is not None:
-            console.print(f"certificate written to {report}")
-    emit_warnings([*result.warnings, *cert_warns], strict)
+
+    _finish(result, doc, cert_warns, locals(), method="amplitude linearity, best straight line (Qin, seed 003)",
+            figure=figure, show=show)
 
 
 # ---------------------------------------------------------------------------

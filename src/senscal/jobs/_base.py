@@ -94,6 +94,13 @@ class ReadOptions:
     time_unit: str | None = None
     skip_rows: int | None = None
 
+    def __post_init__(self):
+        # One spelling of the names: "a,b" (as the command line gives it) and ("a", "b") are the same options.
+        if isinstance(self.names, str) or self.names:
+            object.__setattr__(self, "names", _split_names(self.names))
+        elif self.names is not None:
+            object.__setattr__(self, "names", None)  # an empty sequence names no columns
+
     def read(self, source: Any, *, channels: Sequence[str] | None = None, allow_nan: bool = False,
              time_required: bool = True):
         """The :class:`~senscal.io.Recording` of ``source`` read with these options (see :func:`read_source`)."""
@@ -177,6 +184,14 @@ def source_name(source: Any) -> str:
     return str(getattr(source, "source", None) or "<recording>")
 
 
+def _split_names(names: str | Sequence[str]) -> tuple[str, ...]:
+    """Column names from ``"a, b"`` or a sequence (blanks dropped); none at all is an error."""
+    listed = tuple(n.strip() for n in (names.split(",") if isinstance(names, str) else names) if n and n.strip())
+    if not listed:
+        raise InputError(f"--names expects comma-separated column names, got {names!r}")
+    return listed
+
+
 def read_source(source: Any, *, time_column: str = "t", fs: float | None = None,
                 names: str | Sequence[str] | None = None, channels: Sequence[str] | None = None,
                 allow_nan: bool = False, time_unit: str | None = None, skip_rows: int | None = None,
@@ -205,10 +220,8 @@ def read_source(source: Any, *, time_column: str = "t", fs: float | None = None,
         return source.select(list(channels)) if channels else source
     if not isinstance(source, (str, Path)):
         raise InputError(f"a job reads a recording file or a senscal.io.Recording, got {type(source).__name__}")
-    if isinstance(names, str):
-        names = [s.strip() for s in names.split(",") if s.strip()]
-        if not names:
-            raise InputError("--names expects comma-separated column names")
+    if isinstance(names, str) or names:
+        names = _split_names(names)
     return read_recording(source, time_column=time_column, fs=fs, names=list(names) if names else None,
                           channels=list(channels) if channels else None, allow_nan=allow_nan,
                           time_unit=time_unit, skip_rows=skip_rows, time_required=time_required)

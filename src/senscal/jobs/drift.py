@@ -108,6 +108,7 @@ class DriftOptions(ReadOptions):
     flush: bool = False
 
     def __post_init__(self):
+        super().__post_init__()
         for key in ("channels", "trusted"):
             v = getattr(self, key)
             if isinstance(v, str):

@@ -55,6 +55,7 @@ class FitOptions(ReadOptions):
     noise_model: str = "auto"
 
     def __post_init__(self):
+        super().__post_init__()
         if self.noise_model not in NOISE_MODELS:
             raise InputError(f"--noise-model must be one of {', '.join(NOISE_MODELS)}, got {self.noise_model!r}")
         if self.channels is not None and not isinstance(self.channels, tuple):
