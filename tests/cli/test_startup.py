@@ -234,3 +234,10 @@ def test_no_command_prints_the_help_and_one_line(cli, args):
     r = cli(*args)
     assert r.code == 2 and r.out.startswith(f"Usage: {' '.join(['senscal', *args])} ") and "Commands:" in r.out
     assert r.err.strip().splitlines() == [f"senscal: error: missing command; see '{' '.join(['senscal', *args])} --help'"]
+
+
+def test_help_does_not_break_hyphenated_words(cli, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "80")
+    out = cli("response", "--help").out
+    # Click alone wrapped these as "back-" / "to-back)" and "[default: no-" / "drift]".
+    assert "(back-to-back)" in out and "no-drift]" in out

@@ -16,6 +16,15 @@ from typing import Any
 # Definition-list columns as Click draws them: names up to this wide share one column, longer ones put their
 # help on the next line.
 _COL_MAX = 30
+# Click wraps at hyphens ("back-" / "to-back", "[default: no-" / "drift]"); a non-breaking hyphen while wrapping
+# keeps hyphenated words and option names whole.
+_NB_HYPHEN = "\u2011"
+
+
+def _write_dl(formatter: Any, rows: list[tuple[str, str]]) -> None:
+    start = len(formatter.buffer)
+    formatter.write_dl([(first, second.replace("-", _NB_HYPHEN)) for first, second in rows], col_max=_COL_MAX)
+    formatter.buffer[start:] = [piece.replace(_NB_HYPHEN, "-") for piece in formatter.buffer[start:]]
 
 
 def _sections(command: Any, ctx: Any) -> list[tuple[str, list[tuple[str, str]]]]:
@@ -44,13 +53,12 @@ def format_options(command: Any, ctx: Any, formatter: Any) -> None:
     width = min(max((len(first) for _, rows in sections for first, _ in rows), default=0), _COL_MAX)
     for name, rows in sections:
         with formatter.section(name):
-            formatter.write_dl([(first.ljust(width) if second else first, second) for first, second in rows],
-                               col_max=_COL_MAX)
+            _write_dl(formatter, [(first.ljust(width) if second else first, second) for first, second in rows])
     if getattr(command, "commands", None) is not None:
         rows = _command_rows(command, ctx)
         if rows:
             with formatter.section("Commands"):
-                formatter.write_dl(rows, col_max=_COL_MAX)
+                _write_dl(formatter, rows)
 
 
 def _command_rows(group: Any, ctx: Any) -> list[tuple[str, str]]:
