@@ -14,6 +14,23 @@ settings.register_profile("dev", deadline=None, max_examples=60)
 settings.load_profile("ci" if os.environ.get("CI") else "dev")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def private_user_dirs(tmp_path_factory):
+    """The default registry and lab profile live in a private folder for the whole session.
+
+    A test (or a command it runs, subprocesses included) that forgets ``--db`` must not write
+    to the developer's own registry, and parallel workers must not share one SQLite file.
+    """
+    base = tmp_path_factory.mktemp("user-dirs")
+    mp = pytest.MonkeyPatch()
+    mp.setenv("XDG_DATA_HOME", str(base / "data"))
+    mp.setenv("XDG_CONFIG_HOME", str(base / "config"))
+    mp.delenv("SENSCAL_DB", raising=False)
+    mp.delenv("SENSCAL_LAB", raising=False)
+    yield base
+    mp.undo()
+
+
 @dataclass
 class CliResult:
     code: int
