@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import functools
 import math
-import os
 import re
 from pathlib import Path
 
@@ -177,7 +176,7 @@ STRINGS = st.one_of(NUMBERISH, WORDS, st.floats().map(repr), st.integers().map(s
                     st.text(alphabet="-_./ab x", max_size=8))
 
 
-@settings(max_examples=int(os.environ.get("SENSCAL_HYPOTHESIS_EXAMPLES", 150)), deadline=None)
+@settings(max_examples=150, deadline=None)
 @given(text=STRINGS)
 def test_light_conversion_equals_typers_on_generated_strings(text):
     for ctx, param in KINDS:
