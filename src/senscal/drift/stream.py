@@ -319,6 +319,10 @@ def _check_state(s: TrackerState, source: str) -> None:
         k = a.shape[0] if k is None else k
         if a.shape[0] != k:
             raise FileFormatError(f"{source}: buffer arrays have different lengths")
+        # Only a measurement may be missing (NaN); a NaN covariance would come out as a NaN uncertainty.
+        if not (np.all(~np.isinf(a)) if key == "y" else np.all(np.isfinite(a))):
+            raise FileFormatError(f"{source}: buffer {key} must hold finite numbers (a damaged file?); restore the "
+                                  "previous state file or start a new one")
     for key, shape in (("x0", (n,)), ("P0", (n, n)), ("x", (n,)), ("P", (n, n)), ("h_last", (m, n))):
         a = getattr(s, key)
         if a is not None and (a.shape != shape or not np.all(np.isfinite(a))):

@@ -200,6 +200,22 @@ def _float_or_none(v: Any, what: str) -> float | None:
         raise InputError(f"{what} must be a number, got {v!r}") from None
 
 
+def _list(doc: Mapping[str, Any], key: str, where: str, what: str) -> list:
+    v = doc.get(key) or []
+    if not isinstance(v, list):
+        raise InputError(f"{where}: '{key}' must be {what}, got a {type(v).__name__}")
+    return v
+
+
+def _iso_date(text: str, what: str) -> None:
+    import datetime as _dt
+
+    try:
+        _dt.date.fromisoformat(text)
+    except ValueError:
+        raise InputError(f"{what} {text!r} is not a calendar date; write it as YYYY-MM-DD") from None
+
+
 def _conditions(items: Any, where: str) -> tuple[Condition, ...]:
     if items in (None, ""):
         return ()
@@ -214,6 +230,10 @@ def _conditions(items: Any, where: str) -> tuple[Condition, ...]:
         _known(c, {"name", "value", "u", "uncertainty", "unit"}, f"{where} condition {c.get('name')!r}")
         value = _float_or_none(c["value"], f"{where}: condition {c['name']!r} value")
         u = _float_or_none(c.get("u", c.get("uncertainty")), f"{where}: condition {c['name']!r} u")
+        # The same rule as --env: a certificate states a finite value and a non-negative, finite u.
+        if value is None or not math.isfinite(value) or u is not None and not (u >= 0 and math.isfinite(u)):
+            raise InputError(f"{where}: condition {c['name']!r} needs a finite value and a finite uncertainty u >= 0, "
+                             f"got value {c['value']!r}, u {c.get('u', c.get('uncertainty'))!r}")
         out.append(Condition(str(c["name"]), value if value is not None else float("nan"), u, str(c.get("unit", ""))))
     return tuple(out)
 
@@ -222,7 +242,8 @@ def _lab_from(doc: Mapping[str, Any], where: str, source: str) -> LabProfile:
     allowed = {f.name for f in fields(LabProfile)} - {"source"}
     _known(doc, allowed, where)
     approvers = []
-    for a in doc.get("approvers") or []:
+    # A bare string would be iterated letter by letter (one approver per character).
+    for a in _list(doc, "approvers", where, "a list of names or of tables with 'name' (and 'role')"):
         if isinstance(a, str):
             approvers.append(Person(a.strip()))
         elif isinstance(a, Mapping) and "name" in a:
@@ -231,14 +252,20 @@ def _lab_from(doc: Mapping[str, Any], where: str, source: str) -> LabProfile:
         else:
             raise InputError(f"{where}: each approver is a name or a table with 'name' (and 'role')")
     standards = []
-    for s in doc.get("standards") or []:
+    for s in _list(doc, "standards", where, "a list of tables ([[standards]] in TOML), each with at least 'name'"):
         if not isinstance(s, Mapping) or "name" not in s:
             raise InputError(f"{where}: each reference standard is a table with at least 'name'")
         allowed_s = {f.name for f in fields(Standard)}
         _known(s, allowed_s, f"{where} standard {s.get('name')!r}")
-        standards.append(Standard(**{k: (str(v).strip() if k != "u_relative" else
-                                         _float_or_none(v, f"{where}: standard {s['name']!r} u_relative"))
-                                     for k, v in s.items()}))
+        std = Standard(**{k: (str(v).strip() if k != "u_relative" else
+                              _float_or_none(v, f"{where}: standard {s['name']!r} u_relative"))
+                          for k, v in s.items()})
+        if std.u_relative is not None and not (math.isfinite(std.u_relative) and std.u_relative >= 0):
+            raise InputError(f"{where}: standard {s['name']!r} u_relative must be a finite number >= 0 (its relative "
+                             f"standard uncertainty, k=1), got {s['u_relative']!r}")
+        if std.due:
+            _iso_date(std.due, f"{where}: standard {s['name']!r} due")
+        standards.append(std)
     logo = _text(doc, "logo", where)
     if logo and source and not Path(logo).is_absolute():
         logo = str(Path(source).parent / logo)

@@ -1,0 +1,190 @@
+"""Structured side documents, mutated (hypothesis): a drift tracker state, a fleet configuration, a lab profile.
+
+A valid document is edited one to three times at random places (a field
+deleted, replaced by a hostile value -- null, a list, a mapping, NaN, 1e308,
+a negative number, a huge or control-character string, markup -- or an
+unknown field added) and handed to the API that reads it.  Whatever the
+edit, the reader and everything downstream of it (the tracker's next chunk,
+the fleet run, the HTML certificate and the DCC) either work or raise a
+:class:`senscal.errors.SenscalError` subclass with a one-line message: never
+KeyError/TypeError/AttributeError, never a NaN or negative uncertainty.
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from _fuzz_harness import LONG
+from senscal.errors import SenscalError
+
+HOSTILE_VALUES = [None, True, 0, -1, -1.0, 1e308, -1e308, float("nan"), float("inf"), "", "abc", "x" * 20000,
+                  "\x00\x1b[31m\x07", "[/bold]<b>&</b>]]>", [], {}, [[1, 2], [3]], [1.0, 2.0, 3.0], {"a": 1},
+                  {"shape": [2, 2], "data": [1, 2]}, {"shape": [-1], "data": []}, "2026-13-45"]
+
+EXAMPLES = 300 if LONG else 25
+SETTINGS = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
+                                           HealthCheck.data_too_large])
+
+
+def _paths(doc, prefix=()):
+    """Every place in a JSON-like tree (mapping keys and list indices), parents before children."""
+    out = []
+    items = doc.items() if isinstance(doc, dict) else enumerate(doc) if isinstance(doc, list) else ()
+    for k, v in items:
+        out.append(prefix + (k,))
+        out.extend(_paths(v, prefix + (k,)))
+    return out
+
+
+def mutate_doc(data, doc):
+    """One to three random edits of a JSON-like document (a deep copy)."""
+    doc = copy.deepcopy(doc)
+    for _ in range(data.draw(st.integers(1, 3), label="edits")):
+        paths = _paths(doc)
+        if not paths:
+            break
+        path = data.draw(st.sampled_from(paths), label="where")
+        parent = doc
+        for k in path[:-1]:
+            parent = parent[k]
+        op = data.draw(st.sampled_from(["replace", "replace", "delete", "add"]), label="op")
+        if op == "delete":
+            del parent[path[-1]]
+        elif op == "add" and isinstance(parent, dict):
+            parent[data.draw(st.sampled_from(["extra", "Name", "levels ", "0"]))] = 1
+        else:
+            parent[path[-1]] = copy.deepcopy(data.draw(st.sampled_from(HOSTILE_VALUES), label="value"))
+    return doc
+
+
+def _one_line(exc: BaseException) -> None:
+    assert isinstance(exc, SenscalError), f"{type(exc).__name__}: {exc}"
+    assert "\n" not in str(exc).strip(), str(exc)
+
+
+# --------------------------------------------------------------------------- drift tracker state
+
+
+@pytest.fixture(scope="module")
+def tracker_doc():
+    from senscal.drift import DriftSetup
+    from senscal.drift.model import Bias, SignalModel
+    from senscal.drift.stream import DriftTracker
+
+    setup = DriftSetup(channels=("a", "b"), signal=SignalModel("random_walk"), biases=(Bias("b"),), trusted=("a",))
+    levels = {k: 0.05 if k.endswith("noise_std") else 0.01 for k in setup.level_names()}
+    rng = np.random.default_rng(0)
+    tr = DriftTracker(setup, levels, lag=3)
+    t = np.arange(40.0)
+    tr.update(rng.normal(0, 0.05, (2, 40)), t)
+    return tr.state.to_dict()
+
+
+@SETTINGS
+@given(data=st.data())
+def test_mutated_tracker_state(tracker_doc, data):
+    from senscal.drift.stream import DriftTracker, TrackerState
+
+    doc = mutate_doc(data, tracker_doc)
+    try:
+        state = TrackerState.from_dict(json.loads(json.dumps(doc)), source="drift state s.json")
+        tr = DriftTracker.from_state(state)
+        t0 = 1.0 + (state.t_last if state.t_last is not None else 0.0)
+        out = tr.update(np.zeros((2, 10)), t0 + np.arange(10.0))
+    except Exception as exc:  # noqa: BLE001 - the point: which exception
+        _one_line(exc)
+        return
+    u = np.asarray(out.u_bias)
+    assert np.all(np.isfinite(u)) and np.all(u >= 0), u
+
+
+# --------------------------------------------------------------------------- fleet configuration
+
+
+@pytest.fixture(scope="module")
+def fleet_dataset(tmp_path_factory):
+    from senscal.simulate.fleet import simulate_fleet
+
+    d = tmp_path_factory.mktemp("fleetdoc")
+    simulate_fleet(d / "sim", n_channels=3, n_samples=60, fs=1.0, kind="covariate", segments=1,
+                   channels_per_file=3, rows_per_group=30, missing=0.0, seed=1)
+    return d / "sim"
+
+
+@SETTINGS
+@given(data=st.data())
+def test_mutated_fleet_config(fleet_dataset, tmp_path_factory, data):
+    from senscal.drift.fleet import load_fleet_config, run_fleet
+
+    doc = mutate_doc(data, json.loads((fleet_dataset / "fleet.json").read_text()))
+    d = tmp_path_factory.mktemp("cfg")
+    cfg = d / "fleet.yaml"
+    cfg.write_text(yaml.safe_dump(doc, allow_unicode=True))
+    try:
+        groups = load_fleet_config(cfg)
+        res = run_fleet(fleet_dataset, groups, state=d / "state")
+    except Exception as exc:  # noqa: BLE001
+        _one_line(exc)
+        return
+    u = np.asarray(res.u_bias)
+    assert np.all(np.isnan(u) | (u >= 0)), u
+    assert not np.any(np.isinf(u)), u
+
+
+# --------------------------------------------------------------------------- lab profile
+
+
+LAB = {
+    "name": "Vibration Laboratory Nord", "address": "Hafenstrasse 7, 20457 Hamburg, Germany", "country": "DE",
+    "email": "lab@example.org", "accreditation": "DAkkS D-K-99999-01-00", "procedure": "QP-VIB-07 rev 3",
+    "approvers": [{"name": "Dr. Ada Pruefer", "role": "Head of laboratory"}],
+    "standards": [{"name": "Reference accelerometer", "serial": "RS-1", "certificate": "PTB-1.21-4711",
+                   "traceability": "PTB Braunschweig", "due": "2027-03-01", "u_relative": 0.0005}],
+    "run": {"location": "hall 2", "customer": "ACME", "customer_address": "Am Markt 1", "customer_email": "qa@acme.example",
+            "item": "velocity sensor", "manufacturer": "Qfab", "model": "QV-1", "serial": "SN-1",
+            "calibration_date": "2026-01-05", "issue_date": "2026-01-06",
+            "conditions": [{"name": "temperature", "value": 23.1, "u": 0.5, "unit": "degC"}]},
+}
+
+
+@pytest.fixture(scope="module")
+def velocity():
+    from senscal.simulate.vibration import simulate_hydraulic
+    from senscal.vibration import velocity_calibration, velocity_point
+
+    recs, _ = simulate_hydraulic(frequencies=(2.0, 3.5), periods=4.3, min_duration=2.0, seed=1)
+    return velocity_calibration([velocity_point(r["position"], r["velocity"], r.time) for r in recs], unit="V/(m/s)")
+
+
+@settings(SETTINGS, max_examples=200 if LONG else 12)  # each example renders a certificate and validates a DCC
+@given(data=st.data())
+def test_mutated_lab_profile(velocity, tmp_path_factory, data):
+    from senscal.report.certificate import certificate_html
+    from senscal.report.dcc import dcc_xml
+    from senscal.report.lab import CertificateInfo, load_lab_profile
+
+    doc = mutate_doc(data, LAB)
+    p = tmp_path_factory.mktemp("lab") / "lab.yaml"
+    p.write_text(yaml.safe_dump(doc, allow_unicode=True))
+    try:
+        lab, run = load_lab_profile(p)
+        info = CertificateInfo(lab, run)
+        html = certificate_html("velocity", velocity, info=info, unit="V/(m/s)", method="sine fit")
+        dcc_xml("velocity", velocity, info, unit="V/(m/s)")
+    except Exception as exc:  # noqa: BLE001
+        _one_line(exc)
+        return
+    for s in info.lab.standards:
+        assert s.u_relative is None or math.isfinite(s.u_relative) and s.u_relative >= 0
+    for c in info.run.conditions:
+        assert math.isfinite(c.value) and (c.u is None or math.isfinite(c.u) and c.u >= 0)
+    assert "<b>&</b>" not in html  # markup in a field is escaped, never rendered
