@@ -81,7 +81,8 @@ class ReadOptions:
     fs : float, optional
         Sample rate in Hz for a file without a time column.
     names : str or tuple of str, optional
-        Column names of a text file without header (comma-separated string or tuple).
+        Column names of a text file without header: a comma-separated string
+        (as ``--names`` gives it) or a sequence, kept as a tuple.
     time_unit : str, optional
         Unit of a time column whose header gives none (s, ms, us, min).
     skip_rows : int, optional
@@ -143,7 +144,8 @@ def with_read_options(builder: Callable[..., Any]) -> Callable[..., Any]:
     return build
 
 
-def given_or_loaded(value: Any, kind: type, load: Callable[[Any], Any], *, label: str, what: str) -> tuple[Any, str]:
+def given_or_loaded(value: Any, kind: type, load: Callable[[Any], Any], *, label: str, what: str,
+                    path: str = "file path") -> tuple[Any, str]:
     """An input a job takes in memory or as a file (a gravity model, a calibration, a layout).
 
     Parameters
@@ -157,7 +159,9 @@ def given_or_loaded(value: Any, kind: type, load: Callable[[Any], Any], *, label
     label : str
         How the result names an input given in memory (``"<model>"``).
     what : str
-        How the error names the input (``"the shaft model (--model)"``).
+        How the error names the input (``"the shaft model"``).
+    path : str
+        How the error names the file it may be (``"MODEL.json path"``).
 
     Returns
     -------
@@ -168,7 +172,7 @@ def given_or_loaded(value: Any, kind: type, load: Callable[[Any], Any], *, label
         return value, label
     if isinstance(value, (str, Path)):
         return load(value), str(value)
-    raise InputError(f"{what} must be a file path or a {kind.__name__}, got {type(value).__name__}")
+    raise InputError(f"{what} must be a {path} or a {kind.__name__}, got {type(value).__name__}")
 
 
 def document_fields(obj: Any, *names: str) -> dict[str, Any]:

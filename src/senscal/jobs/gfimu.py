@@ -258,7 +258,8 @@ def _layout_of(o: GfimuOptions) -> tuple[Any, str]:
     if o.layout is None:
         d = 0.04 if o.distance is None else o.distance
         return paper_layout(d), f"paper, L = {d} m"
-    return given_or_loaded(o.layout, Layout, read_layout, label="<layout>", what="the layout (--layout)")
+    return given_or_loaded(o.layout, Layout, read_layout, label="<layout>", what="the layout",
+                           path="layout CSV path")
 
 
 def _truth_on(rec_t: np.ndarray, path, need_q: bool) -> tuple[np.ndarray, np.ndarray | None]:

@@ -342,7 +342,8 @@ def _model_of(model) -> tuple[Any, str]:
     if model is None:
         raise InputError("shaft compensation needs the gravity model: give --model MODEL.json from "
                          "'senscal shaft calibrate --out MODEL.json'")
-    return given_or_loaded(model, GravityModel, load_model, label="<model>", what="the shaft model (--model)")
+    return given_or_loaded(model, GravityModel, load_model, label="<model>", what="the shaft model",
+                           path="MODEL.json path")
 
 
 def shaft_compensate(source, options: ShaftCompensateOptions = ShaftCompensateOptions()) -> ShaftCompensateResult:

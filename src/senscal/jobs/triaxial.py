@@ -354,7 +354,8 @@ def _calibration_of(params) -> tuple[Any, str]:
         raise InputError("triaxial apply needs the calibration: give --params PARAMS.json from "
                          "'senscal triaxial calibrate --out PARAMS.json'")
     return given_or_loaded(params, TriaxialCalibration, load_calibration, label="<calibration>",
-                           what="the calibration (--params)")
+                           what="the calibration",
+                           path="parameter file")
 
 
 def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions()) -> TriaxialApplyResult:
