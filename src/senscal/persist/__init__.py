@@ -29,7 +29,7 @@ import os
 from pathlib import Path
 from typing import Any, Mapping
 
-from senscal.errors import FileFormatError
+from senscal.errors import FileFormatError, SenscalError
 
 __all__ = ["FORMAT_VERSION", "TYPES", "HDF5_SUFFIXES", "load_calibration", "read_document", "write_document",
            "document", "calibration_type", "check_version"]
@@ -202,16 +202,67 @@ def load_calibration(path: str | os.PathLike, *, expect: str | None = None) -> A
     if expect is not None and kind != expect:
         label, make = TYPES[expect][2:]
         held = f"it holds a {TYPES[kind][2]}" if kind in TYPES else (
-            f"its type is {kind!r}" if kind else "it has no 'type' key")
+            f"its type is {kind!r}" if kind else _what_else(doc))
         raise FileFormatError(f"{path} is not a senscal {label} ({held}); give the file written by '{make}'")
     if kind not in TYPES:
         known = ", ".join(sorted(TYPES))
-        detail = f"its type is {kind!r}" if kind else "it has no 'type' key"
+        detail = f"its type is {kind!r}" if kind else _what_else(doc)
         raise FileFormatError(f"{path} is not a senscal calibration ({detail}; known types: {known}); "
                               "give a file saved by a calibration command")
     check_version(doc, source)
+    bad = _first_bad_number(doc)
+    if bad is not None:
+        # senscal writes a missing number as null, never NaN or inf, and no negative uncertainty.
+        raise FileFormatError(f"{source} holds {bad[1]} at {bad[0]}, which senscal never writes (a damaged or "
+                              "hand-edited file?); save the calibration again")
     module, cls = TYPES[kind][:2]
-    return getattr(importlib.import_module(module), cls).from_document(doc, source=source)
+    try:
+        return getattr(importlib.import_module(module), cls).from_document(doc, source=source)
+    except SenscalError:
+        raise
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError, OverflowError) as exc:
+        # The typed readers check the fields they know; a field of the wrong kind can still break them.
+        raise FileFormatError(f"{source} is damaged or hand-edited ({type(exc).__name__}: "
+                              f"{str(exc).splitlines()[0][:120] if str(exc) else 'bad field'}); save the calibration "
+                              "again") from None
+
+
+def _is_uncertainty(key: str) -> bool:
+    return key in ("u", "U_k2") or key.startswith("u_")
+
+
+def _what_else(doc: Any) -> str:
+    """What a document without a calibration type is, in words (a drift state, a fleet configuration ...)."""
+    if isinstance(doc, Mapping) and isinstance(doc.get("kind"), str) and doc["kind"].startswith("senscal "):
+        return f"it is a {doc['kind'][8:60]}"
+    if isinstance(doc, Mapping) and "type" in doc:
+        return f"its 'type' is a {type(doc['type']).__name__}, not a text"
+    return "it has no 'type' key"
+
+
+def _first_bad_number(doc: Any, where: str = "", key: str = "") -> tuple[str, str] | None:
+    """``(where, what)`` of the first NaN/inf, or negative uncertainty (``u``, ``u_*``, ``U_k2``), in a document."""
+    import numpy as np
+
+    if isinstance(doc, Mapping):
+        for k, v in doc.items():
+            found = _first_bad_number(v, f"{where}.{k}" if where else str(k), str(k))
+            if found is not None:
+                return found
+    elif isinstance(doc, (list, tuple)):
+        for i, v in enumerate(doc):
+            found = _first_bad_number(v, f"{where}[{i}]", key)
+            if found is not None:
+                return found
+    elif isinstance(doc, (np.ndarray, float, np.floating)) and not isinstance(doc, bool):
+        a = np.asarray(doc)
+        if a.dtype.kind in "fc" and not np.all(np.isfinite(a)):
+            return where, "a non-finite number"
+        if _is_uncertainty(key) and a.dtype.kind in "fiu" and np.any(a < 0):
+            return where, "a negative uncertainty"
+    elif isinstance(doc, int) and not isinstance(doc, bool) and _is_uncertainty(key) and doc < 0:
+        return where, "a negative uncertainty"
+    return None
 
 
 def document(type_key: str, fields: Mapping[str, Any], *, drop: tuple[str, ...] = ()) -> dict[str, Any]:
