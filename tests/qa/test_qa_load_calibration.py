@@ -118,9 +118,9 @@ def test_damaged_shaft_model(documents, tmp_path, edit, match):
 
 
 def test_wrong_field_type_names_the_file(documents, tmp_path):
-    # Was TypeError ('int' object is not iterable) from the shaft model's reader.
+    # Was TypeError ('int' object is not iterable) from the shaft model's reader (tuple(warnings)).
     doc = dict(documents["shaft"])
-    doc["covariance"] = 5
+    doc["warnings"] = 5
     p = tmp_path / "m.json"
     p.write_text(json.dumps(doc))
     with pytest.raises(FileFormatError, match="m.json"):
