@@ -258,3 +258,14 @@ def test_fleet_damaged_store(cli, fleet, store, tmp_path, edit, match):
     before = _digest(s)
     _one_line(_fleet(cli, fleet, fleet["data"], None, "--state", s), match)
     assert _digest(s) == before
+
+
+@pytest.mark.parametrize("out", ["o.json", "state.json", "folder"])
+def test_bad_out_leaves_the_state(cli, days, tmp_path, out):
+    # The state was saved before --out failed: the next run refused the same file ('time going backwards')
+    # and the corrected values of this one were never written.
+    s = tmp_path / "state.json"
+    s.write_bytes(days["state"][".json"].read_bytes())
+    (tmp_path / "folder").mkdir()
+    _one_line(_continue(cli, days, s, "--out", tmp_path / out), "--out")
+    assert _continue(cli, days, s, "--out", tmp_path / "ok.csv").code == 0

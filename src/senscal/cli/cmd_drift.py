@@ -100,6 +100,13 @@ def drift_cmd(
         check_output(state, suffixes=(".json", ".npz"), what="drift state")
         if plot is not None:
             raise InputError("--plot draws a one-pass result; leave it out with --state (use --out for the values)")
+        if out is not None and str(file) != "-":
+            from senscal.io.readers import FORMATS
+
+            # Checked before the run: a run that fails on its --out must not have moved the state on.
+            check_output(out, suffixes=tuple(FORMATS), what="--out")
+            if Path(out).resolve() == Path(state).resolve():
+                raise InputError(f"--out and --state name the same file {out}; give two names")
     if str(file) == "-" and state is not None:
         if out is not None or plot is not None or json_out:
             raise InputError("with '-' the corrected values go to standard output as CSV; leave out --out, --plot "
@@ -110,11 +117,12 @@ def drift_cmd(
         return
     with progress_bar("estimating noise levels (likelihood evaluations)", None) as advance:
         res = drift(file, opts, progress=advance)
-    if res.state is not None:
-        res.state.save(state)
     if out is not None:
         t, cols, units = res.columns()
         write_recording(Recording(cols, t=t, units=units), out)
+    if res.state is not None:
+        # After the corrected values are written: a failed run leaves the state where it was.
+        res.state.save(state)
     if plot is not None:
         from senscal.drift.plot import plot_drift
 
