@@ -21,7 +21,6 @@ from senscal.validation import check_coverage, mc_seeds
 from senscal.validation.shaft import SCENARIOS
 
 CALIBRATION = ["amplitude", "phase", "offset", "tilt", "bias"]
-WITH_RIPPLE_ROW = {"white", "sync-1%", "ar1-0.9", "long-60"}
 
 
 @pytest.mark.parametrize("case", sorted(SCENARIOS))
@@ -31,10 +30,9 @@ def test_coverage(case):
         pytest.skip("full Monte-Carlo only (SENSCAL_MC=full)")
     rows = run(mc_seeds(run.full_seeds, 60), 10_000)
     quantities = [r.quantity for r in rows]
-    extra = ["ripple_coefficient"] if case in WITH_RIPPLE_ROW else []
-    assert quantities[:6] == (CALIBRATION + extra)[:6]
+    assert quantities[:5] == CALIBRATION
     if case == "white":
-        assert quantities[6:] == ["centripetal_coefficient", "misalignment", "bias_change"]
+        assert quantities[5:] == ["centripetal_coefficient", "misalignment", "bias_change"]
     check_coverage(rows)
 
 
@@ -43,7 +41,7 @@ def test_ripple_coefficient_has_no_regressor_droop():
 
     A septic Savitzky-Golay second derivative over 0.13 s droops 9e-6 at the
     2.7 Hz ripple (the quintic over 0.1 s: 6.7e-4, which read the coefficient
-    high by 1.2 u on 60-turn runs); 1e-4 leaves room for the 1e-5 the 5.4 Hz
+    high by 1.2 u on 60-turn runs, 81 % coverage); 1e-4 leaves room for the 1e-5 the 5.4 Hz
     part of w^2 and the gravity sidebands move it, and fails the quintic.
     """
     cal, _, truth = simulate_shaft(seed=3, cal_duration=10.0, test_duration=0.5, noise=0.0,
@@ -54,11 +52,15 @@ def test_ripple_coefficient_has_no_regressor_droop():
     assert abs(m.ripple_coefficient / exact - 1.0) < 1e-4, m.ripple_coefficient / exact - 1.0
 
 
-def test_centripetal_coefficient_is_a_diagnostic_without_u():
-    """Its spectral u does not cover (quantisation bursts at the encoder's sampling resonance): no u, listed."""
+def test_ripple_and_centripetal_coefficients_are_diagnostics_without_u():
+    """Their spectral u does not cover (quantisation bursts at the encoder's sampling resonance): no u, listed."""
     cal, _, truth = simulate_shaft(seed=4, cal_duration=10.0, test_duration=0.5)
     m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg")
     assert m.centripetal_coefficient is not None and m.u_centripetal_coefficient is None
-    assert m.diagnostic == ("centripetal_coefficient",)
+    assert math.isfinite(m.ripple_coefficient) and m.u_ripple_coefficient is None
+    assert m.diagnostic == ("ripple_coefficient", "centripetal_coefficient")
     d = m.to_dict()
-    assert d["u_centripetal_coefficient"] is None and d["diagnostic"] == ["centripetal_coefficient"]
+    assert d["u_centripetal_coefficient"] is None and d["u_ripple_coefficient"] is None
+    assert d["diagnostic"] == ["ripple_coefficient", "centripetal_coefficient"]
+    given = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", radius=truth["radius"])
+    assert given.u_ripple_coefficient == 0.0 and given.diagnostic == ("centripetal_coefficient",)

@@ -6,13 +6,10 @@ Every scenario simulates a tilted shaft with a tangential accelerometer
 1 rev/s with 3 % speed ripple at 2.7 Hz unless the scenario says otherwise),
 calibrates on a 10 s run (10 turns: half the simulator's default, to keep the
 tests inside CI's time) and scores every number ``shaft calibrate`` reports
-with an uncertainty: amplitude, phase, offset, tilt and bias, and where the
-response to angular acceleration is regressed (no radius given, speed ripple
-to learn it from) the ``ripple_coefficient`` (truth ``S r cos(d)``).  The
-calibration's ``centripetal_coefficient`` is a diagnostic without u (see
-:class:`senscal.shaft.GravityModel`); the ``long-60`` scenario scores 60-turn
-runs, where the ripple coefficient's u is small enough to show a 0.07 %
-droop of its regressor (a quintic second derivative did: 81 % coverage).  The white
+with an uncertainty: amplitude, phase, offset, tilt and bias.  The
+calibration's ``ripple_coefficient`` and ``centripetal_coefficient`` are
+diagnostics without u (see :class:`senscal.shaft.GravityModel`); the
+``long-60`` scenario scores the gravity terms on 60-turn runs.  The white
 scenario also compensates a test run (2 rev/s, 50 % speed modulation) with
 the centripetal leakage removed and scores its coefficient, the axis
 misalignment and the bias change.
@@ -43,8 +40,7 @@ CAL_DURATION = 10.0
 
 def _calibration_rows(case: str, n_seeds: int, seed0: int, sim: dict, cal_kw: dict | None = None,
                       expect: str = "cover", warning: str | None = None, note: str = "",
-                      with_radius: bool = False, ripple_row: bool = False,
-                      duration: float = CAL_DURATION) -> list[CoverageRow]:
+                      with_radius: bool = False, duration: float = CAL_DURATION) -> list[CoverageRow]:
     est, unc, tru, warned = [], [], [], []
     for s in range(n_seeds):
         cal, _, truth = simulate_shaft(seed=seed0 + s, cal_duration=duration, test_duration=0.5, **sim)
@@ -54,15 +50,13 @@ def _calibration_rows(case: str, n_seeds: int, seed0: int, sim: dict, cal_kw: di
         m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", **kw)
         g = truth["gravity"]
         ph_true = math.radians(g["phase_deg"])
-        est.append([m.amplitude, ph_true + wrap_phase(m.phase - ph_true), m.offset, m.tilt, m.bias,
-                    m.ripple_coefficient])
-        unc.append([m.u_amplitude, m.u_phase, m.u_offset, m.u_tilt, m.u_bias, m.u_ripple_coefficient])
+        est.append([m.amplitude, ph_true + wrap_phase(m.phase - ph_true), m.offset, m.tilt, m.bias])
+        unc.append([m.u_amplitude, m.u_phase, m.u_offset, m.u_tilt, m.u_bias])
         tru.append([g["amplitude"], ph_true, g["offset"], math.radians(truth["tilt_deg"]),
-                    g["offset"] / truth["sensitivity"],
-                    truth["sensitivity"] * truth["radius"] * math.cos(math.radians(truth["misalignment_deg"]))])
+                    g["offset"] / truth["sensitivity"]])
         warned.append(has_warning(m.warnings, warning) if warning else False)
     est, unc, tru = np.array(est), np.array(unc), np.array(tru)
-    names = ["amplitude", "phase", "offset", "tilt", "bias"] + (["ripple_coefficient"] if ripple_row else [])
+    names = ["amplitude", "phase", "offset", "tilt", "bias"]
     return [coverage_row(JOB, case, q, est[:, i], unc[:, i], tru[:, i], expect=expect,
                          warned=warned if warning else None, note=note) for i, q in enumerate(names)]
 
@@ -74,7 +68,7 @@ def run_white(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     centripetal coefficient ``k r`` (m), axis misalignment (rad) and bias
     change since calibration (m/s^2, truth 0).
     """
-    rows = _calibration_rows("white", n_seeds, seed0, {}, ripple_row=True, note="white noise, 3 % speed ripple at 2.7 Hz")
+    rows = _calibration_rows("white", n_seeds, seed0, {}, note="white noise, 3 % speed ripple at 2.7 Hz")
     est, unc, tru = [], [], []
     for s in range(n_seeds):
         cal, test, truth = simulate_shaft(seed=seed0 + s, cal_duration=CAL_DURATION, test_duration=5.0)
@@ -101,7 +95,7 @@ def run_no_ripple(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 def run_sync(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """1 % ripple locked to the rotation on top of 3 % at 2.7 Hz: modelled (coefficients learnt at 2.7 Hz)."""
-    return _calibration_rows("sync-1%", n_seeds, seed0, {"sync_ripple": 0.01}, ripple_row=True,
+    return _calibration_rows("sync-1%", n_seeds, seed0, {"sync_ripple": 0.01},
                              note="1 % once-per-turn speed ripple plus 3 % at 2.7 Hz")
 
 
@@ -127,13 +121,13 @@ def run_sync_only_radius(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 def run_ar1(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """AR(1) accelerometer noise, lag-one correlation 0.9 (19x the white density at low frequency)."""
-    return _calibration_rows("ar1-0.9", n_seeds, seed0, {"noise_rho": 0.9}, ripple_row=True,
+    return _calibration_rows("ar1-0.9", n_seeds, seed0, {"noise_rho": 0.9},
                              note="AR(1) noise, rho = 0.9")
 
 
 def run_long(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
-    """60-turn runs (white noise, 3 % ripple at 2.7 Hz): the ripple coefficient's u shrinks below its regressor's droop."""
-    return _calibration_rows("long-60", n_seeds, seed0, {}, ripple_row=True, duration=60.0,
+    """60-turn runs (white noise, 3 % ripple at 2.7 Hz): the gravity terms' u where the regressors' errors count more."""
+    return _calibration_rows("long-60", n_seeds, seed0, {}, duration=60.0,
                              note="60 turns, white noise, 3 % speed ripple at 2.7 Hz")
 
 
