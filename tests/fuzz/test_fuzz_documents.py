@@ -74,19 +74,31 @@ def _one_line(exc: BaseException) -> None:
 # --------------------------------------------------------------------------- drift tracker state
 
 
-@pytest.fixture(scope="module")
-def tracker_doc():
-    from senscal.drift import DriftSetup
-    from senscal.drift.model import Bias, SignalModel
-    from senscal.drift.stream import DriftTracker
+DRIFT_OPTS = ["--preset", "redundant", "--trusted", "a", "--channels", "a,b", "--window", "3", "--no-compare"]
 
-    setup = DriftSetup(channels=("a", "b"), signal=SignalModel("random_walk"), biases=(Bias("b"),), trusted=("a",))
-    levels = {k: 0.05 if k.endswith("noise_std") else 0.01 for k in setup.level_names()}
+
+@pytest.fixture(scope="module")
+def tracker_files(tmp_path_factory):
+    """The state ``senscal drift day1.csv DRIFT_OPTS --state`` leaves (known levels: no search), and day 2."""
+    from senscal.drift.stream import DriftTracker
+    from senscal.io import Recording, write_recording
+    from senscal.jobs.drift import DriftOptions, drift_setup_for
+
+    d = tmp_path_factory.mktemp("tracker")
     rng = np.random.default_rng(0)
-    tr = DriftTracker(setup, levels, lag=3)
-    t = np.arange(40.0)
-    tr.update(rng.normal(0, 0.05, (2, 40)), t)
-    return tr.state.to_dict()
+    y = rng.normal(0, 0.05, (2, 80))
+    rec = Recording({"a": y[0], "b": y[1]}, t=np.arange(80.0))
+    setup = drift_setup_for(rec, DriftOptions(preset="redundant", trusted=("a",), channels=("a", "b"), window=3))
+    tr = DriftTracker(setup, {k: 0.05 if k.endswith("noise_std") else 0.01 for k in setup.level_names()}, lag=3)
+    tr.update(y[:, :40], rec.time[:40])
+    day2 = write_recording(Recording({"a": y[0, 40:], "b": y[1, 40:]}, t=rec.time[40:]), d / "day2.csv")
+    return {"doc": tr.state.to_dict(), "json": tr.state.save(d / "s.json"), "npz": tr.state.save(d / "s.npz"),
+            "day2": day2}
+
+
+@pytest.fixture(scope="module")
+def tracker_doc(tracker_files):
+    return tracker_files["doc"]
 
 
 @SETTINGS
@@ -188,3 +200,48 @@ def test_mutated_lab_profile(velocity, tmp_path_factory, data):
     for c in info.run.conditions:
         assert math.isfinite(c.value) and (c.u is None or math.isfinite(c.u) and c.u >= 0)
     assert "<b>&</b>" not in html  # markup in a field is escaped, never rendered
+
+
+# --------------------------------------------------------------------------- the same files, byte-mutated, on the CLI
+
+
+@pytest.mark.parametrize("kind", ["json", "npz"])
+def test_mutated_state_file_cli(cli, tracker_files, tmp_path, kind):
+    """``senscal drift day2.csv --state S`` on a byte-mutated S: a result or one line; a failed run leaves S as it was."""
+    from _fuzz_harness import CASE_TIMEOUT_S, CASES_PER_TARGET, TALLY, mutate, run_case
+
+    data = tracker_files[kind].read_bytes()
+    (tmp_path / f"ok.{kind}").write_bytes(data)
+    # The seed continues (else the cases would only exercise the first error).
+    assert cli("drift", tracker_files["day2"], *DRIFT_OPTS, "--state", tmp_path / f"ok.{kind}").code == 0
+    rng = np.random.default_rng(7 if kind == "json" else 8)
+    failures = []
+    for i in range(CASES_PER_TARGET):
+        s = tmp_path / f"case{i}.{kind}"
+        s.write_bytes(mutate(data, rng))
+        before = s.read_bytes()
+        r_kind, detail = run_case(cli, ["drift", str(tracker_files["day2"]), *DRIFT_OPTS, "--state", str(s)],
+                                  [tracker_files["day2"]], CASE_TIMEOUT_S)
+        if r_kind == "clean" and s.read_bytes() != before:
+            r_kind, detail = "modified", f"a refused state was changed: case {i}"
+        TALLY.add(f"drift --state .{kind}", r_kind, detail)
+        if detail is not None:
+            failures.append(detail)
+    assert not failures, failures[:3]
+
+
+def test_mutated_fleet_config_cli(cli, fleet_dataset, tmp_path):
+    from _fuzz_harness import CASE_TIMEOUT_S, CASES_PER_TARGET, TALLY, mutate, run_case
+
+    data = (fleet_dataset / "fleet.json").read_bytes()
+    rng = np.random.default_rng(9)
+    failures = []
+    for i in range(CASES_PER_TARGET):
+        c = tmp_path / f"case{i}.json"
+        c.write_bytes(mutate(data, rng))
+        r_kind, detail = run_case(cli, ["drift-fleet", str(fleet_dataset), "--config", str(c), "--workers", "0",
+                                        "--state", str(tmp_path / f"st{i}"), "--json"], [c], CASE_TIMEOUT_S)
+        TALLY.add("drift-fleet --config", r_kind, detail)
+        if detail is not None:
+            failures.append(detail)
+    assert not failures, failures[:3]

@@ -95,6 +95,8 @@ def test_valid_states_continue(cli, days, tmp_path):
     # Was filtered silently: a NaN or negative level, a NaN time.
     lambda d: d["levels"].update({k: -1.0 for k in d["levels"]}), lambda d: d.update(t_last=float("nan")),
     lambda d: d.update(n_samples=-5),
+    # Finite, but its square is not: the next chunk came out with NaN uncertainties.
+    lambda d: d["P"]["data"].__setitem__(0, 1e308),
 ])
 def test_damaged_json_state(cli, days, tmp_path, edit):
     doc = json.loads(days["state"][".json"].read_text())

@@ -293,6 +293,14 @@ class TrackerState(ResultMixin):
         return cls.from_dict(doc, source=what)
 
 
+#: Largest magnitude a restored number may have: the filter multiplies two of them (1e154**2 is still finite).
+_MAX_ABS = 1e154
+
+
+def _sane(a: np.ndarray) -> bool:
+    return bool(np.all(np.abs(a) < _MAX_ABS))  # False for NaN and inf too
+
+
 def _check_state(s: TrackerState, source: str) -> None:
     """Shapes and finiteness of a restored state (a hand-edited file must not crash the filter)."""
     n = len(s.setup.state_names)
@@ -320,13 +328,14 @@ def _check_state(s: TrackerState, source: str) -> None:
         if a.shape[0] != k:
             raise FileFormatError(f"{source}: buffer arrays have different lengths")
         # Only a measurement may be missing (NaN); a NaN covariance would come out as a NaN uncertainty.
-        if not (np.all(~np.isinf(a)) if key == "y" else np.all(np.isfinite(a))):
+        if not (_sane(a[~np.isnan(a)]) if key == "y" else _sane(a)):
             raise FileFormatError(f"{source}: buffer {key} must hold finite numbers (a damaged file?); restore the "
                                   "previous state file or start a new one")
     for key, shape in (("x0", (n,)), ("P0", (n, n)), ("x", (n,)), ("P", (n, n)), ("h_last", (m, n))):
         a = getattr(s, key)
-        if a is not None and (a.shape != shape or not np.all(np.isfinite(a))):
-            raise FileFormatError(f"{source}: {key} must be {shape} finite numbers")
+        if a is not None and (a.shape != shape or not _sane(a)):
+            raise FileFormatError(f"{source}: {key} must be {shape} finite numbers below 1e154 (a damaged file?); "
+                                  "restore the previous state file or start a new one")
     if (s.x is None) != (s.t_last is None) or (s.x is None and s.h_last is not None) or s.lag < 0 or k > max(s.lag, 0):
         raise FileFormatError(f"{source} is inconsistent (last state, time and window do not agree)")
 
