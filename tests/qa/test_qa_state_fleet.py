@@ -271,3 +271,16 @@ def test_bad_out_leaves_the_state(cli, days, tmp_path, out):
     (tmp_path / "folder").mkdir()
     _one_line(_continue(cli, days, s, "--out", tmp_path / out), "--out")
     assert _continue(cli, days, s, "--out", tmp_path / "ok.csv").code == 0
+
+
+def test_fleet_channel_without_data_is_named(cli, fleet, tmp_path):
+    # Reported its prior (bias 0, u the prior width) as if measured, without a word.
+    def blind(df):
+        df[df.columns[1]] = np.nan
+        return df
+
+    data = _parquet(tmp_path, fleet, blind)
+    r = _fleet(cli, fleet, data)
+    assert r.code == 0, r.err
+    assert any(w.startswith("fleet-channel-no-data") for w in json.loads(r.out)["warnings"]), r.out
+    assert _fleet(cli, fleet, data, None, "--strict").code == 3

@@ -1011,6 +1011,7 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
     bias_last = np.full(C, np.nan)
     u_last = np.full(C, np.nan)
     n_new = n_missing = n_skip = chunks = shared = 0
+    n_valid = np.zeros(C, dtype=np.int64)
     kcov = len(group.setup.covariates)
     try:
         pf = pq.ParquetFile(block.file)
@@ -1063,6 +1064,7 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
             one = u if len(parts) == 1 else None
             n_new += b.size
             n_missing += int(np.count_nonzero(np.isnan(yk)))
+            n_valid[ix] += np.count_nonzero(~np.isnan(yk), axis=1)
         if not rows.any():
             continue
         shared += one is not None and one.ndim == 1
@@ -1074,7 +1076,7 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
     return {"channels": block.channels, "group": block.group, "bias": bias_last, "u_bias": u_last,
             "t_last": np.array([s.t_last if s is not None else np.nan for s in st]),
             "n_samples": n_new, "n_missing": n_missing, "n_skipped": n_skip, "chunks": chunks, "shared": shared,
-            "seconds": time.perf_counter() - t0}
+            "n_valid": n_valid, "seconds": time.perf_counter() - t0}
 
 
 # --------------------------------------------------------------------------- the run
@@ -1316,6 +1318,12 @@ def run_fleet(dataset: str | Path, groups: Sequence[FleetGroup], *, state: str |
         if not math.isfinite(bias[i]) and c in stored:
             # Nothing new for this channel: its last estimate is the stored one.
             bias[i], u[i] = stored[c][2], stored[c][3]
+    # A channel never measured (every sample NaN, no stored estimate) reports its prior, not a measurement.
+    blind = [c for r in rows for c, k in zip(r["channels"], r["n_valid"]) if k == 0 and c not in stored]
+    if blind:
+        warnings.append(named("fleet-channel-no-data", (
+            f"{len(blind)} channels have no valid sample ({', '.join(blind[:5])}{', ...' if len(blind) > 5 else ''}): "
+            "their bias and u are the prior, not a measurement; check the sensors or leave them out")))
     n_skip = sum(r["n_skipped"] for r in rows)
     if n_skip:
         warnings.append(named("fleet-rows-skipped", (
