@@ -177,7 +177,7 @@ def velocity():
     return velocity_calibration([velocity_point(r["position"], r["velocity"], r.time) for r in recs], unit="V/(m/s)")
 
 
-@settings(SETTINGS, max_examples=200 if LONG else 12)  # each example renders a certificate and validates a DCC
+@settings(SETTINGS, max_examples=200 if LONG else 8)  # each example renders a certificate and validates a DCC
 @given(data=st.data())
 def test_mutated_lab_profile(velocity, tmp_path_factory, data):
     from senscal.report.certificate import certificate_html

@@ -132,3 +132,16 @@ def test_drift_state_is_named_for_what_it_is(tmp_path):
     p.write_text(json.dumps({"format_version": 1, "kind": "senscal drift tracker state", "setup": {}}))
     with pytest.raises(FileFormatError, match="it is a drift tracker state"):
         load_calibration(p)
+
+
+
+@pytest.mark.parametrize("as_of", ["2026-13-45", "yesterday", "", "2026-01-05T25:00", "99999-01-01", "nan",
+                                   "2026-01-05T10:00+25:00"])
+def test_registry_due_malformed_as_of(cli, tmp_path, as_of):
+    # --as-of is checked before the database is opened: no registry is created or touched.
+    db = tmp_path / "r.sqlite"
+    r = cli("registry", "due", "SIM-001", "--quantity", "sensitivity", "--tolerance", "1%", "--db", db,
+            "--as-of", as_of)
+    assert r.code == 2 and "Traceback" not in r.err, r.err
+    assert len(r.err.strip().splitlines()) == 1 and "--as-of" in r.err, r.err
+    assert not db.exists()
