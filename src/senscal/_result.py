@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -16,8 +17,9 @@ def to_jsonable(value: Any) -> Any:
     Non-finite floats become ``None`` (JSON has no NaN).
     """
     # numpy loads with the first conversion, not with this module: result classes are imported by
-    # `senscal fit --help` and friends, which should start without numpy.
-    import numpy as np
+    # `senscal fit --help` and friends, which should start without numpy. A value can only be a numpy
+    # object if numpy is loaded already, so plain values (registry records) never load it.
+    np = sys.modules.get("numpy")
 
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         if hasattr(value, "to_dict"):
@@ -27,13 +29,13 @@ def to_jsonable(value: Any) -> Any:
         return {str(k): to_jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
         return [to_jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
+    if np is not None and isinstance(value, np.ndarray):
         return to_jsonable(value.tolist())
-    if isinstance(value, (np.bool_, bool)):
+    if isinstance(value, bool) or (np is not None and isinstance(value, np.bool_)):
         return bool(value)
-    if isinstance(value, (np.integer,)):
+    if np is not None and isinstance(value, np.integer):
         return int(value)
-    if isinstance(value, (float, np.floating)):
+    if isinstance(value, float) or (np is not None and isinstance(value, np.floating)):
         v = float(value)
         return v if math.isfinite(v) else None
     if isinstance(value, Path):

@@ -20,11 +20,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from senscal._result import ResultMixin
 from senscal.errors import DataError, InputError, TooFewSamplesError
+
+if TYPE_CHECKING:
+    import numpy as np
+
+# numpy loads in the functions that compute, not with this module: the registry's
+# record/show/list/due commands import the result classes and never fit.
 
 __all__ = ["DriftFit", "DueDate", "fit_drift", "due_time", "DAYS_PER_YEAR"]
 
@@ -84,6 +89,8 @@ class DriftFit(ResultMixin):
 
     def predict(self, t_years):
         """Fitted value at ``t_years`` and its standard uncertainty (line only)."""
+        import numpy as np
+
         t = np.asarray(t_years, dtype=float)
         value = self.value_at_epoch + self.drift_per_year * t
         c = self.covariance
@@ -148,6 +155,7 @@ def fit_drift(t_years, values, uncertainties, *, alpha: float = 0.05) -> DriftFi
     DataError
         Non-finite values, non-positive uncertainties, or all records at the same time.
     """
+    import numpy as np
     # scipy.special's distribution functions: the same numbers as scipy.stats at a fraction of the call cost.
     from scipy import special
 

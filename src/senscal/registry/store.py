@@ -12,7 +12,6 @@ from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
-import numpy as np
 import sqlalchemy as sa
 from sqlalchemy.exc import DBAPIError, IntegrityError, InterfaceError, OperationalError
 
@@ -682,6 +681,8 @@ class Registry:
             Fewer than two (non-superseded) records of the quantity.
         """
         pts = self.history(serial, quantity)
+        import numpy as np  # here, not at module level: record/show/list/due never need it
+
         from senscal.persist.units import canonical_unit
 
         # Spellings of one unit (V/(m/s^2), V/(m/s²)) are one unit; another scale (mV/...) is not.
@@ -781,7 +782,7 @@ class Registry:
                 rd.pop("already_recorded")
                 d["calibrations"].append(rd)
             out_sensors.append(d)
-        return {"format": EXPORT_FORMAT, "version": EXPORT_VERSION, "schema": db.head_revision(),
+        return {"format": EXPORT_FORMAT, "version": EXPORT_VERSION, "schema": db.HEAD_REVISION,
                 "sensors": out_sensors}
 
     @_db_errors
