@@ -245,3 +245,22 @@ def test_mutated_fleet_config_cli(cli, fleet_dataset, tmp_path):
         if detail is not None:
             failures.append(detail)
     assert not failures, failures[:3]
+
+
+def test_mutated_fleet_parquet_cli(cli, fleet_dataset, tmp_path):
+    """A byte-mutated Parquet file of the dataset (a damaged page was 'internal error (OSError: thrift ...)')."""
+    from _fuzz_harness import CASE_TIMEOUT_S, CASES_PER_TARGET, TALLY, mutate, run_case
+
+    data = next(fleet_dataset.glob("*.parquet")).read_bytes()
+    rng = np.random.default_rng(10)
+    failures = []
+    for i in range(CASES_PER_TARGET // 2):  # half a target's cases: each reads a whole (small) dataset
+        ds = tmp_path / f"ds{i}"
+        ds.mkdir()
+        (ds / "a.parquet").write_bytes(mutate(data, rng))
+        r_kind, detail = run_case(cli, ["drift-fleet", str(ds), "--config", str(fleet_dataset / "fleet.json"),
+                                        "--workers", "0", "--json"], [ds / "a.parquet"], CASE_TIMEOUT_S)
+        TALLY.add("drift-fleet DATASET", r_kind, detail)
+        if detail is not None:
+            failures.append(detail)
+    assert not failures, failures[:3]

@@ -1020,7 +1020,12 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
     storep = Path(store) if store else None
     outp = Path(out) if out else None
     for rg in range(pf.metadata.num_row_groups):
-        t, y, cov = _read_chunk(pf, rg, block, kcov)
+        try:
+            t, y, cov = _read_chunk(pf, rg, block, kcov)
+        except (OSError, ValueError) as exc:  # pyarrow: a damaged page (ArrowInvalid is a ValueError)
+            why = str(exc).strip().splitlines()[0][:160] if str(exc).strip() else type(exc).__name__
+            raise FileFormatError(f"fleet dataset file {block.file}, row group {rg} cannot be read ({why}); "
+                                  "replace the file with a good copy") from None
         if t.size == 0:
             continue
         if not np.all(np.isfinite(t)):
