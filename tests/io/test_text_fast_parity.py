@@ -26,23 +26,28 @@ from senscal.io._textfast import read_plain_columns
 
 # -- what a text recording may hold ------------------------------------------
 
-_SPECIAL = ["", "nan", "NaN", "-nan", "inf", "-inf", " 1.5", "1.5 ", "+1", ".5", "5.", "1E+05", "1e400", "-0",
-            "0.1000000000000000055511151231257827", "2.2250738585072011e-308", "007"]
+_MISSING = ["", "", "", "nan", "NaN", "+nan", "-nan"]
+_SPECIAL = [" 1.5", "1.5 ", "+1", ".5", "5.", "1E+05", "-0", "0.1000000000000000055511151231257827",
+            "2.2250738585072011e-308", "4.9e-324", "007", "1e-400"]
+_INF = ["inf", "-inf", "1e400", "Infinity"]
 _JUNK = ["abc", "1,5", '"2.5"', "NA", "1_000", "#3", "\u00b5", " ", "\t", "0x10", "1.5.2", "1;2", "--1", "e5"]
 _FORMATS = ["{!r}", "{:.9g}", "{:.17g}", "{:.3e}", "{:g}", "{:.6f}"]
 
 
 @st.composite
-def _cell(draw, junk: bool) -> str:
+def _cell(draw, junk: bool, infs: bool) -> str:
+    """One field: mostly numbers as programs write them; missing values, odd spellings; junk and inf when asked."""
     kind = draw(st.integers(0, 99))
-    if kind < 60:
+    if kind < 55:
         x = draw(st.floats(allow_nan=False, allow_infinity=False, width=64))
         return draw(st.sampled_from(_FORMATS)).format(x)
-    if kind < 75:
+    if kind < 70:
         return str(draw(st.integers(-10**6, 10**20)))
-    if kind < 95 or not junk:
+    if kind < 76:
+        return draw(st.sampled_from(_MISSING))
+    if kind < 92 or not (junk or infs):
         return draw(st.sampled_from(_SPECIAL))
-    return draw(st.sampled_from(_JUNK))
+    return draw(st.sampled_from(_JUNK if junk and (kind % 2 or not infs) else _INF))
 
 
 _NAMES = ["x", "ch1", "acc_z", "y", "ch2"]
@@ -57,7 +62,8 @@ def text_recordings(draw) -> tuple[bytes, dict]:
     sep = draw(st.sampled_from([",", ";", "\t", " "]))
     width = draw(st.integers(1, 4))
     nrows = draw(st.integers(1, 30))
-    junk = draw(st.booleans())
+    junk = draw(st.integers(0, 9)) < 3
+    infs = draw(st.integers(0, 9)) < 2
     header = draw(st.booleans())
     units = draw(st.booleans())
     time_name = draw(st.sampled_from(["t", "t [s]", "t [ms]", "t[s]", "time"] if units else ["t", "t", "time"]))
@@ -68,8 +74,8 @@ def text_recordings(draw) -> tuple[bytes, dict]:
     dt = draw(st.sampled_from([1e-3, 0.01, 1.0, 1 / 3]))
     t_ok = draw(st.integers(0, 9)) > 0
     for i in range(nrows):
-        t = draw(st.sampled_from(["{:.9g}", "{!r}", "{:g}"])).format(i * dt) if t_ok else draw(_cell(junk))
-        rows.append([t] + [draw(_cell(junk)) for _ in range(width - 1)])
+        t = draw(st.sampled_from(["{:.9g}", "{!r}", "{:g}"])).format(i * dt) if t_ok else draw(_cell(junk, infs))
+        rows.append([t] + [draw(_cell(junk, infs)) for _ in range(width - 1)])
     if width > 1 and draw(st.booleans()):
         rows[0][1:] = [""] * (width - 1)  # a first data row with empty fields
     if draw(st.integers(0, 9)) == 0:
@@ -90,7 +96,7 @@ def text_recordings(draw) -> tuple[bytes, dict]:
     eol = draw(st.sampled_from(["\n", "\r\n", "\n", "\r\n", "\r"]))
     text = eol.join(lines) + (eol if draw(st.integers(0, 9)) > 0 else "")
     data = (b"\xef\xbb\xbf" if draw(st.booleans()) else b"") + text.encode("utf-8")
-    options: dict = {"allow_nan": draw(st.booleans())}
+    options: dict = {"allow_nan": draw(st.integers(0, 3)) > 0}
     if not header:
         options["names"] = [n.split("[")[0].split("(")[0].strip() for n in names]
     if time_name == "time":

@@ -103,6 +103,7 @@ def read_plain_columns(path: Path, *, sep: str, width: int, skip: int) -> list[n
     if body.translate(None, _NUMBER_BYTES + delim):
         return None
     text = body.decode("ascii")
+    del data, head, body  # the peak memory is a few copies of the file: drop the ones no longer needed
     if "\r" in text:
         text = text.replace("\r\n", "\n")
     # Plain str searches first: the slower checks below run only on files that need them.
