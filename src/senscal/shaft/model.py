@@ -580,7 +580,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     if drop:
         used = [k for k in used if k not in drop]
         coef, cov, res = solve(used, yk)
-    b_of = {k: (float(coef[3 + i]), math.sqrt(max(cov[3 + i, 3 + i], 0.0))) for i, k in enumerate(used)}
+    b_of = {k: float(coef[3 + i]) for i, k in enumerate(used)}
     removed = np.column_stack([info[k]["x"] for k in used]) @ coef[3:] if used else 0.0
     x, cnt, (ya, tw) = by_angle(tk, (yk - removed) * taper, taper)
     wts = tw if cnt is None else tw * cnt
@@ -601,7 +601,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         b_al = float(dcoef[3]) if "alpha" in diag else math.nan
     else:
         leak = amp_plain - amp
-        b_al = b_of["alpha"][0] if "alpha" in b_of else math.nan
+        b_al = b_of.get("alpha", math.nan)
     # Relative speed ripple at the rotation frequency: alpha = w0^2 m cos(theta + p) for w = w0 (1 + m sin).
     w_mean2 = float(np.mean(w2)) if w2.size else 0.0
     sync_rel = info["alpha"]["sync"] / w_mean2 if w_mean2 > 0 else 0.0
@@ -673,7 +673,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         ripple_coefficient=float(sensitivity * radius if mode == "radius" else b_al),
         u_ripple_coefficient=0.0 if mode == "radius" else None,
         ripple_leak=float(leak), radius=radius, window=kin.window, synchronous_ripple=float(sync_rel),
-        centripetal_coefficient=None if kc is None else kc[0], u_centripetal_coefficient=None,
+        centripetal_coefficient=kc, u_centripetal_coefficient=None,
         diagnostic=tuple(k for k, v in (("ripple_coefficient", mode != "radius" and math.isfinite(b_al)),
                                         ("centripetal_coefficient", kc is not None)) if v),
         nuisance=tuple(used), warnings=tuple(warnings), source=source,
