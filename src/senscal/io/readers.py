@@ -16,7 +16,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from senscal.errors import DataError, FileFormatError, InputError, SenscalError
-from senscal.io.guard import atomic_output, check_output, claim_stdout, is_stdio, note_input, stdin_bytes
+from senscal.io.guard import STDIO, atomic_output, check_output, is_stdio, note_input, stdin_bytes, write_text
 from senscal.io._textfast import read_plain_columns
 from senscal.io.recording import Recording
 
@@ -829,12 +829,8 @@ def _csv_frame(rec: Recording, time_column: str, units_in_header: bool):
 
 def _write_stdout(rec: Recording, *, format: str | None, time_column: str, units_in_header: bool) -> Path:
     """``write_recording(rec, "-")``: CSV text on standard output (a pipe takes no binary format)."""
-    import sys
-
     if format not in (None, "csv"):
         raise InputError(f"only CSV can be written to standard output ('-'), not {_LABEL.get(format, format)}; "
                          "give a file name")
-    claim_stdout("the recording")
-    sys.stdout.write(_csv_frame(rec, time_column, units_in_header).to_csv(index=False, float_format="%.17g"))
-    sys.stdout.flush()
-    return Path("-")
+    text = _csv_frame(rec, time_column, units_in_header).to_csv(index=False, float_format="%.17g")
+    return write_text(STDIO, text, what="the recording")

@@ -192,10 +192,12 @@ def load_calibration(path: str | os.PathLike, *, expect: str | None = None) -> A
         Missing or corrupt file, not a senscal calibration, a calibration of
         another type than ``expect``, or a newer format version.
     """
+    from senscal.io.guard import is_stdio
+
     path = Path(path)
     what = "calibration file"
     doc = read_document(path, what=what)
-    if os.fspath(path) == "-":
+    if is_stdio(path):
         path = Path("standard input")
     kind = calibration_type(doc)
     source = f"{what} {path}"

@@ -216,6 +216,11 @@ def _iso_date(text: str, what: str) -> None:
         raise InputError(f"{what} {text!r} is not a calendar date; write it as YYYY-MM-DD") from None
 
 
+def _condition_ok(value: float | None, u: float | None) -> bool:
+    """A certificate states a condition with a finite value and, if any, a finite uncertainty u >= 0."""
+    return value is not None and math.isfinite(value) and (u is None or (u >= 0 and math.isfinite(u)))
+
+
 def _conditions(items: Any, where: str) -> tuple[Condition, ...]:
     if items in (None, ""):
         return ()
@@ -230,11 +235,10 @@ def _conditions(items: Any, where: str) -> tuple[Condition, ...]:
         _known(c, {"name", "value", "u", "uncertainty", "unit"}, f"{where} condition {c.get('name')!r}")
         value = _float_or_none(c["value"], f"{where}: condition {c['name']!r} value")
         u = _float_or_none(c.get("u", c.get("uncertainty")), f"{where}: condition {c['name']!r} u")
-        # The same rule as --env: a certificate states a finite value and a non-negative, finite u.
-        if value is None or not math.isfinite(value) or u is not None and not (u >= 0 and math.isfinite(u)):
+        if not _condition_ok(value, u):  # the same rule as --env
             raise InputError(f"{where}: condition {c['name']!r} needs a finite value and a finite uncertainty u >= 0, "
                              f"got value {c['value']!r}, u {c.get('u', c.get('uncertainty'))!r}")
-        out.append(Condition(str(c["name"]), value if value is not None else float("nan"), u, str(c.get("unit", ""))))
+        out.append(Condition(str(c["name"]), value, u, str(c.get("unit", ""))))
     return tuple(out)
 
 
@@ -352,7 +356,7 @@ def parse_condition(text: str, where: str = "--env") -> Condition:
                          f"e.g. 'temperature=23.1+-0.5 degC'; got {text!r}")
     value = _float_or_none(m.group(1), f"{where} {name.strip()!r} value")
     u = _float_or_none(m.group(2), f"{where} {name.strip()!r} uncertainty")
-    if value is None or not math.isfinite(value) or u is not None and not (u >= 0 and math.isfinite(u)):
+    if not _condition_ok(value, u):
         raise InputError(f"{where} {name.strip()!r}: give a value and a non-negative uncertainty, got {text!r}")
     return Condition(name.strip(), value, u, m.group(3))
 
