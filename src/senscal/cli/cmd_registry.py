@@ -13,7 +13,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (JsonOpt, StrictOpt, console, emit_warnings, err_console, parse_relative, print_json,
                                 table, write_json)
-from senscal.cli.registry_opts import CreateSensorOpt, DbOpt, OperatorOpt
+from senscal.cli.registry_opts import CreateSensorOpt, DbOpt, OperatorOpt, open_named_registry
 from senscal.errors import FileFormatError, InputError
 
 registry_app = typer.Typer(
@@ -30,14 +30,7 @@ CreateOpt = Annotated[bool, typer.Option(
 
 def _open(db: str | None, create: bool = False):
     """Open the registry; a ``--db`` SQLite file that does not exist needs ``create`` (see docs/registry.md)."""
-    from senscal.registry import open_registry
-    from senscal.registry.db import missing_registry_file
-
-    missing = missing_registry_file(db)
-    if missing is not None and not create:
-        raise InputError(f"registry file {missing} does not exist; check the --db path, or add --create to make "
-                         "a new registry there")
-    return open_registry(db)
+    return open_named_registry(db, create=create, remedy="--create to make a new registry there")
 
 
 def _tamper_warning(rep, url: str) -> str:

@@ -32,7 +32,8 @@ from typing_extensions import Annotated
 from senscal.cli.common import err_console
 from senscal.errors import InputError
 
-__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "save_if_requested"]
+__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "open_named_registry",
+           "save_if_requested"]
 
 _PANEL = "Sensor registry"
 
@@ -51,6 +52,21 @@ DateOpt = Annotated[Optional[str], typer.Option(
     rich_help_panel=_PANEL)]
 OperatorOpt = Annotated[Optional[str], typer.Option("--operator", help="Who calibrated (default: login name).",
                                                     rich_help_panel=_PANEL)]
+
+
+def open_named_registry(db: str | None, *, create: bool, remedy: str):
+    """Open the registry at ``db``; a named SQLite file that does not exist needs ``create``.
+
+    A typo in ``--db`` must not open (and record into) a new, empty registry;
+    the error ends with ``remedy``, the option that creates one.
+    """
+    from senscal.registry import open_registry
+    from senscal.registry.db import missing_registry_file
+
+    missing = missing_registry_file(db)
+    if missing is not None and not create:
+        raise InputError(f"registry file {missing} does not exist; check the --db path, or add {remedy}")
+    return open_registry(db)
 
 
 def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | None = None,
@@ -92,7 +108,7 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
         return None
     if not sensor:
         raise InputError("--save needs --sensor SERIAL (the serial number of the calibrated sensor)")
-    from senscal.registry import open_registry, parse_date
+    from senscal.registry import parse_date
 
     when = parse_date(date)  # checked before opening the database: a typo costs nothing
     if quantities is None and hasattr(result, "quantities"):
@@ -100,14 +116,8 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
     qs = list(quantities() if callable(quantities) else (quantities or []))
     doc = result.to_dict() if hasattr(result, "to_dict") else result
     job = job or getattr(result, "job", "") or None
-    from senscal.registry.db import missing_registry_file
-
-    missing = missing_registry_file(db)
-    if missing is not None and create_sensor is None:
-        # A typo in --db must not record into a new, empty registry.
-        raise InputError(f"registry file {missing} does not exist; check the --db path, or add --create-sensor KIND "
-                         "to start a new registry there with this sensor")
-    with open_registry(db) as reg:
+    with open_named_registry(db, create=create_sensor is not None,
+                             remedy="--create-sensor KIND to start a new registry there with this sensor") as reg:
         rec = reg.record(sensor, qs, performed_at=when, job=job, method=method, conditions=conditions,
                          result=doc, certificate=certificate, input_files=input_files, operator=operator,
                          note=note, create_kind=create_sensor)
