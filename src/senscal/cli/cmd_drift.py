@@ -242,19 +242,17 @@ def _stream_stdin(opts, chunk_size: int, strict: bool) -> None:
 
     from senscal.drift.stream import TrackerState
     from senscal.errors import TooFewSamplesError
-    from senscal.jobs.drift import drift_setup_for, start_tracker
+    from senscal.jobs.drift import _arrays, drift_setup_for, start_tracker
 
     state_path = Path(opts.state)
-    tracker = None
+    setup = tracker = None
     warnings: list[str] = []
     write = sys.stdout.write
     for rec, t in _stdin_chunks(chunk_size, opts):
-        if tracker is None:
+        if setup is None:
             setup = drift_setup_for(rec, opts)
-            for c in list(setup.channels) + setup.covariates:
-                if c not in rec:
-                    raise InputError(f"channel '{c}' is not on standard input (channels: {', '.join(rec.names)})")
-            y, cov = rec.data(list(setup.channels)), {c: rec[c] for c in setup.covariates}
+        y, _, cov = _arrays(rec, setup, "on standard input")
+        if tracker is None:
             old = TrackerState.load(state_path) if state_path.exists() else None
             try:
                 tracker, _, _, warnings = start_tracker(setup, y, t, cov, opts, old)
@@ -264,8 +262,6 @@ def _stream_stdin(opts, chunk_size: int, strict: bool) -> None:
                 raise TooFewSamplesError(f"{exc} in the first chunk, which starts the state; give a larger "
                                          f"--chunk-size than {chunk_size}") from None
             write("t," + ",".join(f"{c}_corrected,{c}_bias,{c}_bias_std" for c in tracker.channels) + "\n")
-        else:
-            y, cov = rec.data(list(setup.channels)), {c: rec[c] for c in setup.covariates}
         _write_rows(write, tracker.update(y, t, cov))
         sys.stdout.flush()
         tracker.state.save(state_path)

@@ -171,10 +171,11 @@ def drift_setup_for(rec, opts: DriftOptions):
     return redundant_setup(chans, trusted, covariate=covariate, bias_dynamics=opts.bias_dynamics, **kw)
 
 
-def _arrays(rec, setup, source: str):
+def _arrays(rec, setup, where: str):
+    """Measurements, time and covariates the set-up needs; ``where`` (``in FILE``) names the source in the error."""
     for c in list(setup.channels) + setup.covariates:
         if c not in rec:
-            raise InputError(f"channel '{c}' is not in {source} (channels: {', '.join(rec.names)})")
+            raise InputError(f"channel '{c}' is not {where} (channels: {', '.join(rec.names)})")
     return rec.data(list(setup.channels)), rec.time, {c: rec[c] for c in setup.covariates}
 
 
@@ -379,7 +380,7 @@ def drift(source: Any, options: DriftOptions = DriftOptions(), *,
     rec = options.read(source, allow_nan=True)
     name = source_name(source)
     setup = drift_setup_for(rec, options)
-    y, t, cov = _arrays(rec, setup, name)
+    y, t, cov = _arrays(rec, setup, f"in {name}")
     units = {c: rec.unit(c) or "" for c in setup.biased_channels}
     time_warnings = list(check_time(rec.time, "drift"))
     if options.state is None:
