@@ -54,3 +54,17 @@ def cli(capsys):
         return CliResult(code, cap.out, cap.err)
 
     return run
+
+
+def pytest_report_header(config):
+    """The versions a run resolved, so a failure on a fresh machine names the release that changed."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    parts = []
+    for dist in ("numpy", "scipy", "pandas", "numba", "typer", "click", "rich", "hypothesis", "weasyprint",
+                 "xmlschema", "sqlalchemy", "dask"):
+        try:
+            parts.append(f"{dist} {version(dist)}")
+        except PackageNotFoundError:
+            parts.append(f"{dist} missing")
+    return "senscal dependencies: " + ", ".join(parts)

@@ -83,3 +83,27 @@ def test_a_fit_converts_its_options_without_pydantic(tmp_path):
     rc, loaded, out = _loaded_after(["fit", str(path), "--harmonics", "1", "--freq", "5", "--json"], STARTUP)
     assert rc == 0 and '"channels"' in out, out
     assert "pydantic" not in loaded and "numpy" in loaded, loaded  # numpy: the fit did run
+
+
+def test_lazy_console_survives_monkeypatch_restore():
+    # pytest >= 9.2 restores an instance attribute from the target's own __dict__ (and deletes it when it
+    # is absent there): the proxy must expose the console's __dict__, or undo() deletes the real
+    # console's attribute and every later CLI run in the process fails.
+    import pytest
+    from rich.console import Console
+
+    from senscal.cli.common import LazyConsole
+
+    real = Console(width=77)
+    proxy = LazyConsole(lambda: real)
+    before = real.__dict__["_width"]
+    mp = pytest.MonkeyPatch()
+    mp.setattr(proxy, "_width", 400)
+    assert real.__dict__["_width"] == 400 and proxy.width == 400
+    mp.undo()
+    assert real.__dict__["_width"] == before
+    assert proxy.width == 77
+    # The restore path pytest takes with the attribute absent: delete, then set again.
+    mp.setattr(proxy, "record", True)
+    mp.undo()
+    assert "record" in real.__dict__

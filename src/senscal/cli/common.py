@@ -35,9 +35,19 @@ class LazyConsole:
     ``console.width = 120`` and monkeypatching behave as on the console itself.
     """
 
+    # The proxy's own state lives in slots, so its ``__dict__`` can be the console's: tools that read an
+    # instance's ``__dict__`` to save and restore an attribute (pytest >= 9.2's monkeypatch does, to
+    # decide between restoring and deleting) then see the console's own attributes, and restoring
+    # ``_width`` no longer deletes it from the real console.
+    __slots__ = ("_build", "_real")
+
     def __init__(self, build: Callable[[], Console]):
         object.__setattr__(self, "_build", build)
         object.__setattr__(self, "_real", None)
+
+    @property
+    def __dict__(self) -> dict[str, Any]:  # type: ignore[override]
+        return self.real().__dict__
 
     def real(self) -> Console:
         """The Rich console itself (built now if it was not yet)."""
