@@ -172,6 +172,28 @@ def apply_cmd(
                       f"(field {cal.field:.6g})")
 
 
+@triaxial_app.command("import")
+def import_cmd(
+    file: Annotated[Path, typer.Argument(help="Another tool's calibration as 12 plain numbers: matrix A row by row, then offset B.")],
+    out: Annotated[Path, typer.Option("--out", help="senscal parameter file for 'triaxial apply' (JSON, or HDF5 for .h5; - for stdout).")],
+    form: Annotated[str, typer.Option("--form", help="affine: the tool corrects as A h + B (Dorveaux, MagnetometerCalibration); centred: as A (h - B) (Magneto).")] = "affine",
+    field: Annotated[float, typer.Option("--field", help="Field magnitude the corrected data should show, in corrected units (1 when the tool normalises it).")] = 1.0,
+    unit: Annotated[str, typer.Option("--unit", help="Unit of the raw readings it applies to (checked by 'triaxial apply').")] = "",
+    channels: Annotated[str, typer.Option("--channels", help="The X,Y,Z channel names it is for.")] = "x,y,z",
+    json_out: JsonOpt = False,
+) -> None:
+    """Turn a third-party calibration (A and B of A h + B, or A (h - B)) into a senscal parameter file."""
+    from senscal.jobs.triaxial import TriaxialImportOptions, triaxial_import
+
+    result = triaxial_import(file, TriaxialImportOptions(form=form, field=field, unit=unit, channels=channels))
+    p = result.calibration.save(out, extra={"imported_from": result.to_dict()})
+    if json_out:
+        print_json(result.to_dict())
+    elif str(out) != "-":
+        console.print(f"wrote {p}: {result.form} calibration from {file} (apply it with 'senscal triaxial apply "
+                      f"--params {p}')")
+
+
 @simulate_app.command("magnetometer")
 def simulate_magnetometer_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],

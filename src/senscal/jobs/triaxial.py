@@ -26,7 +26,8 @@ if TYPE_CHECKING:  # the engines load when a job runs, not when the CLI starts
     from senscal.triaxial.static import StaticIntervals
 
 __all__ = ["TriaxialCalibrateOptions", "TriaxialCalibrateResult", "triaxial_calibrate", "TriaxialApplyOptions",
-           "TriaxialApplyResult", "triaxial_apply", "parameter_table"]
+           "TriaxialApplyResult", "triaxial_apply", "parameter_table", "TriaxialImportOptions", "TriaxialImportResult",
+           "triaxial_import"]
 
 ANGLES = ("alpha", "beta", "gamma")
 
@@ -385,15 +386,107 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
     chans = _three(o.channels, "--channels")
     rec = o.read(source)
     rec.data(list(chans))  # unknown channel -> one-line error listing the channels
-    # Units compared as units (m/s² is m/s^2); a channel of unknown unit passes.
-    cal.check_units({c: rec.units.get(c, "") for c in chans}, source=source_name(source))
-    corr = cal.apply(rec.data(list(chans)))
+    # Channels in another unit of the calibration's dimension (uT data, nT calibration) are converted to it;
+    # another dimension is refused; a channel of unknown unit passes.
+    scales = cal.unit_factors({c: rec.units.get(c, "") for c in chans}, source=source_name(source))
+    corr = cal.apply(rec.data(list(chans)) * np.array([scales[c] for c in chans])[:, None])
     new = dict(rec.channels)
+    units = dict(rec.units)
     for k, c in enumerate(chans):
         new[c] = corr[k]
-    out = Recording(channels=new, t=rec.t, fs=rec.fs, t0=rec.t0, units=rec.units,
+        if scales[c] != 1.0:
+            units[c] = cal.unit
+    out = Recording(channels=new, t=rec.t, fs=rec.fs, t0=rec.t0, units=units,
                     metadata={**rec.metadata, "triaxial_calibration": f"{cal.model}/{cal.method} from {params_source}"})
     return TriaxialApplyResult(calibration=cal, recording=out, source=source_name(source),
                                params_source=params_source, channels=chans,
                                corrected_norm=np.linalg.norm(corr, axis=0))
 
+
+
+# ---------------------------------------------------------------------------
+# triaxial-import
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TriaxialImportOptions:
+    """Options of :func:`triaxial_import` (the ``senscal triaxial import`` options).
+
+    Attributes
+    ----------
+    form : str
+        ``affine`` (the tool corrects as ``A h + B``) or ``centred`` (``A (h - B)``).
+    field : float
+        Field magnitude the corrected data should show, in corrected units (1 for tools that normalise it).
+    unit : str
+        Sensor unit of the readings the calibration applies to ('' if unknown).
+    channels : str or tuple of 3 str
+        The X, Y, Z channel names the calibration is for.
+    """
+
+    form: str = "affine"
+    field: float = 1.0
+    unit: str = ""
+    channels: str | tuple[str, str, str] = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class TriaxialImportResult(JobResult):
+    """A third-party calibration in senscal's form (what ``--out`` saves and ``triaxial apply`` reads).
+
+    Attributes
+    ----------
+    calibration : senscal.triaxial.TriaxialCalibration
+        ``model="imported"``; no uncertainties (the plain form carries none).
+    source : str
+        The plain parameter file.
+    a, b : ndarray
+        The matrix and offset as read.
+    form : str
+    warnings : tuple of str
+    """
+
+    job: ClassVar[str] = "triaxial-import"
+
+    calibration: TriaxialCalibration
+    source: str
+    a: np.ndarray = field(repr=False)
+    b: np.ndarray = field(repr=False)
+    form: str = "affine"
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``senscal triaxial import --json`` document (also stored beside the calibration by ``--out``)."""
+        return to_jsonable({"file": self.source, "form": self.form, "A": self.a, "B": self.b,
+                            "calibration": self.calibration.to_dict()})
+
+
+def triaxial_import(source, options: TriaxialImportOptions = TriaxialImportOptions()) -> TriaxialImportResult:
+    """Read a third-party calibration in the documented plain form.
+
+    Parameters
+    ----------
+    source : str or Path
+        Text file of 12 numbers: the matrix A row by row, then the offset B
+        (any separators; ``#`` starts a comment; ``-`` reads standard input).
+    options : TriaxialImportOptions
+
+    Returns
+    -------
+    TriaxialImportResult
+
+    Raises
+    ------
+    SenscalError
+        Missing or unreadable file, not 12 numbers, a singular matrix (one line, with the fix).
+    """
+    from senscal.io.sidefiles import read_text
+    from senscal.triaxial.models import from_third_party, parse_plain_parameters
+
+    o = options
+    chans = _three(o.channels, "--channels")
+    name = source_name(source)
+    a, b = parse_plain_parameters(read_text(source, "parameter file"), source=f"parameter file {name}")
+    cal = from_third_party(a, b, form=o.form, field=o.field, unit=o.unit, channels=chans,
+                           source=f"parameter file {name}")
+    return TriaxialImportResult(calibration=cal, source=name, a=a, b=b, form=o.form)

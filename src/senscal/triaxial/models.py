@@ -32,11 +32,19 @@ from senscal.errors import FileFormatError, InputError
 
 __all__ = [
     "MODELS", "LINEAR_NAMES", "sensor_matrix", "matrix_to_angles", "linear_features",
-    "TriaxialCalibration", "load_calibration",
+    "TriaxialCalibration", "load_calibration", "IMPORT_FORMS", "from_third_party", "parse_plain_parameters",
 ]
 
 #: Model names, richest first.
 MODELS = ("full", "diagonal", "offsets", "planar")
+
+#: Models a calibration can hold besides the fitted ones: ``imported`` is any invertible matrix and offset
+#: taken from a third-party tool (:func:`from_third_party`).
+EXTERNAL_MODELS = ("linearised", "imported")
+
+#: Plain forms of a third-party calibration: ``affine`` corrects as ``A h + B`` (Dorveaux, the QMC5883L
+#: authors' MagnetometerCalibration), ``centred`` as ``A (h - B)`` (Magneto, most hard/soft-iron tools).
+IMPORT_FORMS = ("affine", "centred")
 
 #: The seed's 8 weights of the linearised steering-error model.
 LINEAR_NAMES = ("dKx", "dKy", "gamma", "alpha", "beta", "Bx", "By", "Bz")
@@ -104,7 +112,8 @@ class TriaxialCalibration(ResultMixin):
     Attributes
     ----------
     model : str
-        ``full``, ``diagonal``, ``offsets``, ``planar`` or ``linearised``.
+        ``full``, ``diagonal``, ``offsets``, ``planar``, ``linearised``, or
+        ``imported`` (another tool's matrix and offset, :func:`from_third_party`).
     method : str
         Estimator that produced it (``ml``, ``ellipsoid``, ``linear``, ``lms``).
     matrix : ndarray, shape (3, 3)
@@ -140,8 +149,9 @@ class TriaxialCalibration(ResultMixin):
         h_hat : array_like, shape (3, N) or (3,)
             Measured field in sensor units.
         unit : str, optional
-            Unit of ``h_hat``; refused when it differs from :attr:`unit`
-            (compared as units, see :func:`senscal.persist.units.same_unit`).
+            Unit of ``h_hat``; converted to :attr:`unit` when it is another
+            unit of the same dimension, refused when it is of another
+            (see :func:`senscal.persist.units.unit_factor`).
 
         Returns
         -------
@@ -150,9 +160,9 @@ class TriaxialCalibration(ResultMixin):
             ``H_hat = M H + B``; the linearised model applies the seed's
             first-order correction ``H = H_hat - dH_hat``.
         """
-        if unit is not None:
-            self.check_units({c: unit for c in self.channels})
         h = np.asarray(h_hat, float)
+        if unit is not None:
+            h = h * self.unit_factors({c: unit for c in self.channels})[self.channels[0]]
         if h.shape[0] != 3:
             raise InputError(f"calibration needs 3 axes on the first dimension, got shape {h.shape}")
         vec = h.ndim == 1
@@ -185,25 +195,34 @@ class TriaxialCalibration(ResultMixin):
         doc = document(TYPE, {**to_jsonable(dict(extra or {})), "calibration": cal})
         return write_document(doc, path, what="parameter file")
 
-    def check_units(self, units: Mapping[str, str], *, source: str = "the recording") -> None:
-        """Refuse channels whose unit differs from the calibration's (compared as units).
+    def unit_factors(self, units: Mapping[str, str], *, source: str = "the recording") -> dict[str, float]:
+        """Per channel, the factor that converts its data into the calibration's unit.
 
         Parameters
         ----------
         units : mapping
-            Channel name -> unit of the data to correct (missing or '' = unknown, passes).
+            Channel name -> unit of the data to correct (missing or '' = unknown: factor 1).
         source : str
             Names the data in the message.
+
+        Returns
+        -------
+        dict
+            Channel -> factor (``uT`` data, ``nT`` calibration: 1000; ``m/s²`` and ``m/s^2``: 1).
 
         Raises
         ------
         InputError
-            A channel's unit is known and differs (``m/s²`` and ``m/s^2`` are the same unit; ``g`` is not).
+            A channel's unit is of another dimension (``V`` against ``m/s^2``), or no unit at all.
         """
-        from senscal.persist.units import check_unit
+        from senscal.persist.units import unit_factor
 
-        for c, u in units.items():
-            check_unit(u, self.unit, what=f"channel '{c}' of {source}", fix="convert the data or calibrate again")
+        return {c: unit_factor(u, self.unit, what=f"channel '{c}' of {source}", fix="convert the data or calibrate again")
+                for c, u in units.items()}
+
+    def check_units(self, units: Mapping[str, str], *, source: str = "the recording") -> None:
+        """Refuse channels whose unit cannot be converted to the calibration's (see :meth:`unit_factors`)."""
+        self.unit_factors(units, source=source)
 
     @classmethod
     def from_document(cls, doc: Mapping[str, Any], *, source: str = "parameter file") -> "TriaxialCalibration":
@@ -234,7 +253,7 @@ class TriaxialCalibration(ResultMixin):
                                   "re-run calibrate") from None
         if m.shape != (3, 3) or b.shape != (3,) or not (np.all(np.isfinite(m)) and np.all(np.isfinite(b))):
             raise FileFormatError(f"{source} holds a malformed matrix or offsets; re-run calibrate")
-        if cal.model not in MODELS + ("linearised",) or (cal.model == "planar" and (pa is None or len(pa) != 2)):
+        if cal.model not in MODELS + EXTERNAL_MODELS or (cal.model == "planar" and (pa is None or len(pa) != 2)):
             raise FileFormatError(f"{source} names an unknown model {cal.model!r}; re-run calibrate")
         return cal
 
@@ -247,3 +266,102 @@ def load_calibration(path: str | Path) -> TriaxialCalibration:
     from senscal.persist import load_calibration as load
 
     return load(path, expect=TYPE)
+
+
+def parse_plain_parameters(text: str, *, source: str = "parameter file") -> tuple[np.ndarray, np.ndarray]:
+    """Matrix A and offset B from the plain text of a third-party calibration.
+
+    The documented plain form: 12 numbers, the 3x3 matrix ``A`` row by row,
+    then the offset ``B`` (x, y, z), separated by commas, semicolons,
+    whitespace or line breaks in any layout (one per line, as the QMC5883L
+    authors publish theirs, or four rows of three).  Text after ``#`` is a
+    comment.
+
+    Parameters
+    ----------
+    text : str
+    source : str
+        Names the file in messages.
+
+    Returns
+    -------
+    a : ndarray, shape (3, 3)
+    b : ndarray, shape (3,)
+
+    Raises
+    ------
+    FileFormatError
+        Not exactly 12 finite numbers.
+    """
+    lines = [ln.split("#", 1)[0] for ln in text.splitlines()]
+    tokens = [t for ln in lines for t in ln.replace(",", " ").replace(";", " ").split()]
+    try:
+        vals = np.array([float(t) for t in tokens], float)
+    except ValueError:
+        bad = next(t for t in tokens if not _is_number(t))
+        raise FileFormatError(f"{source} holds {bad!r}, not a number; the plain form is 12 numbers: the matrix A "
+                              "row by row, then the offset B") from None
+    if vals.size != 12 or not np.all(np.isfinite(vals)):
+        raise FileFormatError(f"{source} holds {vals.size} numbers; the plain form is 12 finite numbers: the 3x3 "
+                              "matrix A row by row, then the offset B (x, y, z)")
+    return vals[:9].reshape(3, 3), vals[9:]
+
+
+def _is_number(t: str) -> bool:
+    try:
+        float(t)
+    except ValueError:
+        return False
+    return True
+
+
+def from_third_party(a: np.ndarray, b: np.ndarray, *, form: str = "affine", field: float = 1.0, unit: str = "",
+                     channels: tuple[str, ...] = ("x", "y", "z"), source: str = "the parameters") -> TriaxialCalibration:
+    """A calibration from another tool's matrix and offset.
+
+    ``affine``: the tool corrects as ``H = A h + B``; ``centred``: as
+    ``H = A (h - B)``.  senscal applies ``H = M^-1 (h - b)``, so
+    ``M = A^-1`` and ``b = -A^-1 B`` (affine) or ``b = B`` (centred); the
+    corrected values are the same numbers the tool gives.
+
+    Parameters
+    ----------
+    a : array_like, shape (3, 3)
+        The tool's matrix (any invertible matrix, not only the seed's upper-triangular one).
+    b : array_like, shape (3,)
+        The tool's offset, in the unit of its formula (corrected units for
+        ``affine``, sensor units for ``centred``).
+    form : {"affine", "centred"}
+    field : float
+        Field magnitude the corrected data should show, in corrected units
+        (tools that normalise the field to 1 give 1).
+    unit : str
+        Sensor unit of the readings it applies to ('' if unknown).
+    channels : tuple of str
+
+    Returns
+    -------
+    TriaxialCalibration
+        ``model="imported"``, ``method="<form>"``; no uncertainties (the tool gives none).
+
+    Raises
+    ------
+    InputError
+        Unknown form, wrong shapes, a singular matrix or a non-positive field.
+    """
+    a = np.asarray(a, float)
+    b = np.asarray(b, float).ravel()
+    if form not in IMPORT_FORMS:
+        raise InputError(f"unknown form {form!r}; use affine (A h + B) or centred (A (h - B))")
+    if a.shape != (3, 3) or b.shape != (3,) or not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise InputError(f"{source}: need a finite 3x3 matrix A and a 3-vector B, got shapes {a.shape} and {b.shape}")
+    if not (math.isfinite(field) and field > 0):
+        raise InputError(f"the field magnitude must be a positive number, got {field!r}")
+    # A matrix this close to singular would amplify the readings' last digits into the correction.
+    if np.linalg.cond(a) > 1e12:
+        raise InputError(f"{source}: the matrix A is singular (condition {np.linalg.cond(a):.3g}); check that its 9 "
+                         "numbers are the matrix row by row")
+    m = np.linalg.inv(a)
+    off = -m @ b if form == "affine" else b.copy()
+    return TriaxialCalibration(model="imported", method=form, matrix=m, offsets=off, field=float(field), unit=unit,
+                               channels=tuple(channels))
