@@ -24,7 +24,7 @@ from senscal.triaxial.estimators import (
 )
 from senscal.triaxial.heading import heading_report
 from senscal.triaxial.models import MODELS, TriaxialCalibration
-from senscal.triaxial.selection import N_BLOCKS, Candidate, choose, held_out_residuals, safe
+from senscal.triaxial.selection import N_BLOCKS, Candidate, choose, held_out_norm_error, held_out_residuals, safe
 
 __all__ = ["TriaxialResult", "calibrate", "METHODS", "nominal_raw"]
 
@@ -470,6 +470,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
                                           + " | ".join(choice) + "); turn the sensor through more orientations")
     else:
         resid: dict[str, np.ndarray] = {}
+        # A turn about one axis: every model is scored on the two in-plane axes (see selection).
+        score_axes = tuple(plane) if plan["normal_alignment"] >= 0.95 and is_planar else None
         n_train = hu.shape[1] - int(math.ceil(hu.shape[1] / N_BLOCKS))
         for m in ("full", "diagonal", "offsets", "planar"):
             names, _, info = analyses[m]
@@ -505,8 +507,11 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
                         whole = None
                 if whole is not None:
                     fits_all[m] = whole
-                    out, err = safe(held_out_residuals, hu, lambda hh, m=m, w=whole.values: fit_model(hh, m, w, True),
-                                    lambda f_, ht, m=m, pl_=pl_: residuals(m, f_.values, ht, field, pl_))
+                    # Scored as a user sees the calibration: the corrected field norm of readings the fit
+                    # has not seen, relative to the field it promises.
+                    out, err = safe(held_out_residuals, hu,
+                                    lambda hh, m=m, w=whole.values: (fit_model(hh, m, w, True), hh),
+                                    lambda f_, ht: held_out_norm_error(f_[0].calibration, ht, score_axes, f_[1]))
                 if out is not None:
                     if np.all(np.isfinite(out[0])):
                         resid[m], per = out
@@ -525,7 +530,7 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
             if c.model in resid:
                 rr = resid[c.model][keep]
                 rms = float(np.sqrt(np.mean(rr ** 2)))
-                c = Candidate(**{**c.__dict__, "held_out_rms": rms, "held_out_percent": 100.0 * rms / r0})
+                c = Candidate(**{**c.__dict__, "held_out_rms": rms, "held_out_percent": 100.0 * rms})
             cands2.append(c)
         chosen, candidates, choice = choose(cands2, {k: v[keep] for k, v in resid.items()})
         if chosen is None:

@@ -1,10 +1,18 @@
 """Model choice by the data's own evidence: held-out error over contiguous time blocks.
 
 Every candidate model is fitted on four of five contiguous blocks of the
-recording and predicts the fifth; the held-out residuals are the
-maximum-likelihood magnitude residuals of :func:`estimators.residuals`
-(sensor units, per-axis noise when the model is right), so models with
-different numbers of axes and parameters are compared on one scale.
+recording and its calibration is applied to the fifth, as ``triaxial apply``
+would apply it to new data; the held-out error of a reading is its
+corrected field norm relative to the field the calibration promises
+(:func:`held_out_norm_error`, dimensionless: ``|H| / F - 1``).  That is
+what a user sees after ``apply``, and it puts models with different numbers
+of parameters on one scale.  (The maximum-likelihood magnitude residual in
+raw sensor units, used before, weighs readings by the fitted model's own
+gains: a model that shrank an axis looked better than it corrects.)  On a
+turn about one axis, where the planar model is a candidate, every model is
+scored on the norm of the two in-plane axes instead: that is what the turn
+determines (and what a heading uses), and the 3-D norm of a full model
+would dilute its in-plane error by the constant out-of-plane field.
 Contiguous blocks (not random samples) make a model that only interpolates
 between neighbouring, correlated readings pay for it: each block is a part
 of the motion the fit has not seen.
@@ -37,7 +45,7 @@ import numpy as np
 from senscal._result import ResultMixin
 from senscal.errors import SenscalError
 
-__all__ = ["Candidate", "contiguous_blocks", "held_out_residuals", "paired_z", "choose", "Z_SIGNIFICANT",
+__all__ = ["Candidate", "contiguous_blocks", "held_out_residuals", "held_out_norm_error", "paired_z", "choose", "Z_SIGNIFICANT",
            "N_BLOCKS"]
 
 N_BLOCKS = 5
@@ -59,11 +67,11 @@ class Candidate(ResultMixin):
     unidentifiable : tuple of dict
         ``{"parameters", "reason"}`` groups of this model on these data.
     held_out_rms : float or None
-        RMS of the held-out magnitude residuals, sensor units (None: the
-        model could not be fitted on some block, see ``error``).
+        RMS of the held-out corrected-norm errors ``|H| / F - 1``
+        (dimensionless; None: the model could not be fitted on some block,
+        see ``error``).
     held_out_percent : float or None
-        ``held_out_rms`` in % of the median measured magnitude about the
-        centre (one denominator for all models).
+        ``held_out_rms`` in %.
     block_rms : tuple of float
         The same per held-out block (its spread shows how stable it is).
     z_vs_best : float or None
@@ -119,6 +127,41 @@ def held_out_residuals(h: np.ndarray, fit: Callable[[np.ndarray], object],
         r[te] = predict(f, h[:, te])
         per.append(float(np.sqrt(np.mean(r[te] ** 2))))
     return r, tuple(per)
+
+
+def held_out_norm_error(cal, h: np.ndarray, axes: tuple[int, int] | None = None,
+                        h_train: np.ndarray | None = None) -> np.ndarray:
+    """Relative error of the corrected field norm of readings a calibration corrects.
+
+    Parameters
+    ----------
+    cal : TriaxialCalibration
+        Fitted on other readings.
+    h : ndarray, shape (3, N)
+        Raw readings, sensor units.
+    axes : (int, int), optional
+        Judge the norm of these two corrected axes only (a turn about the
+        third axis, where the readings determine the in-plane field and
+        every candidate is compared on it); the reference is then the mean
+        corrected in-plane norm of ``h_train``.
+    h_train : ndarray, shape (3, M), optional
+        The readings the calibration was fitted on (needed with ``axes``).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        Dimensionless: ``|H| / F - 1`` (all three axes, ``F`` the field the
+        calibration promises), or ``|H_plane| / mean_train |H_plane| - 1``.
+    """
+    c = cal.apply(h)
+    if axes is None and cal.model == "planar":
+        i, j = cal.plane_axes  # it corrects only these two: its field is the in-plane one
+        return np.hypot(c[i], c[j]) / float(cal.field) - 1.0
+    if axes is None:
+        return np.linalg.norm(c, axis=0) / float(cal.field) - 1.0
+    i, j = axes
+    ct = cal.apply(h_train)
+    return np.hypot(c[i], c[j]) / float(np.mean(np.hypot(ct[i], ct[j]))) - 1.0
 
 
 def paired_z(r_a: np.ndarray, r_b: np.ndarray) -> float:
