@@ -24,7 +24,9 @@ from senscal.triaxial.estimators import (
 )
 from senscal.triaxial.heading import heading_report
 from senscal.triaxial.models import MODELS, TriaxialCalibration
-from senscal.triaxial.selection import N_BLOCKS, Candidate, choose, held_out_norm_error, held_out_residuals, safe
+from senscal.triaxial.selection import (
+    N_BLOCKS, Z_SIGNIFICANT, Candidate, choose, held_out_norm_error, held_out_residuals, paired_z, safe,
+)
 
 __all__ = ["TriaxialResult", "calibrate", "METHODS", "nominal_raw"]
 
@@ -62,7 +64,13 @@ class TriaxialResult(ResultMixin):
     outliers, saturated : tuple of int
         Sample indices excluded (gross errors; clipped axes).
     plausibility : tuple of str
-        Failed physical-range checks.
+        Values outside the usual physical range (angles above 5 deg, gain
+        ratios outside [0.8, 1.25], offsets above half the axis response)
+        that the data do not establish (named ``implausible-parameters``).
+    plausibility_supported : tuple of str
+        Values outside that range which the data do establish (beyond it by
+        more than 2 u, and the model without the term corrects held-out
+        blocks significantly worse): a property of this sensor, not flagged.
     warnings : tuple of str
     lms_vs_least_squares : dict or None
         For ``method="lms"``: LMS minus least squares per weight, in units of
@@ -107,6 +115,7 @@ class TriaxialResult(ResultMixin):
     model_evidence: tuple[dict[str, Any], ...] = ()
     heading: dict[str, Any] | None = None
     linearisation_bias: dict[str, Any] | None = None
+    plausibility_supported: tuple[str, ...] = ()
 
     def value(self, name: str) -> float:
         """A parameter's value (NaN if unidentifiable)."""
@@ -395,6 +404,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     unidentifiable = list(analyses["full"][2]["groups"])
 
     # -- which model? ----------------------------------------------------------
+    # A turn about one axis: every model is scored on the two in-plane axes (see selection).
+    score_axes = tuple(plane) if plan["normal_alignment"] >= 0.95 and is_planar else None
     choice: list[str] = []
     candidates: list = []
     fits_all: dict[str, ModelFit] = {}
@@ -470,8 +481,6 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
                                           + " | ".join(choice) + "); turn the sensor through more orientations")
     else:
         resid: dict[str, np.ndarray] = {}
-        # A turn about one axis: every model is scored on the two in-plane axes (see selection).
-        score_axes = tuple(plane) if plan["normal_alignment"] >= 0.95 and is_planar else None
         n_train = hu.shape[1] - int(math.ceil(hu.shape[1] / N_BLOCKS))
         for m in ("full", "diagonal", "offsets", "planar"):
             names, _, info = analyses[m]
@@ -656,8 +665,41 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         plaus_params.setdefault("Kz", 1.0)
     # Raw counts carry the converter's zero in their offsets: only judge offsets
     # of data already in field units.
-    plaus = dg.plausibility(plaus_params, fit.field, max_angle_deg=max_angle_deg, gain_ratio=gain_ratio,
-                            max_offset=max_offset if raw_note is None else None)
+    plaus_u = {n: v["u"] for n, v in params.items() if v["u"] is not None}
+    checks = dg.plausibility_checks(plaus_params, fit.field, max_angle_deg=max_angle_deg, gain_ratio=gain_ratio,
+                                    max_offset=max_offset if raw_note is None else None, u=plaus_u)
+    # A value outside the usual range is a property of this sensor when the data say so: it lies beyond
+    # the range by more than k = 2 of its u, and (gains, angles) the chosen model corrects unseen time
+    # blocks significantly better (paired z > 2, as in the model choice) than the model without that
+    # term (equal gains: offsets; no angles: diagonal).  Otherwise it is flagged as implausible.
+    plaus, supported = [], []
+    held: dict[str, np.ndarray | None] = {}
+
+    def held_out_of(mdl: str) -> np.ndarray | None:
+        if mdl not in held:
+            out_, _ = safe(held_out_residuals, hu2, lambda hh: (fit_model(hh, mdl, None, True), hh),
+                           lambda f_, ht: held_out_norm_error(f_[0].calibration, ht, score_axes, f_[1]))
+            held[mdl] = out_[0] if out_ is not None and np.all(np.isfinite(out_[0])) else None
+        return held[mdl]
+
+    for c in checks:
+        ok = c["excess_in_u"] is not None and c["excess_in_u"] > Z_SIGNIFICANT
+        alt = {"gain": "offsets", "angle": "diagonal"}.get(c["kind"])
+        z_alt = None
+        if ok and alt is not None:
+            if linear_method or chosen == "planar" or alt == chosen:
+                ok = False
+            else:
+                r_c, r_a = held_out_of(chosen), held_out_of(alt)
+                z_alt = None if r_c is None or r_a is None else paired_z(r_a, r_c)
+                ok = z_alt is not None and z_alt > Z_SIGNIFICANT
+        if ok:
+            why = f"{c['excess_in_u']:.3g} u beyond the range" + (
+                f"; without it ({alt} model) unseen blocks are corrected worse, paired z = {z_alt:.3g}"
+                if z_alt is not None else "")
+            supported.append(f"{c['message']}: determined by the data ({why})")
+        else:
+            plaus.append(c["message"])
     lin_bias = None
     if linear_method:
         lin_bias = _linearisation_bias(hu2, chosen, field, ls if ls is not None else fit)
@@ -724,7 +766,8 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         field_estimated=bool(fit.field_estimated), scale_note=scale_note, coverage=cov, planarity=plan,
         conditioning=conditioning, noise=float(fit.noise), norm_error_before=before, norm_error_after=after,
         outliers=tuple(int(idx[k]) for k in outl), saturated=tuple(int(k) for k in np.flatnonzero(sat_mask)),
-        plausibility=tuple(plaus), warnings=tuple(warnings), lms_vs_least_squares=lms_cmp,
+        plausibility=tuple(plaus), plausibility_supported=tuple(supported), warnings=tuple(warnings),
+        lms_vs_least_squares=lms_cmp,
         linearisation_bias=lin_bias,
         n_samples=int(n_total), n_used=int(kept.size),
         model_evidence=tuple(c.to_dict() for c in candidates), heading=heading,

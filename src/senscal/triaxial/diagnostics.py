@@ -16,7 +16,7 @@ import numpy as np
 from scipy.sparse.csgraph import connected_components
 
 __all__ = ["quantisation_step", "saturated_samples", "nominal_center", "sphere_coverage", "planarity", "identifiability",
-           "norm_error_stats", "robust_outliers", "physical_scales", "plausibility"]
+           "norm_error_stats", "robust_outliers", "physical_scales", "plausibility", "plausibility_checks"]
 
 
 def saturated_samples(h: np.ndarray, min_count: int = 3) -> tuple[np.ndarray, dict[str, int]]:
@@ -208,19 +208,30 @@ def robust_outliers(e: np.ndarray, k: float) -> np.ndarray:
     return np.flatnonzero(np.abs(e - med) > k * mad)
 
 
-def plausibility(params: dict[str, float], field: float, *, max_angle_deg: float = 5.0,
-                 gain_ratio: tuple[float, float] = (0.8, 1.25), max_offset: float | None = 0.5) -> list[str]:
-    """Physical-range checks on fitted parameters (angles in rad).
+def plausibility_checks(params: dict[str, float], field: float, *, max_angle_deg: float = 5.0,
+                        gain_ratio: tuple[float, float] = (0.8, 1.25), max_offset: float | None = 0.5,
+                        u: dict[str, float] | None = None) -> list[dict[str, Any]]:
+    """Physical-range checks on fitted parameters (angles in rad), one dict per value outside its usual range.
 
-    Returns one message per failed check: angle beyond ``max_angle_deg``,
-    gain ratio (Kx/Kz, Ky/Kz, or 1+dK) outside ``gain_ratio``, offset larger
-    than ``max_offset`` of the axis full response ``K F`` (None: offsets not
-    judged, e.g. raw counts whose offsets hold the converter's zero).
+    Returns
+    -------
+    list of dict
+        ``message``; ``kind`` (``angle``, ``gain``, ``offset``); ``parameter``;
+        ``excess_in_u``: how many standard uncertainties the value lies
+        beyond the range limit (None without ``u``), i.e. whether the data
+        determine that it is outside.
     """
+    u = u or {}
     issues = []
+
+    def excess(dist: float, unc: float | None) -> float | None:
+        return float(dist / unc) if unc is not None and np.isfinite(unc) and unc > 0 else None
+
     for n in ("alpha", "beta", "gamma"):
         if n in params and np.isfinite(params[n]) and abs(math.degrees(params[n])) > max_angle_deg:
-            issues.append(f"{n} = {math.degrees(params[n]):.3g} deg exceeds {max_angle_deg:g} deg")
+            issues.append({"message": f"{n} = {math.degrees(params[n]):.3g} deg exceeds {max_angle_deg:g} deg",
+                           "kind": "angle", "parameter": n,
+                           "excess_in_u": excess(abs(params[n]) - math.radians(max_angle_deg), u.get(n))})
     kz = params.get("Kz", 1.0)
     gains = {}
     for ax in "xyz":
@@ -232,16 +243,41 @@ def plausibility(params: dict[str, float], field: float, *, max_angle_deg: float
         if ax in gains and np.isfinite(gains[ax]):
             ratio = gains[ax] / kz
             if not gain_ratio[0] <= ratio <= gain_ratio[1]:
-                issues.append(f"gain ratio K{ax}/Kz = {ratio:.4g} outside [{gain_ratio[0]:g}, {gain_ratio[1]:g}]")
+                name = f"K{ax}" if f"K{ax}" in params else f"dK{ax}"
+                # u of the ratio: relative u of the two gains in quadrature (Kz fixed to 1 when estimated).
+                ur = None
+                if u.get(name) is not None:
+                    rel = (u[name] / abs(gains[ax])) ** 2 + ((u.get("Kz") or 0.0) / abs(kz)) ** 2
+                    ur = abs(ratio) * math.sqrt(rel)
+                lim = gain_ratio[0] if ratio < gain_ratio[0] else gain_ratio[1]
+                issues.append({"message": f"gain ratio K{ax}/Kz = {ratio:.4g} outside [{gain_ratio[0]:g}, "
+                                          f"{gain_ratio[1]:g}]", "kind": "gain", "parameter": name,
+                               "excess_in_u": excess(abs(ratio - lim), ur)})
     k_common = params.get("K", kz)
     for ax in "xyz":
         b = params.get(f"B{ax}")
         if max_offset is not None and b is not None and np.isfinite(b):
             full = abs(gains.get(ax, k_common)) * field
             if abs(b) > max_offset * full:
-                issues.append(f"offset B{ax} = {b:.4g} exceeds {max_offset:g} of the axis response to the field "
-                              f"({full:.4g})")
+                issues.append({"message": f"offset B{ax} = {b:.4g} exceeds {max_offset:g} of the axis response to "
+                                          f"the field ({full:.4g})", "kind": "offset", "parameter": f"B{ax}",
+                               "excess_in_u": excess(abs(b) - max_offset * full, u.get(f"B{ax}"))})
     return issues
+
+
+def plausibility(params: dict[str, float], field: float, *, max_angle_deg: float = 5.0,
+                 gain_ratio: tuple[float, float] = (0.8, 1.25), max_offset: float | None = 0.5) -> list[str]:
+    """Physical-range checks on fitted parameters (angles in rad): one message per value outside its range.
+
+    Angle beyond ``max_angle_deg``, gain ratio (Kx/Kz, Ky/Kz, or 1+dK)
+    outside ``gain_ratio``, offset larger than ``max_offset`` of the axis
+    full response ``K F`` (None: offsets not judged, e.g. raw counts whose
+    offsets hold the converter's zero).  Whether the data support such a
+    value is decided by the caller (:func:`plausibility_checks` gives the
+    distance in u; :func:`senscal.triaxial.calibrate` adds held-out evidence).
+    """
+    return [c["message"] for c in plausibility_checks(params, field, max_angle_deg=max_angle_deg,
+                                                      gain_ratio=gain_ratio, max_offset=max_offset)]
 
 
 def quantisation_step(h: np.ndarray, min_levels: int = 8) -> float | None:
