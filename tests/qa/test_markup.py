@@ -61,7 +61,7 @@ def test_registry_fields_round_trip_literally(cli, tmp_path, serial):
     q, unit = f"{BROKEN}{TEX}", f"{STYLED}/g"
     for year, value in ((2021, 1.0), (2022, 1.001), (2023, 1.002)):
         r = _clean(cli("registry", "record", serial, "--quantity", q, "--value", value, "--uncertainty", "0.001",
-                       "--unit", unit, "--date", f"{year}-01-01", "--note", LINK, "--certificate", BROKEN,
+                       "--k", "2", "--unit", unit, "--date", f"{year}-01-01", "--note", LINK, "--certificate", BROKEN,
                        "--db", db))
         assert _shown(q, r.out) and _shown(serial, r.out), r.out
     # The table is narrower than the strings (cells are cut with an ellipsis): it must render,

@@ -79,13 +79,13 @@ def test_user_errors_are_one_line(cli, db_url, tmp_path):
     _history_cli(cli, db_url, values=(0.01,))
     _one_line_error(cli("registry", "add", "A1", "--kind", "accelerometer", "--db", db_url), "already registered")
     _one_line_error(cli("registry", "history", "B2", "--db", db_url), "unknown sensor serial 'B2'")
-    _one_line_error(cli("registry", "record", "B2", "--quantity", "s", "--value", "1", "--uncertainty", "0.1",
+    _one_line_error(cli("registry", "record", "B2", "--quantity", "s", "--value", "1", "--uncertainty", "0.1", "--k", "2",
                         "--unit", "V", "--date", "2024-01-01", "--db", db_url), "unknown sensor serial")
     _one_line_error(cli("registry", "due", "A1", "--quantity", "phase", "--tolerance", "1%", "--db", db_url),
                     "no recorded quantity 'phase'")
     _one_line_error(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "1%", "--db", db_url),
                     "1 record", "at least two")
-    _one_line_error(cli("registry", "record", "A1", "--quantity", "s", "--value", "1", "--uncertainty", "0.1",
+    _one_line_error(cli("registry", "record", "A1", "--quantity", "s", "--value", "1", "--uncertainty", "0.1", "--k", "2",
                         "--unit", "V", "--date", "first of May", "--db", db_url), "ISO 8601")
     _one_line_error(cli("registry", "due", "A1", "--quantity", "sensitivity", "--tolerance", "lots", "--db", db_url),
                     "--tolerance")
@@ -172,7 +172,7 @@ def test_db_file_that_does_not_exist_needs_create(cli, tmp_path):
     typo = tmp_path / "lab.sqllite"
     for args in (["sensors"], ["history", "A1"], ["due", "A1", "--quantity", "s", "--tolerance", "1%"], ["verify"],
                  ["export", str(tmp_path / "x.json")],
-                 ["record", "A1", "--quantity", "s", "--value", "1", "--uncertainty", "0.1", "--unit", "V",
+                 ["record", "A1", "--quantity", "s", "--value", "1", "--uncertainty", "0.1", "--k", "2", "--unit", "V",
                   "--date", "2024-01-01"]):
         _one_line_error(cli("registry", *args, "--db", typo), f"registry file {typo} does not exist", "--create")
         _one_line_error(cli("registry", *args, "--db", f"sqlite:///{typo}"), "does not exist")
@@ -182,7 +182,7 @@ def test_db_file_that_does_not_exist_needs_create(cli, tmp_path):
     r = _ok(cli("registry", "sensors", "--db", typo, "--create", "--json"))
     assert json.loads(r.out)["sensors"] == [] and typo.exists()
     _ok(cli("registry", "add", "A1", "--kind", "accelerometer", "--db", tmp_path / "added.sqlite"))
-    _ok(cli("registry", "record", "B2", "--quantity", "s", "--value", "1", "--uncertainty", "0.1", "--unit", "V",
+    _ok(cli("registry", "record", "B2", "--quantity", "s", "--value", "1", "--uncertainty", "0.1", "--k", "2", "--unit", "V",
             "--date", "2024-01-01", "--create-sensor", "accelerometer", "--db", tmp_path / "recorded.sqlite"))
     exported = tmp_path / "e.json"
     _ok(cli("registry", "export", exported, "--db", tmp_path / "added.sqlite"))
@@ -212,7 +212,26 @@ def test_drift_compares_units_as_units(cli, tmp_path):
                              "--db", db)).out)
     assert due["n_records"] == 3 and due["unit"] == "V/(m/s^2)"
     assert due["drift_per_year"] == pytest.approx(4e-5, rel=5e-3)
-    _ok(cli("registry", "record", "A1", "--quantity", "s", "--value", "10.1", "--uncertainty", "0.002", "--k", "2",
+    # Another scale is converted into the first record's unit: 10.12 mV/(m/s^2) continues the line exactly.
+    _ok(cli("registry", "record", "A1", "--quantity", "s", "--value", "10.12", "--uncertainty", "0.002", "--k", "2",
             "--unit", "mV/(m/s^2)", "--date", "2023-03-01", "--db", db))
+    due = json.loads(_ok(cli("registry", "due", "A1", "--quantity", "s", "--tolerance", "2%", "--json",
+                             "--db", db)).out)
+    assert due["n_records"] == 4 and due["unit"] == "V/(m/s^2)"
+    assert due["drift_per_year"] == pytest.approx(4e-5, rel=5e-3)
+    # Another dimension is no drift of this quantity: refused with one line.
+    _ok(cli("registry", "record", "A1", "--quantity", "s", "--value", "0.1", "--uncertainty", "0.002", "--k", "2",
+            "--unit", "V/(m/s)", "--date", "2024-03-01", "--db", db))
     _one_line_error(cli("registry", "due", "A1", "--quantity", "s", "--tolerance", "2%", "--db", db),
-                    "different units", "mV/(m/s^2)")
+                    "cannot be converted", "V/(m/s)")
+
+
+def test_record_needs_k_and_a_unit(cli, tmp_path):
+    """Issue 31: --k has no default (certificates quote k=2 or k=1); --unit must be a unit."""
+    db = tmp_path / "r.sqlite"
+    base = ["registry", "record", "A1", "--quantity", "s", "--value", "0.01", "--uncertainty", "2e-5",
+            "--date", "2024-03-01", "--create-sensor", "accelerometer", "--db", db]
+    _one_line_error(cli(*base, "--unit", "V/(m/s^2)"), "give --k", "--k 2")
+    _one_line_error(cli(*base, "--unit", "volts-ish", "--k", "2"), "--unit", "not a unit")
+    r = json.loads(_ok(cli(*base, "--unit", "V/(m/s^2)", "--k", "2", "--json")).out)
+    assert r["quantities"][0]["uncertainty"] == pytest.approx(1e-5)

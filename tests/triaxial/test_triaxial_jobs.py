@@ -135,14 +135,21 @@ def test_incomplete_options_are_refused(sim, job, opts, msg):
         job(sim / "sphere" / "magnetometer.csv", opts)
 
 
-def test_apply_refuses_channels_in_another_unit(sim):
+def test_apply_converts_another_scale_and_refuses_another_dimension(sim):
     from senscal.io import Recording
 
     rec = read_recording(sim / "sphere" / "magnetometer.csv")
     tagged = Recording(channels=rec.channels, t=rec.t, units={c: "nT" for c in "xyz"})
     cal = triaxial_calibrate(tagged, TriaxialCalibrateOptions(field=50000.0)).calibration.calibration
     assert cal.unit == "nT"
-    with pytest.raises(InputError, match="'uT'.*calibrated in 'nT'"):
-        triaxial_apply(Recording(channels=rec.channels, t=rec.t, units={c: "uT" for c in "xyz"}),
+    in_nt = triaxial_apply(tagged, TriaxialApplyOptions(params=cal))
+    assert in_nt.corrected_norm.size == rec.n_samples
+    # The same field in uT (values / 1000) is converted to the calibration's nT: the same correction.
+    in_ut = Recording(channels={c: v / 1000.0 for c, v in rec.channels.items()}, t=rec.t,
+                      units={c: "uT" for c in "xyz"})
+    res = triaxial_apply(in_ut, TriaxialApplyOptions(params=cal))
+    np.testing.assert_allclose(res.corrected_norm, in_nt.corrected_norm, rtol=1e-12)
+    assert res.recording.unit("x") == "nT"
+    with pytest.raises(InputError, match="'V' \\(a voltage\\) but the sensor was calibrated in 'nT'"):
+        triaxial_apply(Recording(channels=rec.channels, t=rec.t, units={c: "V" for c in "xyz"}),
                        TriaxialApplyOptions(params=cal))
-    assert triaxial_apply(tagged, TriaxialApplyOptions(params=cal)).corrected_norm.size == rec.n_samples

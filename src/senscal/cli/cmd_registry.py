@@ -116,7 +116,9 @@ def record_cmd(
         "--uncertainty", help="Uncertainty as quoted on the certificate (expanded with --k; standard if k=1).")],
     unit: Annotated[str, typer.Option("--unit", help="Unit of the value, e.g. 'mV/(m/s^2)'.")],
     date: Annotated[str, typer.Option("--date", metavar="ISO", help="Calibration date (ISO 8601; no offset = UTC).")],
-    k: Annotated[float, typer.Option("--k", help="Coverage factor of --uncertainty (certificates usually quote k=2).")] = 1.0,
+    k: Annotated[Optional[float], typer.Option(
+        "--k", help="Coverage factor of --uncertainty as the certificate states it (required: most quote k=2, "
+                    "some k=1, and a wrong guess halves or doubles the uncertainty).")] = None,
     note: Annotated[Optional[str], typer.Option("--note", help="Free text (certificate number, lab, ...).")] = None,
     certificate: Annotated[Optional[str], typer.Option("--certificate", help="Certificate file or reference.")] = None,
     supersedes: Annotated[Optional[str], typer.Option(
@@ -130,8 +132,16 @@ def record_cmd(
     """Enter a calibration done elsewhere (e.g. an old paper certificate)."""
     from senscal.registry import Quantity
 
-    if not k > 0:
-        raise InputError(f"--k must be positive, got {k}")
+    if k is None:
+        # No default: certificates quote k=2 as a rule but not always, and a silent guess of either would
+        # store an uncertainty twice or half the true one.
+        raise InputError("give --k, the coverage factor the certificate states for --uncertainty (usually "
+                         "--k 2; --k 1 for a standard uncertainty)")
+    if not (math.isfinite(k) and k > 0):
+        raise InputError(f"--k must be a positive, finite coverage factor, got {k}")
+    from senscal.units import parse_unit
+
+    parse_unit(unit, what="--unit")
     q = Quantity(quantity, value, uncertainty / k, unit, k)
     with _open(db, create or create_sensor is not None) as reg:
         rec = reg.record(serial, [q], performed_at=_date(date), job="manual", method="external certificate",

@@ -31,7 +31,7 @@ FreqOpt = Annotated[Optional[List[str]], typer.Option(
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Write the key plot to this PNG file.")]
 ConditionOpt = Annotated[Optional[List[str]], typer.Option(
     "--condition", help="Calibration condition for the certificate, KEY=VALUE (repeatable), e.g. 'temperature=23.1 C'.")]
-UnitOpt = Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the sensor output (default: from the file, else V).")]
+UnitOpt = Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the sensor output when the file's header gives none (default V); mV data are converted to V.")]
 
 
 def _rel(text: str | None, what: str) -> float:
@@ -213,11 +213,11 @@ def velocity_cmd(
 def response_cmd(
     files: FilesArg,
     output: Annotated[str, typer.Option("--output", help="Accelerometer output channel.")],
-    input_amplitude: Annotated[Optional[float], typer.Option("--input-amplitude", help="Known peak input acceleration, m/s^2.")] = None,
+    input_amplitude: Annotated[Optional[str], typer.Option("--input-amplitude", help="Known peak input acceleration: m/s^2, or with a unit ('10 g').")] = None,
     reference: Annotated[Optional[str], typer.Option("--reference", help="Reference accelerometer channel (back-to-back).")] = None,
-    reference_sensitivity: Annotated[Optional[float], typer.Option("--reference-sensitivity", help="Reference sensitivity, its unit per m/s^2.")] = None,
+    reference_sensitivity: Annotated[Optional[str], typer.Option("--reference-sensitivity", help="Reference sensitivity: V/(m/s^2) for a voltage reference (whatever the file's scale), or with a unit ('10.2 mV/(m/s^2)').")] = None,
     angle: Annotated[Optional[str], typer.Option("--angle", help="Turntable angle channel (deg): cut to whole revolutions, input phase from it.")] = None,
-    static_sensitivity: Annotated[Optional[float], typer.Option("--static-sensitivity", help="Static sensitivity S0 for S_i/S0.")] = None,
+    static_sensitivity: Annotated[Optional[str], typer.Option("--static-sensitivity", help="Static sensitivity S0 for S_i/S0: in the result's unit (V/(m/s^2) for a voltage output, also from mV data), or with a unit ('50 mV/(m/s^2)').")] = None,
     initial_phase_deg: Annotated[Optional[float], typer.Option("--initial-phase-deg", help="Input phase phi_0 (deg, sine convention) from a start-up test: at t=0, or at encoder angle 0 with --angle (90 when encoder zero lies along the field).")] = None,
     u_initial_phase_deg: Annotated[float, typer.Option("--u-initial-phase-deg", help="Standard uncertainty of --initial-phase-deg, deg (type B in the phase-delay budget).")] = 0.0,
     phase_reference: Annotated[Optional[Path], typer.Option("--phase-reference", help="Start-up / lowest-frequency double-centrifuge run (same channels) that gives phi_0 (needs --angle).")] = None,
@@ -246,13 +246,15 @@ def response_cmd(
     cond, meth = {}, ""
     if report is not None or dcc is not None:
         cond = {"frequency points": len(resp.points), "method": resp.points[0].method}
-        if input_amplitude is not None:
-            cond["peak input acceleration (m/s^2)"] = input_amplitude
+        if result.input_amplitude is not None:
+            cond["peak input acceleration (m/s^2)"] = f"{result.input_amplitude:g}"
             cond["input amplitude u (type B)"] = f"{100 * opts.u_input:g} %"
         else:
-            cond["reference sensitivity"] = f"{reference_sensitivity:g} (u = {100 * opts.u_reference:g} %)"
-        if static_sensitivity is not None:
-            cond["static sensitivity S0"] = f"{static_sensitivity:g} {unit} (u = {100 * opts.u_static_sensitivity:g} %)"
+            cond["reference sensitivity"] = (f"{result.reference_sensitivity:g} {result.reference_unit} "
+                                             f"(u = {100 * opts.u_reference:g} %)")
+        if result.static_sensitivity is not None:
+            cond["static sensitivity S0"] = (f"{result.static_sensitivity:g} {unit} "
+                                             f"(u = {100 * opts.u_static_sensitivity:g} %)")
         if angle:
             cond["turntable angle synchronisation"] = "records cut to whole revolutions from a 360 deg crossing"
         cond["input phase phi_0"] = resp.phase_reference

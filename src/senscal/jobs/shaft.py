@@ -30,8 +30,18 @@ __all__ = ["ShaftCalibrateOptions", "ShaftCalibrateResult", "shaft_calibrate", "
 #: How the registry describes the method of a shaft calibration.
 METHOD = "gravity sine fit against the encoder angle (Yang et al. 2014)"
 
-_UNIT_WORDS = {"deg": "deg", "degree": "deg", "degrees": "deg", "°": "deg", "rad": "rad", "radian": "rad",
-               "radians": "rad"}
+
+def _angle_word(unit: str, name: str) -> str | None:
+    """``"deg"`` or ``"rad"`` for a file's angle unit (parsed as a unit), None when the file gives none."""
+    from senscal.units import compatible, same_unit
+
+    if not unit.strip():
+        return None
+    for word in ("deg", "rad"):
+        if same_unit(unit, word):
+            return word
+    kind = "an angle senscal reads only in deg or rad" if compatible(unit, "rad") else "not an angle"
+    raise InputError(f"the angle channel '{name}' is in {unit!r}, {kind}; give it in deg or rad")
 
 
 def angle_unit_of(rec, name: str, given: str | None) -> str:
@@ -50,7 +60,7 @@ def angle_unit_of(rec, name: str, given: str | None) -> str:
     InputError
         A unit other than deg/rad, or one that contradicts the file.
     """
-    in_file = _UNIT_WORDS.get(rec.unit(name).strip().lower()) if rec.unit(name) else None
+    in_file = _angle_word(rec.unit(name), name)
     if given is None:
         return in_file or "rad"
     g = given.strip().lower()
@@ -374,8 +384,18 @@ def shaft_compensate(source, options: ShaftCompensateOptions = ShaftCompensateOp
     model, model_source = _model_of(o.model)
     rec = o.read(source, channels=[o.angle, o.accel])
     unit = angle_unit_of(rec, o.angle, o.angle_unit)
-    res = compensate(model, rec[o.accel], rec[o.angle], rec.time, radius=o.radius, angle_unit=unit, window=o.window,
-                     remove_centripetal=o.centripetal, accel_unit=rec.unit(o.accel))
+    from senscal.persist.units import unit_factor
+
+    # Data in another unit of the model's dimension (mV for a V model, g for m/s^2) are converted; another
+    # dimension is refused.
+    accel_unit = rec.unit(o.accel)
+    scale = unit_factor(accel_unit, model.output_unit, what=f"the accelerometer channel '{o.accel}'",
+                        fix="convert the channel or recalibrate with this sensor")
+    accel = np.asarray(rec[o.accel], dtype=float) * scale
+    if scale != 1.0:
+        accel_unit = model.output_unit
+    res = compensate(model, accel, rec[o.angle], rec.time, radius=o.radius, angle_unit=unit, window=o.window,
+                     remove_centripetal=o.centripetal, accel_unit=accel_unit)
     return ShaftCompensateResult(compensation=res, model=model, source=source_name(source),
-                                 model_source=model_source, accel=np.asarray(rec[o.accel], dtype=float),
-                                 accel_unit=rec.unit(o.accel), warnings=tuple(res.warnings))
+                                 model_source=model_source, accel=accel,
+                                 accel_unit=accel_unit, warnings=tuple(res.warnings))

@@ -80,8 +80,68 @@ def _read(source: Source, opts, channels: Sequence[str], index: int) -> tuple[Re
     return rec, str(source)
 
 
-def _unit(rec: Recording, name: str, given: str | None) -> str:
-    return given or rec.units.get(name) or "V"
+class _Units:
+    """The units one run works in, fixed by its first recording; every later recording is converted to them.
+
+    A voltage output is worked in V (``mV`` data are multiplied by 1e-3), so a bare ``--static-sensitivity
+    0.05`` is 0.05 V/(m/s^2) whatever the file's scale; another output (``pC``, counts) is worked in the
+    first recording's unit.  A position reference is worked in m, an angle in deg.  Data of another
+    dimension (``V`` for a position, ``m/s^2`` for an output) are refused with one line.
+    """
+
+    def __init__(self, given_output: str | None):
+        from senscal.units import parse_unit
+
+        self.given = (given_output or "").strip() or None
+        if self.given:
+            parse_unit(self.given, what="--output-unit")
+        self.work: dict[str, str] = {}
+
+    def scale(self, rec: Recording, name: str, role: str, label: str) -> float:
+        """The factor that takes channel ``name`` of ``rec`` into the run's unit for ``role``.
+
+        ``role`` is ``"output"`` (sensor output; --output-unit applies), ``"reference"`` (a reference
+        sensor's output), ``"position"`` (m) or ``"angle"`` (deg).
+        """
+        from senscal.units import factor, is_voltage, parse_unit, same_unit, unit_text
+
+        in_file = unit_text(rec.units.get(name))
+        what = f"channel '{name}' of {label}"
+        if in_file:
+            parse_unit(in_file, what=f"the unit of {what}")
+        if role == "output" and self.given and in_file and not same_unit(self.given, in_file):
+            raise InputError(f"--output-unit {self.given} contradicts {label}, whose header gives '{name}' in "
+                             f"{in_file}; drop --output-unit (it is for files that give no unit) or fix the header")
+        fixed = {"position": "m", "angle": "deg"}.get(role)
+        have = in_file or (self.given if role == "output" else None) or fixed or "V"
+        if role not in self.work:
+            self.work[role] = fixed or ("V" if is_voltage(have) else have)
+        want = self.work[role]
+        fix = {"position": "--position must name the displacement reference (m, mm, um ...); check that "
+                           "--position and --velocity are not swapped",
+               "angle": "--angle must name the turntable angle channel (deg or rad)"}.get(
+            role, f"every recording's {role} must be in one kind of unit (this run's is {want}); check the "
+                  "channel names and headers")
+        return factor(have, want, what=f"the {role} {what}", fix=fix)
+
+    def unit(self, role: str) -> str:
+        return self.work.get(role, "V")
+
+
+def _not_a_length(unit: str, name: str, label: str) -> None:
+    """Refuse a velocity-sensor output in a length unit: that channel is a displacement (swapped channels)."""
+    from senscal.units import compatible
+
+    if compatible(unit, "m"):
+        raise InputError(f"the velocity-sensor channel '{name}' of {label} is in {unit}, a length: it is a "
+                         "displacement, not a sensor output; check that --position and --velocity are not swapped")
+
+
+def _bare_or_converted(value, unit: str, option: str):
+    """An option's number in the run's unit: a bare number is in ``unit``, ``'50 mV/(m/s^2)'`` is converted."""
+    from senscal.units import parse_quantity
+
+    return parse_quantity(value, unit, option=option)
 
 
 def _freqs(freq, n: int) -> list[float | None]:
@@ -128,7 +188,9 @@ class _ReadOptions(ReadOptions):
     Attributes
     ----------
     output_unit : str, optional
-        Unit of the sensor output (default: from the file, else V).
+        Unit of the sensor output for files whose header gives none (default V); a header that gives
+        another unit is a contradiction and refused.  A voltage output is worked in V (mV data are
+        converted), so the sensitivity is in V/(m/s^2) or V/(m/s).
     """
 
     output_unit: Optional[str] = None
@@ -151,7 +213,7 @@ class VelocityOptions(_ReadOptions):
     Attributes
     ----------
     position : str
-        Position-reference channel (m).
+        Position-reference channel (m unless its header says mm, um ...: converted to m).
     velocity : str
         Velocity-sensor output channel.
     freq : float or tuple of float, optional
@@ -245,14 +307,18 @@ def velocity(sources: Sources, options: VelocityOptions = VelocityOptions(), *,
     srcs = _as_list(sources)
     _distinct(srcs)
     freqs = _freqs(o.freq, len(srcs))
-    points, unit = [], None
+    points, units = [], _Units(o.output_unit)
     for i, (src, f) in enumerate(progress(list(zip(srcs, freqs)), "fitting")):
         rec, label = _read(src, o, [o.position, o.velocity], i)
-        unit = unit or _unit(rec, o.velocity, o.output_unit) + "/(m/s)"
+        # The position in m and the output in the run's unit (mV -> V): S = A_s / (w A_p) needs both.
+        position = rec[o.position] * units.scale(rec, o.position, "position", label)
+        output = rec[o.velocity] * units.scale(rec, o.velocity, "output", label)
+        _not_a_length(units.unit("output"), o.velocity, label)
+        unit = units.unit("output") + "/(m/s)"
         points.append(with_time_warnings(velocity_point(
-            rec[o.position], rec[o.velocity], rec.time, freq=f, drift=o.drift, harmonics=o.harmonics,
+            position, output, rec.time, freq=f, drift=o.drift, harmonics=o.harmonics,
             u_position=o.u_position, source=label, unit=unit), rec.time, "velocity",
-            y=rec[o.position] if f is not None else None, known_hz=f))
+            y=position if f is not None else None, known_hz=f))
     cal = velocity_calibration(points, u_position=o.u_position, unit=unit)
     return VelocityResult(calibration=cal, unit=unit, warnings=tuple(cal.warnings))
 
@@ -272,16 +338,20 @@ class ResponseOptions(_ReadOptions):
     ----------
     output : str
         Accelerometer output channel.
-    input_amplitude : float, optional
-        Known peak input acceleration (m/s^2).
+    input_amplitude : float or str, optional
+        Known peak input acceleration: a number in m/s^2, or a quantity such as ``"10 g"``.
     reference : str, optional
         Reference accelerometer channel (back-to-back).
-    reference_sensitivity : float, optional
-        Reference sensitivity, its output unit per m/s^2.
+    reference_sensitivity : float or str, optional
+        Reference sensitivity: a number in the reference's working unit per m/s^2 (V/(m/s^2) for a
+        voltage output, whatever its scale in the file), or a quantity such as ``"10.2 mV/(m/s^2)"``.
     angle : str, optional
-        Turntable angle channel (deg): records cut to whole revolutions, input phase from it.
-    static_sensitivity : float, optional
-        Static sensitivity S0 for S_i/S0 (output unit per m/s^2).
+        Turntable angle channel (deg unless its header says rad): records cut to whole revolutions,
+        input phase from it.
+    static_sensitivity : float or str, optional
+        Static sensitivity S0 for S_i/S0: a number in the result's unit (V/(m/s^2) for a voltage output,
+        also when the file gives mV), or a quantity such as ``"50 mV/(m/s^2)"`` (converted).
+
     initial_phase_deg : float, optional
         Input phase phi_0 (deg, sine convention) entered from a start-up test.
     u_initial_phase_deg : float
@@ -300,11 +370,11 @@ class ResponseOptions(_ReadOptions):
     """
 
     output: Optional[str] = None
-    input_amplitude: Optional[float] = None
+    input_amplitude: Optional[Union[float, str]] = None
     reference: Optional[str] = None
-    reference_sensitivity: Optional[float] = None
+    reference_sensitivity: Optional[Union[float, str]] = None
     angle: Optional[str] = None
-    static_sensitivity: Optional[float] = None
+    static_sensitivity: Optional[Union[float, str]] = None
     initial_phase_deg: Optional[float] = None
     u_initial_phase_deg: float = 0.0
     phase_reference: Optional[Union[str, Path, Recording]] = None
@@ -347,19 +417,31 @@ def _response_points(srcs, freqs, amplitudes, o, *, progress: Progress, job: str
     _distinct(srcs)
     chans = [o.output] + ([o.reference] if o.reference else []) + ([o.angle] if o.angle else [])
     phi0 = None if o.initial_phase_deg is None else math.radians(o.initial_phase_deg)
-    points, unit = [], None
+    points, units = [], _Units(o.output_unit)
+    s0 = s_ref = None
     for i, (src, f, a) in enumerate(progress(list(zip(srcs, freqs, amplitudes)), "fitting")):
         rec, label = _read(src, o, chans, i)
-        unit = unit or _unit(rec, o.output, o.output_unit) + "/(m/s^2)"
+        # Every channel in the run's unit (mV -> V, rad -> deg); options without a unit are in those units.
+        output = rec[o.output] * units.scale(rec, o.output, "output", label)
+        unit = units.unit("output") + "/(m/s^2)"
+        reference = angle = None
+        if o.reference:
+            reference = rec[o.reference] * units.scale(rec, o.reference, "reference", label)
+            s_ref = _bare_or_converted(o.reference_sensitivity, units.unit("reference") + "/(m/s^2)",
+                                       "--reference-sensitivity")
+        if o.angle:
+            angle = rec[o.angle] * units.scale(rec, o.angle, "angle", label)
+        s0 = _bare_or_converted(o.static_sensitivity, unit, "--static-sensitivity")
         points.append(with_time_warnings(response_point(
-            rec[o.output], rec.time, input_amplitude=a, reference=rec[o.reference] if o.reference else None,
-            reference_sensitivity=o.reference_sensitivity, angle_deg=rec[o.angle] if o.angle else None, freq=f,
-            static_sensitivity=o.static_sensitivity, initial_phase=phi0,
+            output, rec.time, input_amplitude=a, reference=reference,
+            reference_sensitivity=s_ref, angle_deg=angle, freq=f,
+            static_sensitivity=s0, initial_phase=phi0,
             u_input_phase=math.radians(o.u_initial_phase_deg), u_input=o.u_input,
             u_reference_sensitivity=o.u_reference, u_static_sensitivity=o.u_static_sensitivity, drift=o.drift,
             harmonics=o.harmonics, source=label, unit=unit), rec.time, job,
-            y=rec[o.output] if f is not None else None, known_hz=f))
-    return points, unit
+            y=output if f is not None else None, known_hz=f))
+    ref = (s_ref, units.unit("reference") + "/(m/s^2)") if o.reference else (None, "")
+    return points, unit, s0, ref
 
 
 def _measured_phase_reference(srcs, o: ResponseOptions):
@@ -373,8 +455,10 @@ def _measured_phase_reference(srcs, o: ResponseOptions):
         same = [str(s) for s in srcs if not isinstance(s, Recording)
                 and os.path.realpath(s) == os.path.realpath(ref_src)]
         label = same[0] if same else str(ref_src)
-    ref = phase_reference_run(rec[o.output], rec.time, rec[o.angle], harmonics=o.harmonics, drift=o.drift,
-                              source=label)
+    units = _Units(o.output_unit)
+    ref = phase_reference_run(rec[o.output] * units.scale(rec, o.output, "output", label), rec.time,
+                              rec[o.angle] * units.scale(rec, o.angle, "angle", label), harmonics=o.harmonics,
+                              drift=o.drift, source=label)
     shown = (ref_src.source or "(a recording in memory)") if isinstance(ref_src, Recording) else ref_src
     text = (f"phi_0 = {math.degrees(ref.phase):.4f} deg at encoder zero from the {ref.frequency:.4g} Hz "
             f"run {shown} (its own delay extrapolated from the points above it, odd cubic in frequency)")
@@ -394,7 +478,13 @@ class ResponseResult(JobResult):
     unit : str
         Sensitivity unit, e.g. ``V/(m/s^2)``.
     static_sensitivity : float or None
-        S0 as given (``unit``).
+        S0 in ``unit`` (converted when given with another unit).
+    input_amplitude : float or None
+        Known peak input in m/s^2 (converted when given with a unit).
+    reference_sensitivity : float or None
+        Back-to-back reference sensitivity in ``reference_unit``.
+    reference_unit : str
+        Unit of ``reference_sensitivity`` ('' without a reference).
     phase_reference_run : PhaseReference or None
         phi_0 measured from a start-up run, when one was given.
     warnings : tuple of str
@@ -406,6 +496,9 @@ class ResponseResult(JobResult):
     repeats: tuple = ()
     unit: str = ""
     static_sensitivity: Optional[float] = None
+    input_amplitude: Optional[float] = None
+    reference_sensitivity: Optional[float] = None
+    reference_unit: str = ""
     phase_reference_run: Any = None
     warnings: tuple[str, ...] = ()
 
@@ -516,8 +609,10 @@ def response(sources: Sources, options: ResponseOptions = ResponseOptions(), *,
     o = options
     _check_response_options(o)
     srcs = _as_list(sources)
-    points, unit = _response_points(srcs, _freqs(o.freq, len(srcs)), [o.input_amplitude] * len(srcs), o,
-                                    progress=progress, job="response")
+    amplitude = _bare_or_converted(o.input_amplitude, "m/s^2", "--input-amplitude")
+    points, unit, s0, (s_ref, ref_unit) = _response_points(srcs, _freqs(o.freq, len(srcs)),
+                                                           [amplitude] * len(srcs), o, progress=progress,
+                                                           job="response")
     ref, text = None, None
     if o.phase_reference is not None:
         ref, text = _measured_phase_reference(srcs, o)
@@ -525,12 +620,13 @@ def response(sources: Sources, options: ResponseOptions = ResponseOptions(), *,
     elif o.initial_phase_deg is not None:
         text = (f"phi_0 = {o.initial_phase_deg:g} deg entered (u = {o.u_initial_phase_deg:g} deg)"
                 + (" at encoder zero" if o.angle else " at t = 0"))
-    resp = frequency_response(points, unit=unit, static_sensitivity=o.static_sensitivity, phase_reference=text)
+    resp = frequency_response(points, unit=unit, static_sensitivity=s0, phase_reference=text)
     reps = combine_repeats(resp.points)
     warns = tuple(resp.warnings)
     if len(reps) < len(resp.points):
         warns = tuple(unique_warnings(warns, *(g.warnings for g in reps)))
-    return ResponseResult(response=resp, repeats=tuple(reps), unit=unit, static_sensitivity=o.static_sensitivity,
+    return ResponseResult(response=resp, repeats=tuple(reps), unit=unit, static_sensitivity=s0,
+                          input_amplitude=amplitude, reference_sensitivity=s_ref, reference_unit=ref_unit,
                           phase_reference_run=ref, warnings=warns)
 
 
@@ -659,8 +755,8 @@ def linearity(sources: Sources, options: LinearityOptions = LinearityOptions(), 
         raise InputError(f"give one input amplitude per file: {len(amps)} amplitudes for {len(srcs)} files")
     if any(not a > 0 for a in amps):
         raise InputError("--input-amplitudes must be positive (m/s^2)")
-    points, unit = _response_points(srcs, [o.freq] * len(srcs), amps, _as_response(o), progress=progress,
-                                    job="response")
+    points, unit, _, _ = _response_points(srcs, [o.freq] * len(srcs), amps, _as_response(o), progress=progress,
+                                       job="response")
     lin = amplitude_linearity(amps, [p.output_amplitude for p in points], [p.u_output_amplitude for p in points],
                               [p.source for p in points], u_input=o.u_input)
     # an absolute phase is not part of linearity: its unknown reference is no departure here

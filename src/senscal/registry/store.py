@@ -683,13 +683,7 @@ class Registry:
         pts = self.history(serial, quantity)
         import numpy as np  # here, not at module level: record/show/list/due never need it
 
-        from senscal.persist.units import canonical_unit
-
-        # Spellings of one unit (V/(m/s^2), V/(m/s²)) are one unit; another scale (mV/...) is not.
-        units = sorted({p.unit for p in pts})
-        if len({canonical_unit(u) for u in units}) > 1:
-            raise DataError(f"records of {quantity!r} for {serial!r} use different units ({', '.join(units)}); "
-                            "a drift needs one unit: supersede the odd records with converted values")
+        pts = _in_one_unit(pts, serial, quantity)
         if len(pts) < 2:
             raise _too_few(serial, quantity, len(pts))
         dates = [datetime.fromisoformat(p.date) for p in pts]
@@ -852,6 +846,28 @@ class Registry:
                 present.add(r["uid"])
                 added["calibrations"] += 1
             pending = [r for r in pending if r not in ready]
+
+
+def _in_one_unit(pts: list, serial: str, quantity: str) -> list:
+    """A quantity's history in the unit of its first record: another scale converted (mV/... to V/...),
+    another dimension refused (a drift needs one quantity)."""
+    if not pts:
+        return pts
+    from senscal.units import compatible, convert, is_unit
+
+    unit = pts[0].unit
+    out = []
+    for p in pts:
+        if p.unit == unit:
+            out.append(p)
+            continue
+        if not (is_unit(p.unit) and is_unit(unit) and compatible(p.unit, unit)):
+            raise DataError(f"records of {quantity!r} for {serial!r} use units that cannot be converted into each "
+                            f"other ({unit}, {p.unit}); a drift needs one quantity: supersede the odd records")
+        f = float(convert(1.0, p.unit, unit)) - float(convert(0.0, p.unit, unit))
+        out.append(replace(p, value=float(convert(p.value, p.unit, unit)), uncertainty=abs(f) * p.uncertainty,
+                           expanded_uncertainty=abs(f) * p.expanded_uncertainty, unit=unit))
+    return out
 
 
 def _too_few(serial: str, quantity: str, n: int) -> TooFewSamplesError:

@@ -224,7 +224,7 @@ class GravityModel(ResultMixin):
         ----------
         accel_unit : str, optional
             Unit of the accelerometer channel ('' or None when unknown); must
-            match the calibration's when both are known.
+            be the calibration's (as a unit: ``m/s²`` is ``m/s^2``) when both are known.
 
         Raises
         ------
@@ -237,10 +237,15 @@ class GravityModel(ResultMixin):
         a gravity term left after compensation (sensor remounted, another
         sensor, wrong angle zero) is reported as a warning.
         """
-        from senscal.persist.units import check_unit
+        from senscal.persist.units import unit_factor
 
-        check_unit(accel_unit, self.output_unit, what="the accelerometer channel",
-                   fix="convert the channel or recalibrate with this sensor")
+        # The engine takes arrays as they are: another scale is refused here (the shaft-compensate job
+        # converts the channel before it gets here), another dimension always.
+        scale = unit_factor(accel_unit, self.output_unit, what="the accelerometer channel",
+                            fix="convert the channel or recalibrate with this sensor")
+        if scale != 1.0:
+            raise InputError(f"the accelerometer channel is in {accel_unit!r} but the sensor was calibrated in "
+                             f"{self.output_unit!r}; multiply it by {scale:g} first")
 
     # -- persistence -----------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:

@@ -557,8 +557,9 @@ class FrequencyResponse(ResultMixin):
         frequency : float
             Hz, within the calibrated range.
         unit : str, optional
-            Unit of ``output_amplitude``; refused when it differs from the
-            output unit (compared as units).
+            Unit of ``output_amplitude``; converted to the output unit
+            (``mV`` amplitudes, ``V/(m/s^2)`` calibration), refused when of
+            another dimension.
 
         Returns
         -------
@@ -567,12 +568,12 @@ class FrequencyResponse(ResultMixin):
             sensitivity in ``V/(m/s^2)``); :meth:`sensitivity_at` gives ``S``
             and its ``u``.
         """
-        from senscal.persist.units import check_unit, numerator
+        from senscal.persist.units import numerator, unit_factor
 
-        check_unit(unit, numerator(self.unit), what="the output amplitude",
-                   fix="convert the amplitudes to the calibration's output unit")
+        scale = unit_factor(unit, numerator(self.unit), what="the output amplitude",
+                            fix="give amplitudes in the calibration's output unit")
         s, _ = self.sensitivity_at(frequency)
-        return np.asarray(output_amplitude, dtype=float) / s
+        return np.asarray(output_amplitude, dtype=float) * scale / s
 
     def compare(self, sensitivity: float, frequency: float) -> tuple[float, float]:
         """Relative deviation of a sensitivity measured at ``frequency`` from this calibration.

@@ -21,7 +21,8 @@ from senscal.sinefit import wrap_phase
 from senscal.vibration.budget import UncertaintyBudget, make_budget, mean_with_budget, unique_warnings
 from senscal.vibration.fits import fit_pair
 
-__all__ = ["VelocityPoint", "VelocityCalibration", "velocity_point", "velocity_calibration"]
+__all__ = ["VelocityPoint", "VelocityCalibration", "velocity_point", "velocity_calibration", "reference_sanity",
+           "MAX_PLAUSIBLE_MOTION"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -126,15 +127,74 @@ def velocity_point(position, output, t, *, freq: float | None = None, drift: boo
                     getattr(pf.output, "dof_effective", None) or pf.output.dof))
     budget = make_budget("sensitivity", s, unit, [("sine fits", "A", u_fit, dof),
                                                   ("position reference", "B", u_position * s)])
+    phase = float(wrap_phase(pf.phase_difference - 0.5 * math.pi))
+    u_phase = math.sqrt(pf.covariance[2, 2])
+    sanity = reference_sanity(f, a_p, phase, u_phase)
     return VelocityPoint(
         source=source, frequency=f, u_frequency=pf.u_frequency,
         position_amplitude=a_p, u_position_amplitude=math.sqrt(pf.covariance[0, 0]),
         output_amplitude=a_s, u_output_amplitude=math.sqrt(pf.covariance[1, 1]),
         sensitivity=s, u_sensitivity=budget.combined,
-        phase=float(wrap_phase(pf.phase_difference - 0.5 * math.pi)), u_phase=math.sqrt(pf.covariance[2, 2]),
+        phase=phase, u_phase=u_phase,
         budget=budget, snr_db=float(pf.output.snr_db),
-        warnings=unique_warnings(*(getattr(f, "warnings", ()) or () for f in (pf.reference, pf.output))),
+        warnings=unique_warnings(*(getattr(f, "warnings", ()) or () for f in (pf.reference, pf.output)), sanity),
     )
+
+
+#: Largest peak motion a position-referenced velocity calibration plausibly has: displacement (m),
+#: velocity (m/s) and acceleration (m/s^2).  Long-stroke hydraulic and electrodynamic exciters move at
+#: most about +/-0.5 m, 2-3 m/s and a few hundred m/s^2; a factor of a few above that is no rig, and a
+#: reference read in the wrong unit (mm or um taken as m) lands 10^3 or 10^6 beyond it.
+MAX_PLAUSIBLE_MOTION = {"displacement": 1.0, "velocity": 10.0, "acceleration": 1.0e4}
+
+#: Two-sided 99.9 % normal quantile: the phase must depart from quadrature by this many u(phase).
+_Z_PHASE = 3.29
+
+
+def reference_sanity(frequency: float, position_amplitude: float, phase: float, u_phase: float) -> tuple[str, ...]:
+    """Named warnings when the position reference and the velocity output cannot be what they claim.
+
+    Parameters
+    ----------
+    frequency : float
+        Excitation frequency, Hz.
+    position_amplitude : float
+        Peak displacement of the position reference, m.
+    phase, u_phase : float
+        Phase of the sensor output relative to the derivative of the position, and its standard
+        uncertainty, rad.
+
+    Returns
+    -------
+    tuple of str
+        ``velocity-not-derivative`` when the output is in antiphase with the derivative of the
+        position (``|phase| > 90 deg`` by more than 3.29 u: its in-phase part has the wrong sign):
+        the channels are swapped (a velocity leads its position by +90 deg, a swapped pair lags by
+        90, so the phase reads about -180 deg), the polarity is inverted, or the sensor works far
+        below its natural frequency; ``position-amplitude-implausible`` when the peak displacement,
+        velocity ``w A`` or acceleration ``w^2 A`` exceeds :data:`MAX_PLAUSIBLE_MOTION` (a reference
+        in mm or um read as m).
+    """
+    from senscal.diagnostics import named
+
+    out = []
+    if abs(phase) > 0.5 * math.pi + _Z_PHASE * u_phase:
+        out.append(named("velocity-not-derivative", (
+            f"the sensor output is {math.degrees(phase):+.1f} deg from the derivative of the position, i.e. in "
+            "antiphase with the velocity (a velocity leads its position by +90 deg; swapped channels read about "
+            "-180 deg): check that --position and --velocity are not swapped and the sensor's polarity; only a "
+            "sensor far below its natural frequency legitimately shows this")))
+    w = TWO_PI * frequency
+    motion = {"displacement": position_amplitude, "velocity": w * position_amplitude,
+              "acceleration": w * w * position_amplitude}
+    over = [k for k, v in motion.items() if v > MAX_PLAUSIBLE_MOTION[k]]
+    if over:
+        units = {"displacement": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+        said = ", ".join(f"peak {k} {motion[k]:.3g} {units[k]} (limit {MAX_PLAUSIBLE_MOTION[k]:g})" for k in over)
+        out.append(named("position-amplitude-implausible", (
+            f"the position reference moves {said} at {frequency:.4g} Hz, beyond any displacement exciter: the "
+            "position is probably in mm or um but read as m; give its unit in the header ('position [mm]')")))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
