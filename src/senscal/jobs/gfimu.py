@@ -270,21 +270,31 @@ def _truth_on(rec_t: np.ndarray, path, need_q: bool) -> tuple[np.ndarray, np.nda
         raise InputError(f"truth file {path} lacks column(s) {', '.join(missing)}; it needs t, wx, wy, wz in rad/s")
     tt = tr.time
     if tt.size == rec_t.size and np.allclose(tt, rec_t, rtol=0, atol=1e-9 * max(1.0, float(np.abs(rec_t).max()))):
-        w = tr.data(list(_AXES))
+        w = tr.data(list(_AXES)) * _si_scales(tr, _AXES, "rad/s", "truth column")[:, None]
         q = tr.data(list(_QUATERNION)) if need_q and all(c in tr for c in _QUATERNION) else None
         return w, q
     if tt[0] > rec_t[0] or tt[-1] < rec_t[-1]:
         raise InputError(f"truth file {path} spans t={tt[0]:g}..{tt[-1]:g} s but the recording "
                          f"{rec_t[0]:g}..{rec_t[-1]:g} s; give a truth that covers the recording")
-    w = np.stack([np.interp(rec_t, tt, tr[c]) for c in _AXES])
+    w = np.stack([np.interp(rec_t, tt, tr[c]) for c in _AXES]) * _si_scales(tr, _AXES, "rad/s", "truth column")[:, None]
     return w, None
+
+
+def _si_scales(rec, names, unit: str, what: str) -> np.ndarray:
+    """Per channel, the factor into ``unit`` (g -> m/s^2, deg/s -> rad/s); no unit in the file means ``unit``."""
+    from senscal.units import factor
+
+    where = rec.source or "the recording"
+    return np.array([factor(rec.unit(n) or unit, unit, what=f"{what} '{n}' of {where}",
+                            fix=f"give it in {unit} or a unit convertible to it") for n in names])
 
 
 def _plausibility_warnings(est, rec, y, layout) -> tuple[str, ...]:
     """``time-unit-suspect`` when the time stamps or the rates are physically impossible for the array."""
-    from senscal.io.plausibility import TIME_UNIT_WARNING, check_angular_rate, check_time
+    from senscal.io.plausibility import TIME_UNIT_WARNING, check_angular_rate
 
-    found = tuple(w for w in check_time(rec.time, "gfimu") if w not in est.warnings)
+    # The reading layer's time-base warnings (read for "gfimu": its rate limits), then the array's own evidence.
+    found = tuple(w for w in rec.warnings if w not in est.warnings)
     if any(w.startswith(TIME_UNIT_WARNING) for w in est.warnings + found):
         return found
     pos = np.asarray(layout.positions, dtype=float)
@@ -335,7 +345,7 @@ def gfimu(source, options: GfimuOptions = GfimuOptions()) -> GfimuResult:
     w0 = tuple(float(v) for v in o.initial_omega)
     span = None if o.rest is None else tuple(float(v) for v in o.rest)
     rec = o.read(source)
-    y = rec.data(list(layout.names))
+    y = rec.data(list(layout.names)) * _si_scales(rec, layout.names, "m/s^2", "accelerometer channel")[:, None]
     est = angular_velocity(y, rec.time, layout, methods=methods, observation=o.observation, initial=w0,
                            noise_std=o.noise_std, lag=o.lag, bias_std=o.bias_std, smooth=o.smooth, plain=o.plain,
                            rest=span, differential_max_u=o.differential_max_u)

@@ -1,0 +1,49 @@
+"""Units carried through the jobs that need physical units (issue 32): an accelerometer array in g and a
+truth in deg/s give the rates of m/s^2 and rad/s; a channel of another dimension is refused in one line."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from senscal.errors import InputError
+from senscal.io import Recording, write_recording
+
+
+@pytest.fixture(scope="module")
+def arrays(tmp_path_factory):
+    from senscal.gfimu import paper_layout, write_layout
+    from senscal.simulate.gfimu import simulate_gfimu
+
+    out = tmp_path_factory.mktemp("gfimu_units")
+    rec, truth, _ = simulate_gfimu(fs=300.0, duration=1.5, seed=3, rest_s=0.3)
+    write_layout(paper_layout(0.04), out / "layout.csv")
+    write_recording(rec, out / "si.csv")
+    g = Recording({n: rec[n] / 9.80665 for n in rec.names}, t=rec.time, units={n: "g" for n in rec.names})
+    write_recording(g, out / "g.csv", units_in_header=True)
+    volts = Recording(dict(rec.channels), t=rec.time, units={n: "V" for n in rec.names})
+    write_recording(volts, out / "v.csv", units_in_header=True)
+    write_recording(truth, out / "truth.csv")
+    axes = [n for n in truth.names if n in ("wx", "wy", "wz")]
+    deg = Recording({n: (np.degrees(truth[n]) if n in axes else truth[n]) for n in truth.names}, t=truth.time,
+                    units={n: "deg/s" for n in axes})
+    write_recording(deg, out / "truth_deg.csv", units_in_header=True)
+    return out
+
+
+def test_gfimu_converts_g_and_deg_per_s(arrays):
+    from senscal.jobs.gfimu import GfimuOptions, gfimu
+
+    opts = dict(layout=arrays / "layout.csv", method="all")
+    si = gfimu(arrays / "si.csv", GfimuOptions(truth=arrays / "truth.csv", **opts))
+    g = gfimu(arrays / "g.csv", GfimuOptions(truth=arrays / "truth_deg.csv", **opts))
+    for m in si.estimate.omega:
+        np.testing.assert_allclose(g.estimate.omega[m], si.estimate.omega[m], rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(g.truth_omega, si.truth_omega, rtol=1e-12)
+
+
+def test_gfimu_refuses_volts(arrays):
+    from senscal.jobs.gfimu import GfimuOptions, gfimu
+
+    with pytest.raises(InputError, match=r"accelerometer channel .* is in 'V' \(a voltage\).*'m/s\^2'"):
+        gfimu(arrays / "v.csv", GfimuOptions(layout=arrays / "layout.csv"))
