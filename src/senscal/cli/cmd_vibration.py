@@ -122,7 +122,7 @@ def velocity_options(*, position=None, velocity=None, freq=None, u_position=None
 def response_options(*, output=None, input_amplitude=None, reference=None, reference_sensitivity=None, angle=None,
                      static_sensitivity=None, initial_phase_deg=None, u_initial_phase_deg=0.0, phase_reference=None,
                      freq=None, u_input=None, u_reference=None, u_static=None, drift=False, harmonics=1,
-                     output_unit=None, **_) -> ResponseOptions:
+                     output_unit=None, encoder_lines=None, u_angle_deg=0.0, **_) -> ResponseOptions:
     """:class:`~senscal.jobs.vibration.ResponseOptions` from the ``senscal response`` parameters."""
     return ResponseOptions(
         output=output, input_amplitude=input_amplitude, reference=reference,
@@ -130,7 +130,7 @@ def response_options(*, output=None, input_amplitude=None, reference=None, refer
         initial_phase_deg=initial_phase_deg, u_initial_phase_deg=u_initial_phase_deg, phase_reference=phase_reference,
         freq=_freq_values(freq), u_input=_rel(u_input, "--u-input"), u_reference=_rel(u_reference, "--u-reference"),
         u_static_sensitivity=_rel(u_static, "--u-static-sensitivity"), drift=drift, harmonics=harmonics,
-        output_unit=output_unit)
+        output_unit=output_unit, encoder_lines=encoder_lines, u_angle_deg=u_angle_deg)
 
 
 @with_read_options
@@ -227,6 +227,8 @@ def response_cmd(
     u_static: Annotated[Optional[str], typer.Option("--u-static-sensitivity", help="Type B standard uncertainty of S0, e.g. 0.05%.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift.")] = False,
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
+    encoder_lines: Annotated[Optional[int], typer.Option("--encoder-lines", help="Counts per revolution of the turntable encoder (with --angle); without it a quantised angle's step is detected. Its effect is the budget component 'encoder step'.")] = None,
+    u_angle_deg: Annotated[float, typer.Option("--u-angle-deg", help="Standard uncertainty of the encoder's angle reading (accuracy specification), deg: type B in the phase delay.")] = 0.0,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
@@ -403,13 +405,14 @@ def simulate_centrifuge_cmd(
     encoder_zero_deg: Annotated[float, typer.Option("--encoder-zero-deg", help="Departure: encoder zero this many degrees off the field direction (phi_0 = 90 + offset).")] = 0.0,
     sensitivity_scatter: Annotated[float, typer.Option("--sensitivity-scatter", help="Departure: relative standard deviation of S0 from record to record (remounting).")] = 0.0,
     input_scatter: Annotated[float, typer.Option("--input-scatter", help="Departure: relative standard deviation of the actual a0 about the nominal, per record.")] = 0.0,
+    encoder_lines: Annotated[int, typer.Option("--encoder-lines", help="Departure: the angle comes from an encoder with this many counts per revolution, read as a counter (0 = exact angle).")] = 0,
     phase_reference_freq: Annotated[Optional[float], typer.Option("--phase-reference-freq", help="Also write a start-up run at this turntable frequency (Hz) as phaseref.csv, for --phase-reference.")] = None,
 ) -> None:
     """Double centrifuge: angle (deg) and accelerometer output (V), one CSV per point, truth JSON."""
     from senscal.simulate.vibration import simulate_centrifuge
 
     common = dict(static_sensitivity=static_sensitivity, natural_frequency=natural_frequency, damping=damping,
-                  noise=noise, cubic=cubic, encoder_zero_deg=encoder_zero_deg)
+                  noise=noise, cubic=cubic, encoder_zero_deg=encoder_zero_deg, encoder_lines=encoder_lines)
     recs, truth = simulate_centrifuge(frequencies=parse_floats(freqs, "--freqs"),
                                       accelerations=parse_floats(accelerations, "--accelerations"),
                                       sensitivity_scatter=sensitivity_scatter, input_scatter=input_scatter,

@@ -351,7 +351,6 @@ class ResponseOptions(_ReadOptions):
     static_sensitivity : float or str, optional
         Static sensitivity S0 for S_i/S0: a number in the result's unit (V/(m/s^2) for a voltage output,
         also when the file gives mV), or a quantity such as ``"50 mV/(m/s^2)"`` (converted).
-
     initial_phase_deg : float, optional
         Input phase phi_0 (deg, sine convention) entered from a start-up test.
     u_initial_phase_deg : float
@@ -367,6 +366,12 @@ class ResponseOptions(_ReadOptions):
         Fit a linear offset drift.
     harmonics : int
         Harmonics fitted with the fundamental.
+    encoder_lines : int, optional
+        Counts per revolution of the turntable encoder (with ``angle``); without it a quantised angle
+        channel's step is detected in the readings.  The step's effect is a type B budget component.
+    u_angle_deg : float
+        Type B standard uncertainty of the encoder's angle reading (accuracy specification), deg: moves the
+        phase delay one for one unless phi_0 comes from a reference run with the same encoder.
     """
 
     output: Optional[str] = None
@@ -384,6 +389,8 @@ class ResponseOptions(_ReadOptions):
     u_static_sensitivity: float = 0.0
     drift: bool = False
     harmonics: int = 1
+    encoder_lines: Optional[int] = None
+    u_angle_deg: float = 0.0
 
 
 def _check_response_options(o: ResponseOptions) -> None:
@@ -403,6 +410,12 @@ def _check_response_options(o: ResponseOptions) -> None:
         raise InputError(f"--u-initial-phase-deg must be a standard uncertainty in [0, 180) deg, got {u0!r}")
     if u0 > 0 and o.initial_phase_deg is None:
         raise InputError("--u-initial-phase-deg is the uncertainty of --initial-phase-deg: give that too")
+    if (o.encoder_lines is not None or o.u_angle_deg) and o.angle is None:
+        raise InputError("--encoder-lines and --u-angle-deg describe the turntable angle channel: give --angle NAME")
+    if o.encoder_lines is not None and not (int(o.encoder_lines) == o.encoder_lines and o.encoder_lines >= 4):
+        raise InputError(f"--encoder-lines must be a whole number of counts per revolution (>= 4), got {o.encoder_lines!r}")
+    if not (math.isfinite(o.u_angle_deg) and 0 <= o.u_angle_deg < 180):
+        raise InputError(f"--u-angle-deg must be a standard uncertainty in [0, 180) deg, got {o.u_angle_deg!r}")
     if o.phase_reference is not None:
         if o.angle is None:
             raise InputError("--phase-reference is a double-centrifuge run fitted against the turntable angle: give --angle")
@@ -438,7 +451,8 @@ def _response_points(srcs, freqs, amplitudes, o, *, progress: Progress, job: str
             static_sensitivity=s0, initial_phase=phi0,
             u_input_phase=math.radians(o.u_initial_phase_deg), u_input=o.u_input,
             u_reference_sensitivity=o.u_reference, u_static_sensitivity=o.u_static_sensitivity, drift=o.drift,
-            harmonics=o.harmonics, source=label, unit=unit), rec.time, job,
+            harmonics=o.harmonics, encoder_lines=o.encoder_lines, u_angle=math.radians(o.u_angle_deg),
+            source=label, unit=unit), rec.time, job,
             y=output if f is not None else None, known_hz=f))
     ref = (s_ref, units.unit("reference") + "/(m/s^2)") if o.reference else (None, "")
     return points, unit, s0, ref
@@ -458,7 +472,7 @@ def _measured_phase_reference(srcs, o: ResponseOptions):
     units = _Units(o.output_unit)
     ref = phase_reference_run(rec[o.output] * units.scale(rec, o.output, "output", label), rec.time,
                               rec[o.angle] * units.scale(rec, o.angle, "angle", label), harmonics=o.harmonics,
-                              drift=o.drift, source=label)
+                              drift=o.drift, encoder_lines=o.encoder_lines, source=label)
     shown = (ref_src.source or "(a recording in memory)") if isinstance(ref_src, Recording) else ref_src
     text = (f"phi_0 = {math.degrees(ref.phase):.4f} deg at encoder zero from the {ref.frequency:.4g} Hz "
             f"run {shown} (its own delay extrapolated from the points above it, odd cubic in frequency)")
@@ -522,6 +536,7 @@ class ResponseResult(JobResult):
                         "phase_delay_deg": _deg(p.phase_delay), "u_phase_delay_deg": _deg(p.u_phase_delay),
                         "U_phase_delay_deg": _deg(_expanded(p.phase_delay_budget)),
                         "phase_reference": p.phase_reference, "warnings": list(p.warnings),
+                        "angle_step_deg": p.angle_step_deg, "angle_model": p.angle_model,
                         "revolutions": p.sync.revolutions if p.sync else None, "n_samples": p.n_samples,
                         "snr_db": p.snr_db, "method": p.method,
                         "sensitivity_budget": p.sensitivity_budget, "normalized_budget": p.normalized_budget,

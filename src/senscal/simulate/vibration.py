@@ -138,7 +138,8 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
                         natural_frequency: float = 40.0, damping: float = 0.6, bias: float = 0.02,
                         noise: float = 2e-3, quadratic: float = 0.0, cubic: float = 0.0, angle_noise_deg: float = 0.0,
                         revolutions: float = 3.4, min_duration: float = 20.0, encoder_zero_deg: float = 0.0,
-                        sensitivity_scatter: float = 0.0, input_scatter: float = 0.0, seed: int | None = None,
+                        sensitivity_scatter: float = 0.0, input_scatter: float = 0.0, encoder_lines: int = 0,
+                        encoder_eccentricity_deg: float = 0.0, seed: int | None = None,
                         ) -> tuple[list[Recording], dict[str, Any]]:
     """Double centrifuge: constant centripetal field turned by a secondary turntable.
 
@@ -189,6 +190,17 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
         about the nominal ``a0`` from record to record (main-arm speed set
         anew); the recordings' metadata and the truth keep the nominal ``a0``,
         the truth's sensitivity is the sensor's own.
+    encoder_lines : int
+        Departure (0, off, by default): the angle comes from an incremental
+        encoder with this many counts per revolution, read as a counter does
+        (``step * floor(angle / step)``, ``step = 360 / lines``), so every
+        reading lies up to one step behind the true angle.  The readings are
+        centred half a step behind, so the input phase at encoder zero that a
+        start-up test with this encoder measures is ``90 + offset + step / 2``
+        deg (``truth["initial_phase_deg"]``).
+    encoder_eccentricity_deg : float
+        Departure: once-per-turn angle error of the encoder (an eccentric
+        disc), ``e sin(theta + beta)`` deg with a random ``beta`` per record.
     seed : int, optional
 
     Returns
@@ -215,6 +227,12 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
     for name, v in (("sensitivity scatter", sensitivity_scatter), ("input scatter", input_scatter)):
         if not 0 <= v < 0.5:
             raise InputError(f"{name} must be a relative standard deviation in [0, 0.5), got {v!r}")
+    if int(encoder_lines) != encoder_lines or encoder_lines < 0 or 0 < encoder_lines < 4:
+        raise InputError(f"encoder lines must be a whole number of counts per revolution (>= 4, 0 = ideal), "
+                         f"got {encoder_lines!r}")
+    if not (math.isfinite(encoder_eccentricity_deg) and 0 <= encoder_eccentricity_deg < 90):
+        raise InputError(f"encoder eccentricity must be in [0, 90) deg, got {encoder_eccentricity_deg!r}")
+    step = 360.0 / encoder_lines if encoder_lines else 0.0
     recs, points = [], []
     for a0 in accs:
         for f in freqs:
@@ -231,7 +249,13 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
             x = a_true * abs(h) * np.cos(np.radians(theta) + np.angle(h))
             out = s0 * (x + quadratic * x**2 + cubic * x**3) + bias + rng.normal(0.0, noise, n)
             theta_enc = theta - encoder_zero_deg if encoder_zero_deg else theta
-            angle = np.mod(theta_enc + rng.normal(0.0, angle_noise_deg, n) if angle_noise_deg > 0 else theta_enc, 360.0)
+            if encoder_eccentricity_deg:
+                theta_enc = theta_enc + encoder_eccentricity_deg * np.sin(np.radians(theta) + rng.uniform(0, 2 * math.pi))
+            if angle_noise_deg > 0:
+                theta_enc = theta_enc + rng.normal(0.0, angle_noise_deg, n)
+            if step:
+                theta_enc = step * np.floor(theta_enc / step)
+            angle = np.mod(theta_enc, 360.0)
             recs.append(Recording(channels={"angle": angle, "output": out}, t=t, units={"angle": "deg", "output": "V"},
                                   metadata={"simulator": "centrifuge", "frequency_hz": f, "acceleration": a0}))
             amp_x = a_true * abs(h)
@@ -242,8 +266,9 @@ def simulate_centrifuge(*, frequencies: Sequence[float] = (0.1, 1.0, 5.0, 10.0),
                            "main_speed_rad_s": math.sqrt(a_true / arm_radius)})
     truth = {"static_sensitivity": static_sensitivity, "unit": "V/(m/s^2)", "natural_frequency_hz": natural_frequency,
              "damping": damping, "bias": bias, "noise_std": noise, "quadratic": quadratic, "cubic": cubic,
-             "arm_radius_m": arm_radius, "encoder_zero_deg": encoder_zero_deg,
-             "initial_phase_deg": 90.0 + encoder_zero_deg, "sensitivity_scatter": sensitivity_scatter,
+             "arm_radius_m": arm_radius, "encoder_zero_deg": encoder_zero_deg, "encoder_lines": int(encoder_lines),
+             "encoder_eccentricity_deg": encoder_eccentricity_deg,
+             "initial_phase_deg": 90.0 + encoder_zero_deg + 0.5 * step, "sensitivity_scatter": sensitivity_scatter,
              "input_scatter": input_scatter, "points": points}
     return recs, truth
 

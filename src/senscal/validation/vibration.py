@@ -23,6 +23,12 @@ Departures:
   unseen: declare it).
 * ``cubic-2e-6``: a 0.2 % cubic nonlinearity: the linearity is resolved and
   must cover.
+* ``encoder-N-lines``: the angle comes from an encoder with N counts per
+  revolution read as a counter (``simulate_centrifuge(encoder_lines=N)``,
+  issue 25 item 7): the steps are an error in the regressor.  The step is
+  detected in the readings (not declared), the fit uses the constant-speed
+  line through them, and what the steps leave is the budget component
+  ``encoder step``: S, S/S0 and the phase delay must cover.
 """
 
 from __future__ import annotations
@@ -93,7 +99,8 @@ run_velocity_white.full_seeds = 400
 run_velocity_scatter.full_seeds = 400
 
 
-def _response(case: str, n_seeds: int, seed0: int, *, encoder_zero: float, phase: str) -> list[CoverageRow]:
+def _response(case: str, n_seeds: int, seed0: int, *, encoder_zero: float, phase: str,
+              encoder_lines: int = 0) -> list[CoverageRow]:
     """phase: 'entered' (phi_0 known to u = 0.001 deg), 'none' (nothing) or 'run' (a start-up run).
 
     The points of one seed share phi_0 (entered or measured once), so their
@@ -104,7 +111,7 @@ def _response(case: str, n_seeds: int, seed0: int, *, encoder_zero: float, phase
     u_entered = math.radians(0.001)
     for seed in range(seed0, seed0 + n_seeds):
         recs, truth = simulate_centrifuge(frequencies=_CF_FREQS, min_duration=_CF_DURATION,
-                                          encoder_zero_deg=encoder_zero, seed=seed)
+                                          encoder_zero_deg=encoder_zero, encoder_lines=encoder_lines, seed=seed)
         rng = np.random.default_rng(10_000_000 + seed)
         phi0 = None
         if phase == "entered":
@@ -117,7 +124,8 @@ def _response(case: str, n_seeds: int, seed0: int, *, encoder_zero: float, phase
         if phase == "run":
             # the paper's start-up test: a slow run before the response points
             rr, _ = simulate_centrifuge(frequencies=(0.25,), min_duration=_CF_DURATION,
-                                        encoder_zero_deg=encoder_zero, seed=20_000_000 + seed)
+                                        encoder_zero_deg=encoder_zero, encoder_lines=encoder_lines,
+                                        seed=20_000_000 + seed)
             ref = phase_reference_run(rr[0]["output"], rr[0].time, rr[0]["angle"], source="startup")
             pts = list(apply_phase_reference(pts, ref))
         for p, t in zip(pts, truth["points"]):
@@ -130,6 +138,8 @@ def _response(case: str, n_seeds: int, seed0: int, *, encoder_zero: float, phase
     note = {"entered": "phi_0 entered (u 0.001 deg)", "none": "phi_0 neither entered nor measured",
             "run": "phi_0 from a 0.25 Hz start-up run"}[phase]
     note = (f"encoder zero {encoder_zero:g} deg off; " if encoder_zero else "white noise; ") + note
+    if encoder_lines:
+        note = f"{encoder_lines}-count encoder (step detected); " + note
     expect = "warn" if phase == "none" else "cover"
     return [coverage_row(JOB, case, "response S", s, us, ts, note=note),
             coverage_row(JOB, case, "response S/S0", r, ur, tr, note=note),
@@ -158,6 +168,22 @@ def run_response_encoder_run(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 for _f in (run_response_white, run_response_encoder_unknown, run_response_encoder_entered, run_response_encoder_run):
     _f.full_seeds = 400
+
+
+def _encoder_lines_scenario(lines: int, phase: str):
+    def run(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+        return _response(f"response-encoder-{lines}-lines" + ("+reference-run" if phase == "run" else ""),
+                         n_seeds, seed0, encoder_zero=0.0, phase=phase, encoder_lines=lines)
+
+    run.__doc__ = (f"{lines}-count turntable encoder (issue 25 item 7), phi_0 "
+                   + ("from a start-up run with the same encoder" if phase == "run" else "entered")
+                   + ": S, S/S0 and the phase delay cover (the step in their budgets).")
+    run.full_seeds = 400
+    return run
+
+
+_ENCODER_SCENARIOS = {f"response-encoder-{n}-lines": _encoder_lines_scenario(n, "entered") for n in (1024, 4096, 16384)}
+_ENCODER_SCENARIOS["response-encoder-1024-lines+reference-run"] = _encoder_lines_scenario(1024, "run")
 
 
 def _repeats(case: str, scatter: float, n_seeds: int, seed0: int) -> list[CoverageRow]:
@@ -274,6 +300,7 @@ SCENARIOS = {
     "response-encoder-zero-5deg": run_response_encoder_unknown,
     "response-encoder-zero-5deg+entered": run_response_encoder_entered,
     "response-encoder-zero-5deg+reference-run": run_response_encoder_run,
+    **_ENCODER_SCENARIOS,
     "repeats-white": run_repeats_white,
     "repeats-remount-0.1%": run_repeats_remount,
     "linearity-white": run_linearity_white,

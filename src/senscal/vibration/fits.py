@@ -21,7 +21,8 @@ from senscal._result import ResultMixin
 from senscal.errors import DataError, TooFewSamplesError
 from senscal.sinefit import SineFit, fit_sine, wrap_phase
 
-__all__ = ["PairFit", "fit_pair", "AngleSync", "cut_whole_revolutions", "fit_against_angle"]
+__all__ = ["PairFit", "fit_pair", "AngleSync", "cut_whole_revolutions", "fit_against_angle", "angle_step",
+           "EncoderAngle", "encoder_angle", "encoder_effect"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -243,3 +244,237 @@ def fit_against_angle(y, angle_deg, *, harmonics: int = 1, drift: bool = False) 
     a = np.unwrap(np.asarray(angle_deg, dtype=float), period=360.0)
     psi = np.radians(a if a[-1] >= a[0] else -a)
     return fit_sine(y, psi, freq=1.0 / TWO_PI, harmonics=harmonics, drift=drift)
+
+
+# ---------------------------------------------------------------------------
+# Quantised turntable encoders
+# ---------------------------------------------------------------------------
+
+# Steps finer than this (deg) are not told from float round-off of a written angle
+# (2^28 counts per revolution are 1.3e-6 deg).
+_STEP_TOL_DEG = 1e-6
+# Offsets of the count grid against the true angle over which the encoder's effect is averaged
+# (stratified: the 95 % quantile of a bounded error to about 1/32 of its range).
+_GRID_OFFSETS = 32
+
+
+def _float_gcd(a: float, b: float, tol: float) -> float:
+    while b > tol:
+        a, b = b, math.fmod(a, b)
+        if a - b <= tol:  # remainder one tolerance short of a full step: it is the step
+            b = 0.0
+    return a
+
+
+def angle_step(angle_deg, t) -> float | None:
+    """Step size of a quantised angle channel (an incremental encoder's count), degrees.
+
+    The readings of an encoder with ``L`` counts per revolution are multiples
+    of ``360 / L`` (plus a constant).  The step is the greatest common divisor
+    of the gaps between the distinct readings (Euclid's algorithm with a
+    round-off tolerance of 1e-6 deg), accepted when every gap is a whole number
+    of steps to 1 % of a step and the readings depart from a constant-speed
+    line by more than 1 % of a step.  The last condition tells a quantised
+    angle from an exact one sampled at a rational fraction of a revolution
+    (10 samples a turn repeat 10 angles, 36 deg apart, without any
+    quantisation); it also means that a quantised angle whose increment per
+    sample is a whole number of steps cannot be detected (its readings lie
+    on a line, one constant error below the true angle): declare the
+    encoder then (``encoder_lines``).
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (N,)
+        Angle readings in degrees (wrapped or cumulative).
+    t : array_like, shape (N,)
+        Time stamps in s.
+
+    Returns
+    -------
+    float or None
+        The step in degrees, or None for a channel that is not quantised
+        (a float angle, an interpolated encoder) or where it cannot be told.
+    """
+    a = np.asarray(angle_deg, dtype=float)
+    if a.size < 3 or not np.all(np.isfinite(a)):
+        return None
+    v = np.unique(np.mod(a, 360.0))
+    if v.size < 3:
+        return None
+    gaps = np.diff(v)
+    gaps = gaps[gaps > _STEP_TOL_DEG]
+    if gaps.size < 2:
+        return None
+    g = float(gaps.min())
+    for x in gaps:
+        g = _float_gcd(float(x), g, _STEP_TOL_DEG)
+        if g < 100 * _STEP_TOL_DEG:
+            return None
+    k = gaps / g
+    if np.max(np.abs(k - np.round(k))) > 0.01:
+        return None
+    tc = np.asarray(t, dtype=float) - float(np.mean(t))
+    u = np.unwrap(a, period=360.0)
+    dev = u - np.polyval(np.polyfit(tc, u, 1), tc)
+    if np.ptp(dev) <= 0.01 * g:
+        return None
+    return g
+
+
+@dataclass(frozen=True)
+class EncoderAngle(ResultMixin):
+    """The turntable angle a fit uses, when the encoder is quantised.
+
+    Attributes
+    ----------
+    step_deg : float or None
+        Encoder step in degrees (declared ``360 / lines`` or detected from the
+        readings); None when the angle is not quantised.
+    detected : bool
+        True when the step came from the readings (:func:`angle_step`).
+    model : str
+        ``"readings"`` (the angle as recorded) or ``"straight line"`` (a
+        constant-speed line through the quantised readings, used when the
+        readings stay within one step of it: the quantisation is then
+        averaged over the record instead of entering every sample).
+    angle_deg : ndarray
+        The angle the output is fitted against, degrees (unwrapped).
+    """
+
+    step_deg: float | None
+    detected: bool
+    model: str
+    angle_deg: np.ndarray
+
+
+def encoder_angle(angle_deg, t, *, step_deg: float | None = None) -> EncoderAngle:
+    """The angle to fit an already cut record against, and the encoder's step.
+
+    A quantised reading ``r = theta - e`` carries an error ``e`` of up to one
+    step in the *regressor*; when the turntable turns at constant speed
+    within the quantisation (every reading within one step of a straight line
+    in time), the line through the readings is the better angle: it averages
+    the steps over the record.  With speed variations larger than a step the
+    readings themselves are used.  Either way :func:`encoder_effect` gives the
+    error the step leaves in the fitted amplitude and phase.
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (N,)
+        Angle readings of the cut record, degrees.
+    t : array_like, shape (N,)
+        Time stamps in s.
+    step_deg : float, optional
+        Declared step (``360 / counts per revolution``); the detected step is
+        used when it is coarser (the readings cannot be finer than they are).
+
+    Returns
+    -------
+    EncoderAngle
+    """
+    a = np.unwrap(np.asarray(angle_deg, dtype=float), period=360.0)
+    found = angle_step(angle_deg, t)
+    step, detected = step_deg, False
+    if found is not None and (step is None or found > step * (1 + 1e-6)):
+        step, detected = found, True
+    if step is None:
+        return EncoderAngle(None, False, "readings", a)
+    t = np.asarray(t, dtype=float)
+    line = np.polyval(np.polyfit(t - t.mean(), a, 1), t - t.mean())
+    dev = a - line
+    # Pure quantisation keeps every reading within one step of the line (the error lies in [0, step));
+    # 10 % more allows for the line's own estimation error.
+    if np.ptp(dev) <= 1.1 * step:
+        return EncoderAngle(float(step), detected, "straight line", line)
+    return EncoderAngle(float(step), detected, "readings", a)
+
+
+def _quantile_with_noise(delta: np.ndarray, u_fit: float, level: float = 0.95) -> float:
+    """Half-width ``x`` with ``P(|delta + n| <= x) = level``, ``delta`` uniform over the samples, ``n ~ N(0, u_fit^2)``."""
+    from scipy.special import ndtr
+
+    d = np.abs(np.asarray(delta, dtype=float))
+    if u_fit <= 0:
+        return float(np.quantile(d, level))
+    lo, hi = 0.0, float(d.max()) + 4.0 * u_fit
+    for _ in range(3):  # the coverage grows monotonically with x: bracket it on a grid, three times finer each pass
+        xs = np.linspace(lo, hi, 65)
+        cov = np.mean(ndtr((xs[:, None] - d) / u_fit) - ndtr((-xs[:, None] - d) / u_fit), axis=1)
+        i = int(np.searchsorted(cov, level))
+        lo, hi = xs[max(i - 1, 0)], xs[min(i, xs.size - 1)]
+    return 0.5 * (lo + hi)
+
+
+def encoder_effect(enc: EncoderAngle, t, amplitude: float, phase: float, *, u_amplitude: float, u_phase: float,
+                   harmonics: int = 1, drift: bool = False) -> tuple[float, float]:
+    """Type B standard uncertainties the encoder step leaves in a fit against the angle.
+
+    The error of a quantised angle depends on where the count grid lies
+    against the true angle, which no record shows: it is uniform over one
+    step.  The fit is repeated, noise-free, on :data:`_GRID_OFFSETS` grid
+    positions spread over a step: the true angle is the smooth model of the
+    record (the constant-speed line), the output ``A sin(angle + phi)``, the
+    readings that angle quantised on the shifted grid (reading the centre of
+    each count) and the angle fitted against them processed as the record's
+    was (:attr:`EncoderAngle.model`).  The spread of the fitted amplitude and
+    phase is the quantisation's effect through this record's own sampling
+    (aliased steps included), a Monte-Carlo propagation of a rectangular
+    input (JCGM 101).  Its distribution is bounded, not normal, so it is
+    combined with the fit's normal ``u`` into the 95 % half-width ``U`` of
+    the sum, and the component returned is ``sqrt((U/2)^2 - u_fit^2)``: the
+    budget's rule ``U = 2 sqrt(sum u^2)`` then gives that 95 % interval.
+
+    Parameters
+    ----------
+    enc : EncoderAngle
+        From :func:`encoder_angle` (``step_deg`` set).
+    t : array_like, shape (N,)
+        Time stamps of the cut record, s.
+    amplitude, phase : float
+        The fitted amplitude (output unit) and phase at angle 0 (rad).
+    u_amplitude, u_phase : float
+        The fit's own standard uncertainties.
+    harmonics, drift :
+        As the record's fit.
+
+    Returns
+    -------
+    u_amplitude_b, u_phase_b : float
+        Standard uncertainties of the amplitude (output unit) and the phase (rad).
+    """
+    if enc.step_deg is None or not amplitude > 0:
+        return 0.0, 0.0
+    t = np.asarray(t, dtype=float)
+    a = np.asarray(enc.angle_deg, dtype=float)
+    sign = 1.0 if a[-1] >= a[0] else -1.0
+    tc = t - t.mean()
+    truth = np.polyval(np.polyfit(tc, sign * a, 1), tc)  # increasing, as fit_against_angle makes it
+    step = float(enc.step_deg)
+    off = (np.arange(_GRID_OFFSETS) + 0.5) / _GRID_OFFSETS * step
+    read = step * (np.floor((truth[None, :] + off[:, None]) / step) + 0.5) - off[:, None]
+    if enc.model == "straight line":
+        # the same constant-speed line through each set of readings (tc is centred: closed form)
+        slope = (read @ tc) / float(tc @ tc)
+        read = read.mean(axis=1)[:, None] + slope[:, None] * tc[None, :]
+    psi_true = np.radians(truth)
+    y = amplitude * np.sin(psi_true + phase)
+    psi = np.radians(read)
+    cols = []
+    for k in range(1, harmonics + 1):
+        cols += [np.sin(k * psi), np.cos(k * psi)]
+    cols.append(np.ones_like(psi))
+    if drift:
+        cols.append(np.broadcast_to(psi_true - psi_true.mean(), psi.shape))
+    x = np.stack(cols, axis=1)                        # (M, p, N)
+    g = np.matmul(x, x.transpose(0, 2, 1))
+    b = x @ y
+    c = np.linalg.solve(g, b[..., None])[..., 0]
+    amp = np.hypot(c[:, 0], c[:, 1])
+    ph = np.arctan2(c[:, 1], c[:, 0])
+    d_amp = amp - amplitude
+    d_ph = np.asarray(wrap_phase(ph - phase))
+    out = []
+    for d, u in ((d_amp, float(u_amplitude)), (d_ph, float(u_phase))):
+        half = _quantile_with_noise(d, u)
+        out.append(math.sqrt(max((0.5 * half) ** 2 - u * u, 0.0)))
+    return out[0], out[1]

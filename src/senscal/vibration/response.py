@@ -24,7 +24,8 @@ from senscal.errors import DataError, FileFormatError, InputError
 from senscal.sinefit import fit_sine, wrap_phase
 from senscal.vibration.budget import (BudgetComponent, UncertaintyBudget, make_budget, mean_with_budget,
                                      unique_warnings)
-from senscal.vibration.fits import AngleSync, cut_whole_revolutions, fit_against_angle, fit_pair
+from senscal.vibration.fits import (AngleSync, cut_whole_revolutions, encoder_angle, encoder_effect, fit_against_angle,
+                                    fit_pair)
 
 __all__ = ["ResponsePoint", "FrequencyResponse", "RepeatedPoint", "PhaseReference", "response_point",
            "frequency_response", "phase_reference_run", "apply_phase_reference", "combine_repeats",
@@ -71,6 +72,15 @@ class ResponsePoint(ResultMixin):
         Samples used in the fit.
     snr_db : float
         Output fit signal-to-noise ratio.
+    angle_step_deg : float or None
+        Step of a quantised turntable encoder (declared or detected in the
+        angle channel), degrees; its effect is the budget component
+        ``"encoder step"`` of the sensitivity and the phase delay.  None when
+        the angle is not quantised (or not used).
+    angle_model : str or None
+        The angle the output was fitted against: ``"readings"`` or
+        ``"straight line"`` (constant-speed line through quantised readings);
+        None without an angle channel.
     phase_reference : str
         How the input phase ``phi_0`` behind ``phase_delay`` was obtained:
         ``"entered"``, ``"reference run"``, ``"reference channel"``,
@@ -104,6 +114,8 @@ class ResponsePoint(ResultMixin):
     snr_db: float
     phase_reference: str = "none"
     warnings: tuple[str, ...] = ()
+    angle_step_deg: float | None = None
+    angle_model: str | None = None
 
 
 def _fit_dof(fit) -> float:
@@ -121,6 +133,35 @@ def _fit_warnings(*fits) -> tuple[str, ...]:
     return tuple(out)
 
 
+def _angle_fit_warnings(fit, enc) -> tuple[str, ...]:
+    """The angle fit's warnings, with a ``coloured-noise`` sentence that says what its u really assumes.
+
+    The sine fit's own sentence speaks of a time base; against the turntable
+    angle the abscissa is the angle, and with a quantised encoder the
+    readings' steps are one cause of a correlated residual.
+    """
+    out = []
+    for w in _fit_warnings(fit):
+        if not w.startswith("coloured-noise:"):
+            out.append(w)
+            continue
+        r1 = float(getattr(fit, "residual_lag1", float("nan")))
+        if str(getattr(fit, "noise_model", "white")) == "coloured":
+            said = ("u of the fit uses the residual's noise spectrum at the turntable frequency (the angle steps are "
+                    "uniform)")
+        else:
+            said = ("u of the fit assumes white noise: the angle steps are not uniform, so no noise spectrum was "
+                    "fitted, and u can be too small")
+        cause = ("check the output for interference or drift, and the angle channel for speed ripple"
+                 if enc.step_deg is None else
+                 f"the encoder's {enc.step_deg:.3g} deg steps are in u as the type B component 'encoder step', so a "
+                 "residual correlated by them alone is covered; otherwise check the output for interference or drift")
+        out.append(named("coloured-noise", (
+            f"the output's residual against the turntable angle is correlated (lag-1 autocorrelation {r1:.2f}); "
+            f"{said}; {cause}")))
+    return tuple(out)
+
+
 def _check_rel(name: str, value: float) -> float:
     value = float(value)
     if not math.isfinite(value) or value < 0:
@@ -133,7 +174,8 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
                    static_sensitivity: float | None = None, initial_phase: float | None = None,
                    u_input: float = 0.0, u_reference_sensitivity: float = 0.0,
                    u_static_sensitivity: float = 0.0, u_input_phase: float = 0.0, drift: bool = False,
-                   harmonics: int = 1, source: str = "", unit: str = "V/(m/s^2)") -> ResponsePoint:
+                   harmonics: int = 1, encoder_lines: int | None = None, u_angle: float = 0.0, source: str = "",
+                   unit: str = "V/(m/s^2)") -> ResponsePoint:
     """Sensitivity, normalised sensitivity, phase and phase delay at one frequency.
 
     Three ways to know the input:
@@ -188,6 +230,19 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         fitting them keeps them out of the residual, so the fundamental's
         uncertainty stays the noise's (the fundamental itself is orthogonal to
         them over whole revolutions).
+    encoder_lines : int, optional
+        Counts per revolution of the turntable encoder (with ``angle_deg``):
+        its step ``360 / lines`` deg is an error in the regressor.  Without it
+        the step is detected in the angle channel (:func:`~senscal.vibration.fits.angle_step`);
+        either way the fit uses a constant-speed line through the readings when
+        they allow it, and the step's remaining effect on the amplitude and
+        phase (:func:`~senscal.vibration.fits.encoder_effect`) is the type B
+        component ``"encoder step"`` of the sensitivity and phase-delay budgets.
+    u_angle : float
+        Type B standard uncertainty of the encoder's angle reading in rad
+        (its accuracy specification: an angle error constant over the record
+        moves the phase one for one); a once-per-turn error (eccentric disc)
+        leaves the fundamental's amplitude and phase unchanged to first order.
     source : str
         Label stored with the result.
     unit : str
@@ -206,7 +261,14 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
     u_reference_sensitivity = _check_rel("u_reference_sensitivity", u_reference_sensitivity)
     u_static_sensitivity = _check_rel("u_static_sensitivity", u_static_sensitivity)
     u_input_phase = _check_rel("u_input_phase", u_input_phase)
+    u_angle = _check_rel("u_angle", u_angle)
+    if encoder_lines is not None and not (int(encoder_lines) == encoder_lines and encoder_lines >= 4):
+        raise InputError(f"encoder lines must be a whole number of counts per revolution (>= 4), got {encoder_lines!r}")
+    if (encoder_lines is not None or u_angle) and angle_deg is None:
+        raise InputError("encoder lines and the angle's u describe a turntable angle channel: give the angle too")
     y = np.asarray(output, dtype=float)
+    enc = None
+    u_amp_q = u_ph_q = 0.0
     t = np.asarray(t, dtype=float)
     sync = None
     if reference is not None:
@@ -237,9 +299,14 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         if angle_deg is not None:
             sync = cut_whole_revolutions(angle_deg, t)
             sl = slice(sync.start, sync.stop)
-            fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics, drift=drift)
+            enc = encoder_angle(np.asarray(angle_deg, dtype=float)[sl], t[sl],
+                                step_deg=None if encoder_lines is None else 360.0 / encoder_lines)
+            fit = fit_against_angle(y[sl], enc.angle_deg, harmonics=harmonics, drift=drift)
+            u_amp_q, u_ph_q = encoder_effect(enc, t[sl], float(fit.amplitude), float(fit.phase),
+                                             u_amplitude=float(fit.u_amplitude), u_phase=float(fit.u_phase),
+                                             harmonics=harmonics, drift=drift)
             f, u_f = sync.frequency, sync.u_frequency
-            warns = _fit_warnings(fit)
+            warns = _angle_fit_warnings(fit, enc)
             if initial_phase is None:
                 # The axis sees a0 cos(angle) = a0 sin(angle + pi/2) only if
                 # encoder zero lies along the field: an assumption, said aloud.
@@ -266,7 +333,10 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         s = a_out / a_in
         u_fit = u_amp / a_in
         comps_b = [("input amplitude", "B", u_input * s)]
-        phase, u_phase = float(fit.phase), float(fit.u_phase)
+        if enc is not None and enc.step_deg is not None:
+            comps_b.append(("encoder step", "B", u_amp_q / a_in))
+        # the output phase at angle 0 carries the encoder's steps too (apply_phase_reference uses it)
+        phase, u_phase = float(fit.phase), math.hypot(float(fit.u_phase), u_ph_q)
         n, snr = fit.n_samples, float(fit.snr_db)
         dof = _fit_dof(fit)
     if not a_out > 0:
@@ -284,8 +354,12 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
                                 for c in s_budget.components] + [("static sensitivity S0", "B", u_static_sensitivity * r)])
     d_budget = None
     if delay is not None:
-        d_budget = make_budget("phase delay", delay, "rad", [("phase fits (type A)", "A", u_delay_fit, dof),
-                                                             ("input phase", "B", u_input_phase)])
+        d_comps = [("phase fits (type A)", "A", u_delay_fit, dof), ("input phase", "B", u_input_phase)]
+        if enc is not None and enc.step_deg is not None:
+            d_comps.append(("encoder step", "B", u_ph_q))
+        if u_angle:
+            d_comps.append(("angle reading", "B", u_angle))
+        d_budget = make_budget("phase delay", delay, "rad", d_comps)
     return ResponsePoint(
         source=source, method=method, frequency=float(f), u_frequency=float(u_f), input_amplitude=a_in,
         output_amplitude=a_out, u_output_amplitude=u_amp, sensitivity=s, u_sensitivity=s_budget.combined,
@@ -295,6 +369,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         phase_delay=delay, u_phase_delay=None if d_budget is None else d_budget.combined,
         sensitivity_budget=s_budget, normalized_budget=n_budget, phase_delay_budget=d_budget,
         sync=sync, n_samples=int(n), snr_db=snr, phase_reference=phase_ref, warnings=warns,
+        angle_step_deg=None if enc is None else enc.step_deg, angle_model=None if enc is None else enc.model,
     )
 
 
@@ -324,7 +399,7 @@ class PhaseReference(ResultMixin):
 
 
 def phase_reference_run(output, t, angle_deg, *, harmonics: int = 1, drift: bool = False,
-                        source: str = "") -> PhaseReference:
+                        encoder_lines: int | None = None, source: str = "") -> PhaseReference:
     """Fit a start-up / lowest-frequency run against the turntable angle.
 
     Parameters
@@ -335,8 +410,8 @@ def phase_reference_run(output, t, angle_deg, *, harmonics: int = 1, drift: bool
         Time stamps in s.
     angle_deg : array_like, shape (N,)
         Turntable angle in degrees (same encoder as the response records).
-    harmonics, drift :
-        As in :func:`response_point`.
+    harmonics, drift, encoder_lines :
+        As in :func:`response_point` (a quantised encoder's step is in ``u_phase``).
     source : str
         Label stored with the result.
 
@@ -352,10 +427,16 @@ def phase_reference_run(output, t, angle_deg, *, harmonics: int = 1, drift: bool
     y = np.asarray(output, dtype=float)
     sync = cut_whole_revolutions(angle_deg, t)
     sl = slice(sync.start, sync.stop)
-    fit = fit_against_angle(y[sl], np.asarray(angle_deg, dtype=float)[sl], harmonics=harmonics, drift=drift)
+    t = np.asarray(t, dtype=float)
+    enc = encoder_angle(np.asarray(angle_deg, dtype=float)[sl], t[sl],
+                        step_deg=None if encoder_lines is None else 360.0 / encoder_lines)
+    fit = fit_against_angle(y[sl], enc.angle_deg, harmonics=harmonics, drift=drift)
     if not float(fit.amplitude) > 0:
         raise DataError(f"the phase-reference run {source} carries no sinusoid; check the file and --output")
-    return PhaseReference(source, float(sync.frequency), float(fit.phase), float(fit.u_phase), _fit_dof(fit))
+    _, u_q = encoder_effect(enc, t[sl], float(fit.amplitude), float(fit.phase), u_amplitude=float(fit.u_amplitude),
+                            u_phase=float(fit.u_phase), harmonics=harmonics, drift=drift)
+    return PhaseReference(source, float(sync.frequency), float(fit.phase), math.hypot(float(fit.u_phase), u_q),
+                          _fit_dof(fit))
 
 
 def apply_phase_reference(points: Sequence[ResponsePoint], ref: PhaseReference) -> tuple[ResponsePoint, ...]:
