@@ -266,6 +266,12 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
             warnings.append(named(nm, f"channel {c!r}: {w[len(nm) + 2:]}") if nm else f"channel {c!r}: {w}")
     for c, r in reasons.items():
         warnings.append(named("channel-not-fitted", f"channel {c!r} was not fitted: {r}"))
+    if freq is not None:
+        # A --freq the data do not have is fitted without complaint; a free-frequency fit says so.
+        from senscal.sinefit.freqcheck import frequency_mismatch
+
+        warnings += [w for w in (frequency_mismatch(y[chans.index(c)], rec.time, freq, harmonics=harmonics, name=c)
+                                 for c in fits) if w]
     ordered = {c: fits[c] for c in chans if c in fits}
     return FitResult(file=name, channels=ordered, not_fitted=dict(reasons),
                      units={c: rec.unit(c) for c in ordered}, warnings=tuple(warnings))
