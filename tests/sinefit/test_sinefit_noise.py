@@ -69,9 +69,15 @@ def test_false_alarm_rate_on_white_noise_and_cost_of_a_false_alarm():
     err_auto = np.sqrt(np.mean((auto.u_amplitude / u_true - 1) ** 2))
     err_white = np.sqrt(np.mean((white.u_amplitude / u_true - 1) ** 2))
     assert err_auto <= 1.1 * err_white
-    # Where it does not fire the result is the white-noise (Cramer-Rao) one, bit for bit.
-    np.testing.assert_array_equal(auto.u_amplitude[~fired], white.u_amplitude[~fired])
-    assert np.all(auto.dof_effective[~fired] == n - 3)
+    # The variance-against-phase test (jitter) fires on 1 % of white records too, and only where the
+    # whiteness test did not.
+    het = np.asarray(auto.noise_model) == "phase-dependent"
+    lo, hi = wilson_interval(int(het.sum()), m)
+    assert lo <= 0.01 <= hi
+    # Where neither fires the result is the white-noise (Cramer-Rao) one, bit for bit.
+    plain = ~fired & ~het
+    np.testing.assert_array_equal(auto.u_amplitude[plain], white.u_amplitude[plain])
+    assert np.all(auto.dof_effective[plain] == n - 3)
 
 
 def test_white_model_forced_on_coloured_noise_is_named():

@@ -95,6 +95,8 @@ def fit_summary(fit: SineFit) -> dict:
         "dof_effective": float(fit.dof_effective),
         "residual_lag1": float(fit.residual_lag1),
     }
+    if np.isfinite(fit.jitter_rms):
+        d["jitter_rms_s"] = float(fit.jitter_rms)
     if fit.thd is not None:
         d["thd_percent"] = 100.0 * float(fit.thd)
         d["harmonic_amplitudes"] = np.asarray(fit.harmonic_amplitudes).tolist()
@@ -149,7 +151,15 @@ class FitResult(JobResult):
     units : mapping of str to str
         Unit of each fitted channel ('' when the file gives none).
     warnings : tuple of str
-        Named warnings (``coloured-noise``, ``channel-not-fitted`` ...).
+        Named warnings (``coloured-noise``, ``channel-not-fitted``, ``clipped``,
+        ``under-dithered``, ``inconsistent-blocks`` ...).
+    instrument : mapping of str to InstrumentFindings
+        Per fitted channel: what the samples show about the converter
+        (clipping, quantisation) and what the fit did about it
+        (:mod:`senscal.io.instrument`).
+    consistency : mapping of str to BlockConsistency
+        Per fitted channel: the refit on consecutive blocks of the record
+        (:mod:`senscal.consistency`); absent for records too short for blocks.
     """
 
     job: ClassVar[str] = "fit"
@@ -159,10 +169,25 @@ class FitResult(JobResult):
     not_fitted: Mapping[str, str] = field(default_factory=dict)
     units: Mapping[str, str] = field(default_factory=dict)
     warnings: tuple[str, ...] = ()
+    instrument: Mapping[str, Any] = field(default_factory=dict)
+    consistency: Mapping[str, Any] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        """The ``senscal fit --json`` document: ``{"file", "channels": {NAME: {...}}, ["not_fitted"], "warnings"}``."""
-        doc: dict[str, Any] = {"file": self.file, "channels": {c: fit_summary(f) for c, f in self.channels.items()}}
+        """The ``senscal fit --json`` document: ``{"file", "channels": {NAME: {...}}, ["not_fitted"], "warnings"}``.
+
+        Each channel also holds ``instrument`` (what the samples show about
+        the converter and what was done about it) and ``consistency`` (the
+        block refit) when they were computed.
+        """
+        chans = {}
+        for c, f in self.channels.items():
+            d = fit_summary(f)
+            if c in self.instrument:
+                d["instrument"] = self.instrument[c].to_dict()
+            if c in self.consistency:
+                d["consistency"] = self.consistency[c].to_dict()
+            chans[c] = d
+        doc: dict[str, Any] = {"file": self.file, "channels": chans}
         if self.not_fitted:
             doc["not_fitted"] = dict(self.not_fitted)
         doc["warnings"] = list(self.warnings)
@@ -259,11 +284,29 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
             raise next(iter(failed.values()))
         detail = "; ".join(f"{c!r}: {r}" for c, r in reasons.items())
         raise DataError(f"no channel of {name} could be fitted ({detail})")
+    instrument: dict[str, Any] = {}
+    consistency: dict[str, Any] = {}
+    extra: dict[str, list[str]] = {}
+    for i, c in enumerate(chans):
+        if c not in fits:
+            continue
+        fits[c], instrument[c], w_inst, keep = instrument_check(y[i], rec.time, fits[c], freq=freq,
+                                                                harmonics=harmonics, noise_model=noise_model)
+        blk = block_check(y[i], rec.time, fits[c], harmonics=harmonics, noise_model=noise_model, keep=keep)
+        extra[c] = list(w_inst)
+        if blk is not None:
+            consistency[c] = blk
+            bw = blk.warning()
+            if bw:
+                extra[c].append(bw)
     warnings = []
     for c, f in fits.items():
         for w in f.warnings:
             nm = warning_name(w)
             warnings.append(named(nm, f"channel {c!r}: {w[len(nm) + 2:]}") if nm else f"channel {c!r}: {w}")
+        for w in extra.get(c, ()):
+            nm = warning_name(w)
+            warnings.append(named(nm, f"channel {c!r}: {w[len(nm) + 2:]}"))
     for c, r in reasons.items():
         warnings.append(named("channel-not-fitted", f"channel {c!r} was not fitted: {r}"))
     if freq is not None:
@@ -274,4 +317,184 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
                                  for c in fits) if w]
     ordered = {c: fits[c] for c in chans if c in fits}
     return FitResult(file=name, channels=ordered, not_fitted=dict(reasons),
-                     units={c: rec.unit(c) for c in ordered}, warnings=tuple(warnings))
+                     units={c: rec.unit(c) for c in ordered},
+                     instrument={c: instrument[c] for c in ordered},
+                     consistency={c: consistency[c] for c in ordered if c in consistency},
+                     warnings=tuple(warnings))
+
+
+# A block must hold at least this many samples and periods: with fewer its fit is not the same
+# estimator as the record's (its u rests on too few residuals and cycles).
+_BLOCK_MIN_SAMPLES = 64
+_BLOCK_MIN_PERIODS = 2.0
+BLOCKS = 4
+
+
+def instrument_check(y, t, fit: SineFit, *, freq: float | None = None, harmonics: int = 1,
+                     noise_model: str = "auto"):
+    """Inspect one channel for clipping and quantisation; refit without the clipped samples when needed.
+
+    Parameters
+    ----------
+    y : ndarray, shape (N,)
+        The channel's samples.
+    t : ndarray, shape (N,)
+        Time stamps in s.
+    fit : SineFit
+        The fit of all samples.
+    freq, harmonics, noise_model
+        As the job's options (a refit uses the same).
+
+    Returns
+    -------
+    (fit, findings, warnings, keep)
+        The fit to report (the refit of the samples away from the clip
+        levels when clipping was found and could be handled), the
+        :class:`~senscal.io.instrument.InstrumentFindings`, named warnings
+        (``clipped`` when clipping was found and could not be handled,
+        ``under-dithered``), and the mask of samples the reported fit used
+        (None: all).
+
+    Notes
+    -----
+    Clipping is judged against a fit of the samples *not* at the extremes
+    (:func:`~senscal.io.instrument.clipping_test`); when found, the samples
+    whose model value lies near a clip level are dropped
+    (:func:`~senscal.io.instrument.clip_guard_mask`) and the rest refitted
+    twice, so the selection follows the refit's model.  The refit's time
+    base is not uniform: its u assumes white noise, and a correlated residual
+    is still named.  Handled clipping is stated in the findings
+    (``handled``), not as a warning: the result covers.
+    """
+    import dataclasses
+
+    import numpy as np
+    from scipy.special import ndtri
+
+    from senscal.io.instrument import clip_guard_mask, clipping_test, inspect_channel, quantisation_effect
+    from senscal.sinefit import fit_sine
+
+    y = np.asarray(y, dtype=float)
+    found = inspect_channel(y)
+    warns: list[str] = []
+    keep = None
+    need = 8 * (2 * harmonics + 3)
+    if found.n_samples > need and found.levels > 2:
+        inner = (y > found.low) & (y < found.high)
+        ct = None
+        try:
+            f_in = fit_sine(y[inner], t[inner], freq=freq if freq is not None else float(fit.frequency),
+                            harmonics=harmonics, noise_model="white")
+            model = f_in.evaluate(t)
+            sigma = _local_sigma(y, t, inner, model, f_in)
+            ct = clipping_test(y, model, sigma, lsb=found.lsb)
+        except SenscalError:
+            pass
+        if ct is not None:
+            found = dataclasses.replace(found, clipped_low=ct.clipped_low, clipped_high=ct.clipped_high,
+                                        n_clipped=(found.n_at_low if ct.clipped_low else 0)
+                                        + (found.n_at_high if ct.clipped_high else 0))
+        if found.clipped:
+            lo = found.low if found.clipped_low else None
+            hi = found.high if found.clipped_high else None
+            ends = " and ".join(f"{nm} {v:.6g} ({k} samples)" for nm, v, k, on in (
+                ("low", found.low, found.n_at_low, found.clipped_low),
+                ("high", found.high, found.n_at_high, found.clipped_high)) if on)
+            refit, why = None, ""
+            try:
+                for _ in range(2):
+                    keep = clip_guard_mask(y, model, sigma, low=lo, high=hi, lsb=found.lsb)
+                    if int(keep.sum()) < need:
+                        raise DataError(f"only {int(keep.sum())} samples lie away from the clip levels")
+                    refit = fit_sine(y[keep], t[keep], freq=freq, harmonics=harmonics,
+                                     noise_model="white" if noise_model == "auto" else noise_model)
+                    model = refit.evaluate(t)
+                    sigma = float(refit.residual_rms) * math.sqrt(refit.n_samples / max(refit.dof, 1))
+            except SenscalError as exc:
+                refit, why = None, str(exc)
+            if refit is not None:
+                fit = refit
+                z = float(ndtri(1.0 - 0.5 / y.size))
+                found = dataclasses.replace(found, handled=(
+                    f"clipped at {ends}: fitted only the {int(keep.sum())} of {found.n_samples} samples whose model "
+                    f"value stays {z:.2f} sigma or more inside the clip level (fewer than half a clipped sample "
+                    f"expected among them); u is that fit's",))
+            else:
+                keep = None
+                warns.append(named("clipped", (
+                    f"the signal is clipped at {ends}: the converter saturated, which biases the amplitude and "
+                    f"offset by more than their u, and the samples away from the clip level cannot be fitted "
+                    f"alone ({why}); reduce the gain or widen the input range")))
+    if found.lsb is not None and fit.residual_rms > 0:
+        u_ref = float(min(fit.u_offset, fit.u_amplitude))
+        qe = quantisation_effect(found.lsb, float(fit.residual_rms), u_ref)
+        found = dataclasses.replace(found, under_dithered=qe.under_dithered, noise_lsb=qe.noise_lsb)
+        if qe.under_dithered:
+            warns.append(qe.warning())
+    return fit, found, tuple(warns), keep
+
+
+def _local_sigma(y, t, inner, model, fit: SineFit):
+    """Noise standard deviation about ``model`` at each sample (unit of y).
+
+    One number for constant variance; where the variance follows the phase
+    (jitter is smallest at the crests, exactly where clipping is judged) the
+    fitted variance of each sample, so the clipping test's tails are the crest's.
+    """
+    import numpy as np
+
+    from senscal.sinefit.variance import phase_variance
+
+    r = y[inner] - model[inner]
+    sigma = float(np.sqrt(np.sum(r**2) / max(fit.dof, 1)))
+    th = 2.0 * math.pi * float(fit.frequency) * t + float(fit.phase)
+    pv = phase_variance(r, np.sin(th[inner]), np.cos(th[inner]))
+    if not pv.significant:
+        return sigma
+    var = pv.mean + pv.cos2 * np.cos(2 * th) + pv.sin2 * np.sin(2 * th)
+    return np.sqrt(np.maximum(var, 0.01 * max(pv.mean, 0.0)) * (r.size / max(fit.dof, 1)))
+
+
+def block_check(y, t, fit: SineFit, *, harmonics: int = 1, noise_model: str = "auto", keep=None,
+                blocks: int = BLOCKS):
+    """Refit one channel on consecutive blocks at the record's frequency and test them against their u.
+
+    Parameters
+    ----------
+    y, t : ndarray, shape (N,)
+        Samples and time stamps (s).
+    fit : SineFit
+        The record's fit; its frequency is used in every block so that the
+        phases at t = 0 are comparable.
+    harmonics, noise_model
+        As the job's.
+    keep : ndarray of bool, optional
+        Samples the record's fit used (clipping handled); the blocks use only them.
+    blocks : int
+        Number of blocks.
+
+    Returns
+    -------
+    BlockConsistency or None
+        None when the record is too short for blocks of at least 64 samples
+        and 2 periods each.
+    """
+    import numpy as np
+
+    from senscal.consistency import block_consistency, split_blocks
+    from senscal.sinefit import fit_sine
+
+    y = np.asarray(y, dtype=float)
+    t = np.asarray(t, dtype=float)
+    idx_all = np.arange(y.size) if keep is None else np.flatnonzero(keep)
+    span = float(t[-1] - t[0]) if y.size > 1 else 0.0
+    f0 = float(fit.frequency)
+    if idx_all.size < blocks * _BLOCK_MIN_SAMPLES or span * f0 < blocks * _BLOCK_MIN_PERIODS:
+        return None
+
+    def one(idx):
+        b = fit_sine(y[idx], t[idx], freq=f0, harmonics=harmonics, noise_model=noise_model)
+        return {"amplitude": (b.amplitude, b.u_amplitude), "phase": (b.phase, b.u_phase),
+                "offset": (b.offset, b.u_offset)}
+
+    return block_consistency(one, [idx_all[ix] for ix in split_blocks(idx_all.size, blocks)], circular=("phase",))

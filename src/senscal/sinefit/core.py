@@ -95,10 +95,15 @@ class SineFit(ResultMixin):
         not, so it is the one to quote when ``t_ref`` is far from 0.
     noise_model : str or ndarray of str
         ``"white"``: uncertainties from the residual variance (the residual
-        passed the whiteness test, or was not tested).  ``"coloured"``: the
-        residual was correlated, so the uncertainties come from its
-        autoregressive noise spectrum at the fitted frequency (and at 0 Hz
-        for the offset and drift), propagated through the design matrix.
+        passed the whiteness and constant-variance tests, or was not tested).
+        ``"coloured"``: the residual was correlated, so the uncertainties come
+        from its autoregressive noise spectrum at the fitted frequency (and
+        the model's level near 0 Hz for the offset and drift), propagated
+        through the design matrix.  ``"phase-dependent"``: the residual
+        variance follows the fitted phase (sample-clock/aperture jitter), so
+        the uncertainties come from the heteroscedasticity-consistent
+        (sandwich) covariance with the fitted variance of each sample, and
+        the amplitudes are corrected for the jitter's shrinkage.
     dof_effective : float or ndarray
         Effective degrees of freedom of the uncertainties (``dof`` for white
         noise; from the variance of the noise-spectrum estimate otherwise).
@@ -106,9 +111,22 @@ class SineFit(ResultMixin):
         Lag-one autocorrelation of the residuals (dimensionless; NaN for a
         zero residual).  ``|r1| sqrt(N) > 2.58`` and ``|r1| > 0.01`` is the
         whiteness test's rejection (see :mod:`senscal.sinefit.noise`).
+    variance_phase_stat : float or ndarray
+        Koenker's ``N R^2`` of the squared residual regressed on ``cos 2
+        theta`` and ``sin 2 theta`` (chi-square, 2 dof, for constant
+        variance; NaN when not tested: weights, or coloured noise).
+    jitter_rms : float or ndarray
+        RMS timing jitter (s) estimated from the phase-dependent variance
+        (NaN unless ``noise_model`` is ``"phase-dependent"``).
+    lowfreq_chi2 : float or ndarray
+        Chi-square of the residual's block means against ``u(offset)`` (see
+        :func:`senscal.sinefit.variance.low_frequency_test`; NaN untested).
+    lowfreq_dof : int
+        Its degrees of freedom (0 when untested).
     warnings : tuple of str
-        Named warnings (``coloured-noise``, ``phase-origin-far``) that say
-        what departs from the fit's assumptions and what to do.
+        Named warnings (``coloured-noise``, ``heteroscedastic-noise``,
+        ``low-frequency-noise``, ``phase-origin-far``) that say what departs
+        from the fit's assumptions and what to do.
     """
 
     frequency: Any
@@ -141,6 +159,10 @@ class SineFit(ResultMixin):
     noise_model: Any = "white"
     dof_effective: Any = None
     residual_lag1: Any = float("nan")
+    variance_phase_stat: Any = float("nan")
+    jitter_rms: Any = float("nan")
+    lowfreq_chi2: Any = float("nan")
+    lowfreq_dof: int = 0
     warnings: tuple[str, ...] = ()
 
     @property
@@ -174,9 +196,12 @@ class SineFit(ResultMixin):
         for name in self.__dataclass_fields__:
             v = getattr(self, name)
             kw[name] = v if name in ("parameter_names", "t_ref", "n_samples", "dof", "frequency_estimated",
-                                     "warnings") else pick(v)
+                                     "warnings", "lowfreq_dof") else pick(v)
         kw["warnings"] = fit_warnings(kw["noise_model"], kw["residual_lag1"], kw["dof_effective"], kw["u_phase"],
-                                      self.t_ref, self.n_samples, self.frequency_estimated)
+                                      self.t_ref, self.n_samples, self.frequency_estimated,
+                                      variance_phase_stat=kw["variance_phase_stat"], jitter_rms=kw["jitter_rms"],
+                                      lowfreq_chi2=kw["lowfreq_chi2"], lowfreq_dof=self.lowfreq_dof,
+                                      drift=self.drift is not None)
         return SineFit(**kw)
 
     def evaluate(self, t) -> np.ndarray:
@@ -208,7 +233,8 @@ PHASE_U_LIMIT = 1.0
 
 
 def fit_warnings(noise_model, residual_lag1, dof_effective, u_phase, t_ref: float, n_samples: int,
-                 frequency_estimated: bool) -> tuple[str, ...]:
+                 frequency_estimated: bool, *, variance_phase_stat=float("nan"), jitter_rms=float("nan"),
+                 lowfreq_chi2=float("nan"), lowfreq_dof: int = 0, drift: bool = False) -> tuple[str, ...]:
     """Named warnings of a fit (one channel or a batch) from its per-channel fields.
 
     Parameters
@@ -219,6 +245,11 @@ def fit_warnings(noise_model, residual_lag1, dof_effective, u_phase, t_ref: floa
         Record centre (s).
     n_samples : int
     frequency_estimated : bool
+    variance_phase_stat, jitter_rms, lowfreq_chi2 : scalar or ndarray
+        The fields of :class:`SineFit`.
+    lowfreq_dof : int
+    drift : bool
+        Whether a drift was fitted (its u is in the low-frequency warning too).
 
     Returns
     -------
@@ -249,9 +280,12 @@ def fit_warnings(noise_model, residual_lag1, dof_effective, u_phase, t_ref: floa
         j = np.flatnonzero(sw)[np.argmax(np.abs(r1[sw]))]
         out.append(named("coloured-noise", (
             f"{which(sw)}the fit residual is correlated (lag-1 autocorrelation {r1[j]:.2f}, white-noise limit "
-            f"+/-{lim:.2g}); the uncertainties use the residual's noise spectrum at the fitted frequency instead of "
-            f"its total variance ({nu[j]:.0f} effective degrees of freedom: for 95 % use Student t, not k=2, when "
-            f"that is small); check for interference or drift, or average longer records")))
+            f"+/-{lim:.2g}); u(amplitude), u(phase) and u(frequency) use the residual's noise spectrum at the "
+            f"fitted frequency instead of its total variance, and u(offset){'/u(drift)' if drift else ''} an "
+            f"autoregressive model's level near 0 Hz, which holds only while the noise is flat below about 1/T "
+            f"(1/f noise and wander are not in it: see low-frequency-noise) ({nu[j]:.0f} effective degrees of "
+            f"freedom: for 95 % use Student t, not k=2, when that is small); check for interference or drift, or "
+            f"average longer records")))
     st = bad & (model == "white")
     if st.any():
         j = np.flatnonzero(st)[np.argmax(np.abs(r1[st]))]
@@ -259,6 +293,39 @@ def fit_warnings(noise_model, residual_lag1, dof_effective, u_phase, t_ref: floa
             f"{which(st)}the fit residual is correlated (lag-1 autocorrelation {r1[j]:.2f}, white-noise limit "
             f"+/-{lim:.2g}) but the uncertainties assume white noise (time base not uniform, or noise_model='white' "
             f"was forced), so they can be several times too small; resample to a uniform time base")))
+    from scipy.stats import chi2 as _chi2
+
+    from senscal.sinefit.variance import VARIANCE_ALPHA
+
+    hs = np.broadcast_to(np.atleast_1d(np.asarray(variance_phase_stat, dtype=float)), r1.shape)
+    het = np.nan_to_num(hs, nan=0.0) > _chi2.isf(VARIANCE_ALPHA, 2)
+    if het.any():
+        jr = np.broadcast_to(np.atleast_1d(np.asarray(jitter_rms, dtype=float)), r1.shape)
+        j = np.flatnonzero(het)[np.argmax(hs[het])]
+        switched = model[j] == "phase-dependent"
+        jt = (f"; it is what a sample-clock or aperture jitter of about {jr[j]:.2g} s rms does, and the amplitude "
+              f"was corrected for the shrinkage exp(-w^2 jitter^2 / 2) that jitter causes") if np.isfinite(jr[j]) else ""
+        out.append(named("heteroscedastic-noise", (
+            f"{which(het)}the residual variance follows the phase of the fitted sine (test statistic {hs[j]:.3g}, "
+            f"1 % limit {_chi2.isf(VARIANCE_ALPHA, 2):.3g})" + (
+                f": the uncertainties use the heteroscedasticity-consistent (sandwich) covariance with each "
+                f"sample's fitted variance{jt}; check the sample clock" if switched else
+                ": but the uncertainties assume one variance for all samples (noise_model was forced), so "
+                "u(phase) and u(frequency) can be too small; use noise_model='auto'"))))
+    if lowfreq_dof:
+        ls = np.broadcast_to(np.atleast_1d(np.asarray(lowfreq_chi2, dtype=float)), r1.shape)
+        lim_lf = _chi2.isf(VARIANCE_ALPHA, lowfreq_dof)
+        lf = np.nan_to_num(ls, nan=0.0) > lim_lf
+        if lf.any():
+            j = np.flatnonzero(lf)[np.argmax(ls[lf])]
+            out.append(named("low-frequency-noise", (
+                f"{which(lf)}the residual's {lowfreq_dof // 2} lowest frequencies (below {lowfreq_dof // 2}/T) hold "
+                f"{ls[j] / lowfreq_dof:.3g} times the noise that u(offset) assumes (chi-square {ls[j]:.3g} with "
+                f"{lowfreq_dof} dof, "
+                f"1 % limit {lim_lf:.3g}): the noise grows below 1/T (1/f noise, wander or drift), which no "
+                f"noise model of the fit includes, so u(offset){'/u(drift)' if drift else ''} does not cover and "
+                f"can be several times too small; quote the offset with a type B component from a longer record "
+                f"or an Allan deviation, or fit with drift")))
     if frequency_estimated:
         far = up > PHASE_U_LIMIT
         if far.any():
@@ -752,14 +819,26 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
 
     from senscal.sinefit.noise import coloured_covariance, lag1_significant
 
+    from senscal.sinefit.variance import low_frequency_test, phase_variance, sandwich_covariance
+
     lag1s = np.full(nch, np.nan)
     models = np.array(["white"] * nch, dtype=object)
     nus = np.full(nch, float(n - p))
     centres = np.empty((nch, 2))
     test = noise_model == "auto"
+    # The variance-against-phase test (jitter) and the low-frequency test (noise below 1/T).
+    het_stat = np.full(nch, np.nan)
+    het_sig = np.zeros(nch, dtype=bool)
+    het_c = np.full(nch, np.nan)
+    het_uc = np.full(nch, np.nan)
+    lf_stat = np.full(nch, np.nan)
+    lf_sig = np.zeros(nch, dtype=bool)
+    lf_dof = 0
+    ioff = 2 * harmonics
 
-    def noise_cov(i, resid_w, design_w, ginv, rss_i, omegas):
-        """White or coloured covariance of the linear parameters of channel i."""
+    def noise_cov(i, resid_w, design_w, ginv, rss_i, omegas, coef_i):
+        """White, phase-dependent or coloured covariance of the linear parameters of channel i."""
+        nonlocal lf_dof
         if resid_w is not None and rss_i > 0:
             lag1s[i] = float(resid_w[1:] @ resid_w[:-1]) / rss_i
         switch = noise_model == "coloured" or (test and bool(lag1_significant(lag1s[i], n)))
@@ -769,8 +848,30 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
             cn = coloured_covariance(resid_w, design_w, ginv, p, omegas)
             models[i] = "coloured"
             nus[i] = cn.dof_effective
-            return cn.cov_lin
-        return ginv * (rss_i / (n - p))
+            cov_lin = cn.cov_lin
+        else:
+            cov_lin = ginv * (rss_i / (n - p))
+        if sw is not None or not rss_i > 0:
+            return cov_lin
+        if resid_w is None or design_w is None:
+            resid_w, design_w = explicit(i)
+        # The variance test's null is independent residuals: a correlated one (coloured, or a non-uniform
+        # time base that kept the white formula) is named by the whiteness test instead.
+        if models[i] == "white" and noise_model != "coloured" and not bool(lag1_significant(lag1s[i], n)):
+            amp = math.hypot(coef_i[0], coef_i[1])
+            if amp > 0:
+                sn, cs = design_w[:, 0], design_w[:, 1]
+                pv = phase_variance(resid_w, (coef_i[0] * sn + coef_i[1] * cs) / amp,
+                                    (coef_i[0] * cs - coef_i[1] * sn) / amp)
+                het_stat[i], het_c[i], het_uc[i] = pv.statistic, pv.cos2, pv.u_cos2
+                if pv.significant:
+                    het_sig[i] = True
+                    if test:
+                        models[i] = "phase-dependent"
+                        cov_lin = sandwich_covariance(design_w, ginv, pv.variance, p)
+        lf_stat[i], lf_dof, lf_sig[i] = low_frequency_test(resid_w, math.sqrt(max(cov_lin[ioff, ioff], 0.0)),
+                                                           1 + int(drift))
+        return cov_lin
 
     def col_omegas(wv, with_freq):
         om = []
@@ -794,9 +895,12 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
             ginv_all = [ginv] * nch
             resid_all = None
 
+            a_fast = []
+
             def explicit(i):
-                a = _design(tau0 + np.arange(n) * dt, w, harmonics, drift)
-                return y2[i] - a @ coef_all[i], a
+                if not a_fast:
+                    a_fast.append(_design(tau0 + np.arange(n) * dt, w, harmonics, drift))
+                return y2[i] - a_fast[0] @ coef_all[i], a_fast[0]
         elif per_channel_w:
             sw2 = sw.reshape(-1, n)
             coef_all = np.empty((nch, p))
@@ -825,9 +929,9 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         dof = n - p
         for i in range(nch):
             if resid_all is None:
-                cov_lin = noise_cov(i, None, None, ginv_all[i], rss[i], omegas)
+                cov_lin = noise_cov(i, None, None, ginv_all[i], rss[i], omegas, coef_all[i])
             else:
-                cov_lin = noise_cov(i, resid_all[i], None, ginv_all[i], rss[i], omegas)
+                cov_lin = noise_cov(i, *explicit(i), ginv_all[i], rss[i], omegas, coef_all[i])
             v, c, q_names, centres[i] = _transform(coef_all[i], cov_lin, w, harmonics, drift, t_mid, False)
             vals.append(v)
             covs.append(c)
@@ -861,7 +965,7 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
             if swi is not None:
                 resid = resid * swi
                 fw = full * swi[:, None]
-            cov_lin = noise_cov(i, resid, fw, ginv, rss, col_omegas(w, True))
+            cov_lin = noise_cov(i, resid, fw, ginv, rss, col_omegas(w, True), coef)
             coef_ext = np.append(coef, 0.0)
             v, c, q_names, centres[i] = _transform(coef_ext, cov_lin, w, harmonics, drift, t_mid, True)
             vals.append(v)
@@ -875,8 +979,22 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
     cov_a = np.array(covs)
     names = q_names
     idx = {nm: j for j, nm in enumerate(names)}
-    u = np.sqrt(np.maximum(np.diagonal(cov_a, axis1=1, axis2=2), 0.0))
     amp_idx = [idx["amplitude"]] + [idx[f"amplitude_{k}"] for k in range(2, harmonics + 1)]
+    # Jitter shrinks harmonic k by exp(-k^2 w^2 delta^2 / 2); the cos(2 theta) coefficient of the
+    # residual variance, c = A^2 w^2 delta^2 / 2, measures it (with its u) where the test found it.
+    jitter = np.full(nch, np.nan)
+    for i in np.flatnonzero((models == "phase-dependent") & (het_c > 0)):
+        a1 = vals_a[i, idx["amplitude"]]
+        if not a1 > 0:
+            continue
+        jitter[i] = math.sqrt(2.0 * het_c[i]) / a1 / (TWO_PI * freqs[i])
+        for k, j in enumerate(amp_idx, start=1):
+            g = math.exp(k * k * het_c[i] / a1**2)
+            vals_a[i, j] *= g
+            cov_a[i, j, :] *= g
+            cov_a[i, :, j] *= g
+            cov_a[i, j, j] += (vals_a[i, j] * k * k * het_uc[i] / a1**2) ** 2
+    u = np.sqrt(np.maximum(np.diagonal(cov_a, axis1=1, axis2=2), 0.0))
     ph_idx = [idx["phase"]] + [idx[f"phase_{k}"] for k in range(2, harmonics + 1)]
     h_amp = vals_a[:, amp_idx]
     h_ph = wrap_phase(vals_a[:, ph_idx])
@@ -933,6 +1051,12 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         noise_model=shaped(models) if batch else str(models[0]),
         dof_effective=shaped(nus),
         residual_lag1=shaped(lag1s),
+        variance_phase_stat=shaped(het_stat),
+        jitter_rms=shaped(jitter),
+        lowfreq_chi2=shaped(lf_stat),
+        lowfreq_dof=int(lf_dof),
         warnings=fit_warnings(shaped(models) if batch else str(models[0]), shaped(lag1s), shaped(nus),
-                              shaped(u[:, idx["phase"]]), float(t_mid), int(n), freq is None),
+                              shaped(u[:, idx["phase"]]), float(t_mid), int(n), freq is None,
+                              variance_phase_stat=shaped(het_stat), jitter_rms=shaped(jitter),
+                              lowfreq_chi2=shaped(lf_stat), lowfreq_dof=int(lf_dof), drift=drift),
     )

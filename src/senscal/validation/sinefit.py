@@ -15,6 +15,26 @@ while the phase at the record centre must cover.
 ``warned`` of the coloured cases is the fraction of seeds whose fit switched
 to the coloured-noise covariance (``coloured-noise`` warning); for the white
 case it is the whiteness test's false-alarm rate (1 % by design).
+
+Instrument departures (issue 25), each an option of the simulator
+(:func:`senscal.simulate.sine.adc`, :func:`~senscal.simulate.sine.jittered_times`,
+:func:`~senscal.simulate.sine.flicker_noise`):
+
+* ``clip-*``: the ADC saturates at ``crest - sigma``, ``crest`` or
+  ``crest + sigma`` (crest = 1.3 V).  The fit job's remedy
+  (:func:`senscal.jobs.fit.instrument_check`: fit only the samples away from
+  the clip level) must cover; ``warned`` is the fraction of seeds where the
+  clipping was found (and handled).
+* ``adc-*lsb``: an 8-bit ADC over +/-2 V (LSB 1/64 V) with analogue noise of
+  0.1, 0.2, 0.3 LSB (under-dithered: ``under-dithered`` must fire) and 0.6
+  LSB (dithered: must cover).
+* ``jitter-*``: sample-clock jitter whose signal error ``A w delta`` is 1 or
+  2 noise sigmas; the phase-dependent (sandwich) covariance and the
+  amplitude's jitter correction must cover; ``warned`` =
+  ``heteroscedastic-noise`` fired.
+* ``flicker-10hz``: 1/f noise crossing the white level at 10 Hz (u(offset)
+  5x too small): the offset must be named (``low-frequency-noise``), the
+  others must cover.
 """
 
 from __future__ import annotations
@@ -24,7 +44,7 @@ import math
 import numpy as np
 
 from senscal.diagnostics import has_warning
-from senscal.simulate.sine import ar1_noise
+from senscal.simulate.sine import adc, ar1_noise, flicker_noise, jittered_times
 from senscal.sinefit import fit_sine
 from senscal.validation import CoverageRow, coverage_row
 
@@ -34,13 +54,29 @@ JOB = "sinefit"
 FS, N, FREQ, AMP, OFFSET, NOISE = 1000.0, 2000, 12.5, 1.0, 0.3, 0.05
 
 
-def simulate_batch(n_seeds: int, seed0: int, *, rho: float = 0.0, t0: float = 0.0):
-    """Records of the scenarios: ``(t, y, phase)``; y has shape (n_seeds, N), phase (n_seeds,) in rad."""
-    rng = np.random.default_rng([seed0, int(round(1000 * rho)), int(t0)])
+def simulate_batch(n_seeds: int, seed0: int, *, rho: float = 0.0, t0: float = 0.0, noise: float = NOISE,
+                   clip=None, lsb: float | None = None, jitter: float = 0.0, flicker: float = 0.0):
+    """Records of the scenarios: ``(t, y, phase)``; y has shape (n_seeds, N), phase (n_seeds,) in rad.
+
+    ``clip``, ``lsb``, ``jitter`` (s) and ``flicker`` (unit/sqrt(Hz) at 1 Hz)
+    are the instrument departures of :func:`senscal.simulate.sine.simulate_sine`.
+    """
+    departed = clip is not None or lsb is not None or jitter or flicker or noise != NOISE
+    key = [seed0, int(round(1000 * rho)), int(t0)]
+    if departed:
+        key += [7, int(round(1e6 * noise)), int(round(1e6 * (lsb or 0))), int(round(1e9 * jitter)),
+                int(round(1e6 * flicker)), int(round(1e3 * (np.max(clip) if clip is not None else 0)))]
+    rng = np.random.default_rng(key)
     phase = rng.uniform(-math.pi, math.pi, n_seeds)
     t = t0 + np.arange(N) / FS
-    y = AMP * np.sin(2 * math.pi * FREQ * t[None, :] + phase[:, None]) + OFFSET
-    return t, y + ar1_noise(rng, (n_seeds, N), NOISE, rho), phase
+    if not departed:
+        y = AMP * np.sin(2 * math.pi * FREQ * t[None, :] + phase[:, None]) + OFFSET
+        return t, y + ar1_noise(rng, (n_seeds, N), NOISE, rho), phase
+    ts = jittered_times(rng, t, (n_seeds, N), jitter)
+    y = AMP * np.sin(2 * math.pi * FREQ * ts + phase[:, None]) + OFFSET + ar1_noise(rng, (n_seeds, N), noise, rho)
+    if flicker:
+        y = y + flicker_noise(rng, (n_seeds, N), flicker, FS)
+    return t, adc(y, clip=clip, lsb=lsb), phase
 
 
 def _dphase(est, truth):
@@ -115,8 +151,118 @@ def run_far_origin(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     ]
 
 
+# Channels per batched three-parameter call: below the compiled kernel's threshold (2^18 values).
+_CHUNK = 100
+
+
+def _fit3(y):
+    """Three-parameter fits of every row, in chunks: a list of one-channel SineFit."""
+    out = []
+    for c0 in range(0, y.shape[0], _CHUNK):
+        f = fit_sine(y[c0:c0 + _CHUNK], fs=FS, freq=FREQ)
+        out += [f.channel(i) for i in range(f.shape[0])] if f.shape else [f]
+    return out
+
+
+def _job_rows(case: str, y, t, phase, note: str, *, warning: str | None, expect: dict[str, str],
+              detected=None) -> list[CoverageRow]:
+    """Fit every seed as ``senscal fit`` does (engine + instrument check), 3p and 4p; one row per quantity.
+
+    ``warning``: the named warning whose firing is ``warned`` (None: ``detected`` gives it, a callable
+    of the instrument findings).  ``expect``: quantity prefix -> "cover" or "warn".
+    """
+    from senscal.jobs.fit import instrument_check
+
+    rows = []
+    for label, fits0 in (("3p", _fit3(y)), ("4p", [fit_sine(y[i], fs=FS) for i in range(y.shape[0])])):
+        fits, warned = [], []
+        for i, f in enumerate(fits0):
+            f2, found, warns, _ = instrument_check(y[i], t, f, freq=FREQ if label == "3p" else None)
+            allw = tuple(f2.warnings) + tuple(warns)
+            fits.append(f2)
+            warned.append(has_warning(allw, warning) if warning else bool(detected(found)))
+
+        def col(name):
+            return np.array([getattr(f, name) for f in fits])
+
+        quants = [("amplitude", col("amplitude"), col("u_amplitude"), AMP),
+                  ("phase", _dphase(col("phase"), phase), col("u_phase"), 0.0),
+                  ("offset", col("offset"), col("u_offset"), OFFSET)]
+        if label == "4p":
+            quants.append(("frequency", col("frequency"), col("u_frequency"), FREQ))
+        for q, est, u, tr in quants:
+            rows.append(coverage_row(JOB, case, f"{q} ({label})", est, u, tr, warned=warned,
+                                     expect=expect.get(q, "cover"), note=note))
+    return rows
+
+
+CREST = AMP + OFFSET
+
+
+def _clip_run(level: float, name: str):
+    def run(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+        t, y, phase = simulate_batch(n_seeds, seed0, clip=(-10.0, level))
+        note = (f"ADC saturates at {level:g} V (crest {CREST:g} V, noise {NOISE:g} V); fit job fits only the "
+                "samples away from the clip level; warned = clipping found")
+        return _job_rows(name, y, t, phase, note, warning=None, expect={}, detected=lambda f: f.clipped)
+    run.__doc__ = f"Crest clipped at {level:g} V."
+    return run
+
+
+LSB_8BIT = 4.0 / 256   # 8-bit ADC over +/-2 V
+
+
+def _adc_run(noise_lsb: float, name: str):
+    def run(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+        t, y, phase = simulate_batch(n_seeds, seed0, noise=noise_lsb * LSB_8BIT, lsb=LSB_8BIT)
+        under = noise_lsb < 0.5
+        note = (f"8-bit ADC (LSB {LSB_8BIT:.4g} V), analogue noise {noise_lsb:g} LSB; "
+                + ("under-dithered must be named" if under else "dithered: must cover"))
+        exp = {q: "warn" for q in ("amplitude", "phase", "offset")} if under else {}
+        return _job_rows(name, y, t, phase, note, warning="under-dithered", expect=exp)
+    run.__doc__ = f"Quantised by an 8-bit ADC, analogue noise {noise_lsb:g} LSB."
+    return run
+
+
+def _jitter_run(sigmas: float, name: str):
+    def run(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+        jit = sigmas * NOISE / (AMP * 2 * math.pi * FREQ)
+        t, y, phase = simulate_batch(n_seeds, seed0, jitter=jit)
+        note = (f"sample-clock jitter {jit * 1e6:.0f} us rms (A w jitter = {sigmas:g} noise sigma); "
+                "warned = heteroscedastic-noise")
+        return _job_rows(name, y, t, phase, note, warning="heteroscedastic-noise", expect={})
+    run.__doc__ = f"Sample-clock jitter, signal error {sigmas:g} noise sigma."
+    return run
+
+
+def _flicker_run(corner_hz: float, name: str):
+    def run(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+        level = math.sqrt(2 * NOISE**2 / FS * corner_hz)
+        t, y, phase = simulate_batch(n_seeds, seed0, flicker=level)
+        note = (f"1/f noise crossing the white level at {corner_hz:g} Hz; u(offset) must be named "
+                "(low-frequency-noise), the rest must cover")
+        return _job_rows(name, y, t, phase, note, warning="low-frequency-noise", expect={"offset": "warn"})
+    run.__doc__ = f"1/f noise with a corner at {corner_hz:g} Hz."
+    return run
+
+
+_DEPARTED = {
+    "clip-crest-1sigma": _clip_run(CREST - NOISE, "clip-crest-1sigma"),
+    "clip-crest": _clip_run(CREST, "clip-crest"),
+    "clip-crest+1sigma": _clip_run(CREST + NOISE, "clip-crest+1sigma"),
+    "adc-0.1lsb": _adc_run(0.1, "adc-0.1lsb"),
+    "adc-0.2lsb": _adc_run(0.2, "adc-0.2lsb"),
+    "adc-0.3lsb": _adc_run(0.3, "adc-0.3lsb"),
+    "adc-0.6lsb": _adc_run(0.6, "adc-0.6lsb"),
+    "jitter-1sigma": _jitter_run(1.0, "jitter-1sigma"),
+    "jitter-2sigma": _jitter_run(2.0, "jitter-2sigma"),
+    "flicker-10hz": _flicker_run(10.0, "flicker-10hz"),
+}
+
 for _run in (run_white, run_ar1_05, run_ar1_09, run_ar1_09_white_model, run_far_origin):
     _run.full_seeds = 400
+for _run in _DEPARTED.values():
+    _run.full_seeds = 200
 
 SCENARIOS = {"white": run_white, "ar1-0.5": run_ar1_05, "ar1-0.9": run_ar1_09,
-             "ar1-0.9-white-model": run_ar1_09_white_model, "far-origin": run_far_origin}
+             "ar1-0.9-white-model": run_ar1_09_white_model, "far-origin": run_far_origin, **_DEPARTED}
