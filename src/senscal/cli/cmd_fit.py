@@ -77,4 +77,7 @@ def fit_cmd(
         coloured = [c for c, d in doc["channels"].items() if d["noise_model"] == "coloured"]
         if coloured:
             console.print(f"coloured noise (u from the noise spectrum at the fitted frequency): {', '.join(coloured)}")
+        for name, d in doc["channels"].items():
+            for what in (d.get("instrument") or {}).get("handled", ()):
+                console.print(f"{name}: {what}")
     emit_warnings(doc["warnings"], strict)

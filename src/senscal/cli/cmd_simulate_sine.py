@@ -30,6 +30,14 @@ def simulate_sine_cmd(
         "--t0", help="Time of the first sample in s (a record far from t = 0: phase at t = 0 vs at the centre).")] = 0.0,
     noise_rho: Annotated[float, typer.Option(
         "--noise-rho", help="Coloured noise: lag-one correlation of AR(1) noise, -1 < rho < 1 (0 = white).")] = 0.0,
+    full_scale: Annotated[Optional[float], typer.Option(
+        "--full-scale", help="ADC input range +/-FS (channel unit): samples beyond it are clipped.")] = None,
+    adc_bits: Annotated[Optional[int], typer.Option(
+        "--adc-bits", help="ADC resolution in bits over +/- --full-scale: samples quantised to 2 FS / 2^bits.")] = None,
+    jitter: Annotated[float, typer.Option(
+        "--jitter", help="Sample-clock/aperture jitter, RMS in s (each sample taken at t + delta, stamped t).")] = 0.0,
+    flicker: Annotated[float, typer.Option(
+        "--flicker", help="1/f noise: amplitude spectral density at 1 Hz (channel unit/sqrt(Hz)).")] = 0.0,
 ) -> None:
     """A noisy multi-channel sine recording (sine.csv) and its truth (sine_truth.json)."""
     from senscal.errors import InputError
@@ -41,8 +49,16 @@ def simulate_sine_cmd(
         raise InputError(f"--t0 must be a finite time in s, got {t0}")
     if not -1.0 < noise_rho < 1.0:
         raise InputError(f"--noise-rho must lie strictly between -1 and 1 (stationary AR(1) noise), got {noise_rho}")
+    if full_scale is not None and not (0 < full_scale < math.inf):
+        raise InputError(f"--full-scale must be a positive range in the channel's unit, got {full_scale}")
+    if adc_bits is not None and (full_scale is None or not 1 <= adc_bits <= 32):
+        raise InputError("--adc-bits needs --full-scale (the range it divides) and lies in 1..32")
+    if not (0 <= jitter < math.inf and 0 <= flicker < math.inf):
+        raise InputError("--jitter (s) and --flicker (unit/sqrt(Hz)) must be finite and >= 0")
+    lsb = 2.0 * full_scale / 2**adc_bits if adc_bits is not None else None
     rec, truth = simulate_sine(n_channels=channels, fs=fs, duration=duration, frequency=freq, noise=noise,
-                               t0=t0, noise_rho=noise_rho, seed=seed)
+                               t0=t0, noise_rho=noise_rho, clip=full_scale, lsb=lsb, jitter=jitter,
+                               flicker=flicker, seed=seed)
     if is_stdio(out):
         # A pipe takes one file: the recording (senscal simulate sine --out - | senscal fit -).
         write_recording(rec, out)
