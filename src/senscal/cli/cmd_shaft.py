@@ -35,7 +35,7 @@ PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Before/after co
 def _calibrate_options(*, angle: str = "angle", accel: str = "accel", angle_unit: str | None = None,
                        sensitivity: float = 1.0, u_sensitivity: float = 0.0, radius: float | None = None,
                        ripple_correction: bool = True, g: float = 9.80665, window: float | None = None,
-                       max_speed_variation: str = "10%", **_):
+                       max_speed_variation: str = "10%", u_angle_deg: float = 0.0, **_):
     """``ShaftCalibrateOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.cli.common import parse_relative
     from senscal.jobs.shaft import ShaftCalibrateOptions
@@ -43,7 +43,7 @@ def _calibrate_options(*, angle: str = "angle", accel: str = "accel", angle_unit
     return ShaftCalibrateOptions(
         angle=angle, accel=accel, angle_unit=angle_unit, sensitivity=sensitivity, u_sensitivity=u_sensitivity,
         radius=radius, ripple_correction=ripple_correction, g=g, window=window,
-        max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"))
+        max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"), u_angle_deg=u_angle_deg)
 
 
 @with_read_options
@@ -78,6 +78,9 @@ def calibrate_cmd(
     window: WindowOpt = None,
     max_speed_variation: Annotated[str, typer.Option(
         "--max-speed-variation", help="Warn above this speed std/mean (e.g. 10% or 0.1).")] = "10%",
+    u_angle_deg: Annotated[float, typer.Option(
+        "--u-angle-deg", help="Encoder accuracy: standard uncertainty of its once-per-turn angle error "
+                              "(eccentric disc), deg; carried in u (type B). 0: checked in the data only.")] = 0.0,
     out: Annotated[Optional[Path], typer.Option("--out", help="Write the model (JSON) for 'shaft compensate'.")] = None,
     plot: PlotOpt = None,
     strict: StrictOpt = False,
@@ -221,6 +224,12 @@ def simulate_shaft_cmd(
     modulation_freq: Annotated[float, typer.Option("--modulation-freq", help="Its frequency, Hz.")] = 0.5,
     test_duration: Annotated[float, typer.Option("--test-duration", help="Test run, s.")] = 10.0,
     wrap: Annotated[bool, typer.Option("--wrap/--no-wrap", help="Encoder angle wrapped to 0..360 deg.")] = True,
+    angle_ripple: Annotated[float, typer.Option(
+        "--angle-ripple", help="Calibration speed ripple as a function of the angle, w0 (1 + m sin(theta + p)) "
+                               "(replaces --ripple/--sync-ripple).")] = 0.0,
+    angle_ripple_phase: Annotated[float, typer.Option("--angle-ripple-phase", help="Its phase p, deg.")] = 0.0,
+    eccentricity: Annotated[float, typer.Option(
+        "--eccentricity", help="Once-per-turn encoder angle error (eccentric disc), deg.")] = 0.0,
 ) -> None:
     """A tilted shaft with a tangential accelerometer: shaft_cal.csv, shaft_test.csv, shaft_truth.json."""
     from senscal.io import write_recording
@@ -231,7 +240,8 @@ def simulate_shaft_cmd(
         tilt_deg=tilt, radius=radius, sensitivity=sensitivity, bias=bias, misalignment_deg=misalignment, noise=noise,
         noise_rho=noise_rho, encoder_counts=encoder_counts, fs=fs, speed_rps=speed, ripple=ripple, ripple_freq=ripple_freq,
         sync_ripple=sync_ripple, cal_duration=cal_duration, test_speed_rps=test_speed, modulation=modulation,
-        modulation_freq=modulation_freq, test_duration=test_duration, wrap=wrap, seed=seed)
+        modulation_freq=modulation_freq, test_duration=test_duration, wrap=wrap, angle_ripple=angle_ripple,
+        angle_ripple_phase_deg=angle_ripple_phase, eccentricity_deg=eccentricity, seed=seed)
     al = truth.pop("_test_angular_acceleration")
     # Units ride in the headers ("angle [deg]"), so the angle unit need not be given for these files.
     p1 = write_recording(cal, out / "shaft_cal.csv", units_in_header=True)

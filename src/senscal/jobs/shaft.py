@@ -90,10 +90,26 @@ def calibration_summary(model) -> dict[str, Any]:
         "ripple_correction": model.ripple_correction, "ripple_coefficient": model.ripple_coefficient,
         "u_ripple_coefficient": model.u_ripple_coefficient, "ripple_leak": model.ripple_leak,
         "synchronous_ripple": model.synchronous_ripple, "nuisance": list(model.nuisance),
+        "u_angle_deg": math.degrees(model.u_angle),
+        "once_per_turn_angle_deg": math.degrees(model.once_per_turn_angle),
+        "u_once_per_turn_angle_deg": math.degrees(model.u_once_per_turn_angle),
+        "twice_per_turn": model.twice_per_turn, "u_twice_per_turn": model.u_twice_per_turn,
         "centripetal_coefficient": model.centripetal_coefficient,
         "u_centripetal_coefficient": model.u_centripetal_coefficient, "diagnostic": list(model.diagnostic),
         "n_samples": model.n_samples, "window_s": model.window, "warnings": list(model.warnings),
     }
+
+
+def _u_angle(deg) -> float:
+    """``--u-angle-deg`` in rad, refused unless a number in [0, 180)."""
+    try:
+        v = float(deg)
+    except (TypeError, ValueError):
+        raise InputError(f"--u-angle-deg must be a number of degrees, got {deg!r}") from None
+    if not (math.isfinite(v) and 0.0 <= v < 180.0):
+        raise InputError(f"--u-angle-deg must be a standard uncertainty in deg, >= 0, got {deg!r}; "
+                         "give the encoder's accuracy (e.g. 0.01)")
+    return math.radians(v)
 
 
 def _quantity(name: str, value: float, u: float, unit: str) -> Quantity:
@@ -132,6 +148,10 @@ class ShaftCalibrateOptions(ReadOptions):
         Savitzky-Golay window of the encoder derivatives, s (None: 0.1 s).
     max_speed_variation : float
         Warn above this speed std/mean (fraction, 0.1 = 10 %).
+    u_angle_deg : float
+        Standard uncertainty of the encoder angle's once-per-turn error
+        (eccentric disc; RMS over a turn), deg: a type B input (0: the
+        encoder at face value, checked in the data).
     time_column, fs, names, time_unit, skip_rows
         How the recording is read (:class:`~senscal.jobs._base.ReadOptions`).
     """
@@ -146,6 +166,7 @@ class ShaftCalibrateOptions(ReadOptions):
     g: float = 9.80665
     window: float | None = None
     max_speed_variation: float = 0.10
+    u_angle_deg: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -245,7 +266,7 @@ def shaft_calibrate(source, options: ShaftCalibrateOptions = ShaftCalibrateOptio
         rec[o.accel], rec[o.angle], rec.time, angle_unit=unit, sensitivity=o.sensitivity,
         u_sensitivity=o.u_sensitivity, output_unit=rec.unit(o.accel), radius=o.radius,
         ripple_correction=o.ripple_correction, g=o.g, window=0.1 if o.window is None else o.window,
-        max_speed_variation=o.max_speed_variation, source=name)
+        max_speed_variation=o.max_speed_variation, u_angle=_u_angle(o.u_angle_deg), source=name)
     return ShaftCalibrateResult(model=model, source=name, angle=angle_to_rad(rec[o.angle], unit),
                                 accel=np.asarray(rec[o.accel], dtype=float), accel_unit=rec.unit(o.accel),
                                 warnings=tuple(model.warnings))

@@ -27,7 +27,7 @@ import math
 import numpy as np
 from scipy.fft import next_fast_len, rfft
 
-__all__ = ["iv_fit", "project_out", "spectral_meat"]
+__all__ = ["iv_fit", "project_out", "spectral_meat", "synchronous_residual"]
 
 
 def spectral_meat(w: np.ndarray, e: np.ndarray, half_width: int, exclude=()) -> np.ndarray:
@@ -103,6 +103,57 @@ def project_out(d: np.ndarray, v: np.ndarray) -> np.ndarray:
     """Residual of the columns of ``v`` after least squares on the columns of ``d`` (Frisch-Waugh-Lovell)."""
     coef, *_ = np.linalg.lstsq(d, v, rcond=None)
     return v - d @ coef
+
+
+def synchronous_residual(theta: np.ndarray, v: np.ndarray, bins: int, harmonics: int = 0) -> np.ndarray:
+    """The columns of ``v`` minus their synchronous (angle-periodic) part.
+
+    The first ``harmonics`` harmonics of the angle (and the mean) are
+    removed by least squares, exactly; what is left of the periodic part
+    (higher harmonics) by the synchronous average over the turns, in
+    ``bins`` equal angle bins per turn: the least-squares projection onto
+    piecewise-constant functions of the angle modulo one turn [3]_, which
+    alone would leave a large smooth harmonic's variation within each bin.
+    Whatever repeats every turn (gravity,
+    ripple locked to the rotation and all its harmonics, an encoder's
+    once-per-turn error, quantisation patterns that repeat with the angle)
+    is removed, what varies from turn to turn stays.  With ``R`` turns the
+    projection also takes ``1/R`` of white noise's variance.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (N,)
+        Unwrapped angle, rad.
+    v : ndarray, shape (N,) or (N, p)
+    bins : int
+        Angle bins per turn (>= 1).
+    harmonics : int
+        Harmonics of the angle removed by least squares first (0: the mean only).
+
+    Returns
+    -------
+    ndarray, same shape as ``v``
+
+    References
+    ----------
+    .. [3] McFadden P. D., "A revised model for the extraction of periodic
+       waveforms by time domain averaging", Mechanical Systems and Signal
+       Processing 1 (1987) 83-95.
+    """
+    k = np.arange(1, int(harmonics) + 1)
+    phase = np.outer(theta, k)
+    basis = np.column_stack([np.ones_like(theta), np.sin(phase), np.cos(phase)])
+    v = project_out(basis, np.asarray(v, dtype=float))
+    frac = np.mod(theta, 2.0 * math.pi) / (2.0 * math.pi)
+    idx = np.minimum((frac * bins).astype(np.int64), bins - 1)
+    cnt = np.bincount(idx, minlength=bins).astype(float)
+    vv = np.asarray(v, dtype=float)
+    cols = vv.reshape(vv.shape[0], -1)
+    out = np.empty_like(cols)
+    for j in range(cols.shape[1]):
+        mean = np.bincount(idx, cols[:, j], minlength=bins) / np.maximum(cnt, 1.0)
+        out[:, j] = cols[:, j] - mean[idx]
+    return out.reshape(vv.shape)
 
 
 def iv_fit(y: np.ndarray, m: np.ndarray, w: np.ndarray, half_width: int, exclude=(), taper=None):

@@ -40,7 +40,7 @@ from senscal._result import ResultMixin
 from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
 from senscal.diagnostics import named
 from senscal.shaft.angle import POLYORDER, angle_to_rad, check_radius, check_uniform, encoder_kinematics, savgol, white_noise_std
-from senscal.shaft.estimate import iv_fit, project_out
+from senscal.shaft.estimate import iv_fit, synchronous_residual
 from senscal.sinefit import fit_sine, wrap_phase
 
 __all__ = ["G", "GravityModel", "calibrate_gravity", "load_model"]
@@ -54,6 +54,7 @@ FORMAT_VERSION = 2  # 2: tagged "type" like every saved calibration (senscal.per
 SYNC_RADIUS_BOUND = 1.0
 MIN_TURNS = 10  # turns below which the u's noise level is too uncertain for k=2 to mean 95 %
 TAPER = 0.1  # Tukey window of the gravity fit: cosine over the first and last 5 % of the samples
+ECC_ALPHA = 1e-3  # false-alarm probability of each encoder angle-error test (chi-square, 2 dof)
 
 
 @dataclass(frozen=True)
@@ -147,6 +148,18 @@ class GravityModel(ResultMixin):
         low on 260 (coverage 99 % and about 85 %).  ``shaft compensate
         --centripetal`` measures the misalignment with a u that covers.
         Kept as a field so files from earlier versions load.
+    u_angle : float
+        Standard uncertainty of the encoder angle (once-per-turn error, RMS
+        over a turn) given as a type B input, rad; its share is in the
+        covariance.
+    once_per_turn_angle, u_once_per_turn_angle : float
+        Once-per-turn deviation of the encoder angle from a steady rotation,
+        rad (the encoder's once-per-turn angular acceleration over ``w^2``):
+        speed ripple locked to the turn or an eccentric disc.
+    twice_per_turn, u_twice_per_turn : float
+        Amplitude of the accelerometer's twice-per-turn term against the
+        angle, output unit (``amplitude e / 2`` for a once-per-turn angle
+        error ``e``).
     diagnostic : tuple of str
         Fields reported as diagnostics, without an uncertainty (not to be
         quoted as measurement results).
@@ -156,7 +169,8 @@ class GravityModel(ResultMixin):
     warnings : tuple of str
         Named warnings (``name: sentence``): ``speed-not-constant``,
         ``synchronous-ripple`` (once-per-turn ripple the run cannot tell from
-        gravity), ``ripple-not-removed``, ``few-turns`` (under 10 turns: k=2
+        gravity), ``encoder-eccentricity`` (an angle error seen, or one the
+        run cannot tell from ripple, beyond ``u_angle``), ``ripple-not-removed``, ``few-turns`` (under 10 turns: k=2
         covers less than 95 %), ``amplitude-above-g``, ``sensitivity-missing``.
     source : str or None
         File the calibration came from.
@@ -199,6 +213,11 @@ class GravityModel(ResultMixin):
     centripetal_coefficient: float | None = None
     u_centripetal_coefficient: float | None = None
     nuisance: tuple[str, ...] = ()
+    u_angle: float = 0.0
+    once_per_turn_angle: float = 0.0
+    u_once_per_turn_angle: float = 0.0
+    twice_per_turn: float = 0.0
+    u_twice_per_turn: float = 0.0
     diagnostic: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     source: str | None = None
@@ -391,13 +410,16 @@ def by_angle(theta: np.ndarray, *ys: np.ndarray):
 
 
 def fit_angle(y, x, w=None):
-    return fit_sine(y, x, freq=ANGLE_FREQ, weights=w)
+    # The white-noise path: the samples are sorted by angle (not time), so the sine engine's noise tests
+    # (lag-one whiteness, phase-dependent variance, low-frequency noise) would judge an ordering, not the
+    # noise, and the shaft sets its own covariance (senscal.shaft.estimate).
+    return fit_sine(y, x, freq=ANGLE_FREQ, weights=w, noise_model="white")
 
 
 def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_unit: str = "rad",
                       sensitivity: float = 1.0, u_sensitivity: float = 0.0, output_unit: str = "",
                       radius: float | None = None, ripple_correction: bool = True, g: float = G,
-                      window: float = 0.1, max_speed_variation: float = 0.10,
+                      window: float = 0.1, max_speed_variation: float = 0.10, u_angle: float = 0.0,
                       source: str | None = None) -> GravityModel:
     """Identify the gravity term seen by a tangential accelerometer on a shaft.
 
@@ -452,6 +474,15 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     max_speed_variation : float
         Speed standard deviation over mean speed above which a warning says
         the run was not at constant speed.
+    u_angle : float
+        Standard uncertainty of the encoder angle from a once-per-turn
+        error (an eccentric or tilted disc: the RMS over a turn of
+        ``e sin(theta + q)``, i.e. ``e / sqrt(2)``), rad: the encoder's
+        accuracy specification, a type B input.  It enters the offset
+        (``amplitude * u_angle / 2``) and, through the ripple regressors,
+        amplitude and phase (``|b| w^2 u_angle``).  0 takes the encoder at
+        face value; the data are then checked for an angle error (named
+        warning ``encoder-eccentricity``).
     source : str, optional
         Where the data came from (stored in the model).
 
@@ -486,6 +517,8 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         raise InputError(f"g must be a positive acceleration in m/s^2, got {g!r}")
     if radius is not None:
         radius = check_radius(radius)
+    if not (math.isfinite(u_angle) and 0.0 <= u_angle < math.pi):
+        raise InputError(f"u_angle (--u-angle-deg) must be a standard uncertainty >= 0 of the angle, got {u_angle!r}")
     revs = abs(float(theta[-1] - theta[0])) / (2.0 * math.pi)
     if revs < 1.0:
         raise TooFewSamplesError(
@@ -550,9 +583,21 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         # Centripetal term of a misaligned axis, S sin(d) r w^2: w^2 noise is 2 w dw.
         "speed2": (w2 - w2.mean(), w2z - w2z.mean(), 4.0 * float(np.mean(w2)) * s2 * _kernel_dot(m5, p5, ml, 1, dt)),
     }
+    # The coefficients may be learnt only from speed variation that differs from turn to turn: whatever
+    # repeats with the angle (ripple locked to the rotation with all its harmonics, an encoder's
+    # once-per-turn error, the quantisation pattern of a speed that is itself a function of the angle)
+    # is collinear with the gravity sinusoid or shares the encoder's angle-locked error, and a coefficient
+    # fixed by a few per cent of second harmonic carries that error, amplified by the regressor's variance
+    # inflation against the angle, into the gravity term.  So the identifying variation is measured after
+    # removing the synchronous part: the harmonics within the instrument's main lobe (three cycles per
+    # long window, where its response is down to 0.6 % of a derivative's) exactly, the rest by the
+    # synchronous average (one bin per sample of a turn: every harmonic the sampling resolves).
+    per_turn = tk.size / max(abs(float(tk[-1] - tk[0])) / (2.0 * math.pi), 1.0)
+    sync_bins = max(1, int(round(per_turn)))
+    sync_harm = int(math.ceil(3.0 * per_turn / ml)) + 1
     info = {}
     for name, (xv, zv, cvv) in cands.items():
-        xt, zt = project_out(d, np.column_stack([xv, zv])).T
+        xt, zt = synchronous_residual(tk, np.column_stack([xv, zv]), sync_bins, sync_harm).T
         cross = float(np.mean(xt * zt))
         # Fraction by which the noise the two derivatives share could pull the coefficient (x2 for
         # quantisation that is not white): the instrument must see real, non-synchronous variation.
@@ -592,8 +637,26 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     ya = ya / tw
     fit = fit_angle(ya, x, wts)
     cov_g = gravity_cov(coef, cov)
-    u = np.sqrt(np.maximum(np.diag(cov_g), 0.0))
     amp, ph, off = float(fit.amplitude), float(fit.phase), float(fit.offset)
+    w_mean2 = float(np.mean(w2)) if w2.size else 0.0
+    # A once-per-turn angle error e sin(theta + q) (eccentric or tilted encoder disc) moves the fit against
+    # the angle by (amplitude e / 2) sin(q - phase) in the offset, with a twice-per-turn term of the same
+    # size, and puts a once-per-turn e w^2 into the encoder's angular acceleration that no speed ripple made:
+    # the regressors remove b e w^2 of gravity (b: their coefficients, S r for the radius correction).
+    b_sync = abs(b_of.get("alpha", sensitivity * radius if mode == "radius" else 0.0)) \
+        + 2.0 * abs(b_of.get("speed2", 0.0))
+    ecc_amp_u = b_sync * w_mean2 * u_angle  # per component (amplitude, amplitude * phase): e / sqrt 2 = u_angle
+    ecc_off_u = abs(amp) * u_angle / 2.0  # (A e / 2) sin(q - phase) over q uniform: A e / (2 sqrt 2)
+    cov_g = cov_g + np.diag([ecc_amp_u**2, (ecc_amp_u / amp) ** 2 if amp > 0 else 0.0, ecc_off_u**2])
+    u = np.sqrt(np.maximum(np.diag(cov_g), 0.0))
+    # The twice-per-turn term of the accelerometer against the angle: an angle error's signature (or a
+    # sensor's own nonlinearity, which the fit does not model either), tested against its noise density.
+    res_g = (yk - removed) - fit.amplitude * np.sin(tk + fit.phase) - fit.offset
+    d2 = np.column_stack([np.sin(2.0 * tk), np.cos(2.0 * tk)])
+    empty2 = sorted(set(empty) | {2 * hw + j for j in range(-2, 3)})
+    c2, cov2, _ = iv_fit(res_g, d2, d2, hw, empty2, taper=taper)
+    twice = float(math.hypot(c2[0], c2[1]))
+    u_twice = math.sqrt(max(float(np.trace(cov2)) / 2.0, 0.0))
     rms = float(np.sqrt(np.mean(res**2)))
     noise = white_noise_std(a, kin.window_samples)
     # What removing the ripple changed (or, without the correction, what it would have changed).
@@ -608,7 +671,6 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         leak = amp_plain - amp
         b_al = b_of.get("alpha", math.nan)
     # Relative speed ripple at the rotation frequency: alpha = w0^2 m cos(theta + p) for w = w0 (1 + m sin).
-    w_mean2 = float(np.mean(w2)) if w2.size else 0.0
     sync_rel = info["alpha"]["sync"] / w_mean2 if w_mean2 > 0 else 0.0
 
     # Tilt from horizontal: cos(tilt) = amplitude / (S g).
@@ -652,6 +714,33 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
             f"angular acceleration during the run moved the gravity amplitude by about {leak:.3g} "
             f"({abs(leak) / u[0]:.3g} standard uncertainties) and was NOT removed: enable the ripple correction "
             "or give the radius")))
+    # The encoder's angle error.  Its once-per-turn part reads like speed ripple locked to the turn, which
+    # one run at one speed cannot tell apart (both put e w^2 into the encoder's angular acceleration, and
+    # gravity absorbs what they do to the accelerometer); its twice-per-turn trace in the accelerometer is
+    # amplitude e / 2.  Both are tested against their noise (chi-square, 2 dof, false alarm ECC_ALPHA), beyond
+    # what the declared accuracy u_angle explains (a once-per-turn error of RMS u_angle has amplitude
+    # sqrt(2) u_angle; k=2: 2 sqrt(2) u_angle).
+    crit = math.sqrt(-2.0 * math.log(ECC_ALPHA))  # chi-square with 2 dof: P(> c) = exp(-c / 2)
+    e_max = 2.0 * math.sqrt(2.0) * u_angle
+    e_once = info["alpha"]["sync"] / w_mean2 if w_mean2 > 0 else 0.0
+    u_e_once = info["alpha"]["u_sync"] / w_mean2 if w_mean2 > 0 else math.inf
+    e_twice = 2.0 * twice / abs(amp) if amp else 0.0
+    e_un = max(e_once - e_max, 0.0)
+    twice_seen = twice - abs(amp) * e_max / 2.0 > crit * u_twice
+    # (Once-per-turn ripple the run could not model is named by synchronous-ripple already: one warning a cause.)
+    once_seen = not lost and e_un > crit * u_e_once \
+        and (b_sync * w_mean2 * e_un > 0.3 * u[0] or abs(amp) * e_un / 2.0 > 0.3 * u[2])
+    if twice_seen or once_seen:
+        what = (f"the accelerometer has a twice-per-turn term of {twice:.3g} ({twice / u_twice:.3g} u), the trace of "
+                f"a {math.degrees(e_twice):.2g} deg once-per-turn angle error (or of a nonlinear sensor)"
+                if twice_seen else
+                f"the encoder reads a once-per-turn deviation from a steady rotation of {math.degrees(e_once):.2g} deg "
+                "(speed ripple locked to the turn, or an eccentric encoder disc: one run cannot tell them apart)")
+        warnings.append(named("encoder-eccentricity", (
+            f"{what}; an angle error of that size would move the offset by up to "
+            f"{abs(amp) * max(e_twice if twice_seen else e_un, 0.0) / 2.0:.3g} and amplitude and phase by up to "
+            f"{b_sync * w_mean2 * (e_twice if twice_seen else e_un):.3g}, beyond their u; give the encoder's accuracy "
+            "(--u-angle-deg) to carry it in u, or check the disc's centring")))
     if hw < MIN_TURNS:
         # The density behind u rests on about four degrees of freedom per turn: below 10 turns (40) k=2
         # covers less than 94.8 % (Student's t), 88 % for one turn.
@@ -681,7 +770,9 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         centripetal_coefficient=kc, u_centripetal_coefficient=None,
         diagnostic=tuple(k for k, v in (("ripple_coefficient", mode != "radius" and math.isfinite(b_al)),
                                         ("centripetal_coefficient", kc is not None)) if v),
-        nuisance=tuple(used), warnings=tuple(warnings), source=source,
+        nuisance=tuple(used), u_angle=float(u_angle), once_per_turn_angle=float(e_once),
+        u_once_per_turn_angle=float(u_e_once), twice_per_turn=twice, u_twice_per_turn=float(u_twice),
+        warnings=tuple(warnings), source=source,
         created=_dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat(),
     )
 

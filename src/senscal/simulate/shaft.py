@@ -11,7 +11,7 @@ from scipy.signal import lfilter
 from senscal.errors import InputError
 from senscal.io import Recording
 
-__all__ = ["ar1_noise", "simulate_shaft", "shaft_motion"]
+__all__ = ["angle_locked_motion", "ar1_noise", "simulate_shaft", "shaft_motion"]
 
 G = 9.80665
 
@@ -44,6 +44,34 @@ def shaft_motion(t: np.ndarray, speed: float, terms: list[tuple[float, float, fl
     return theta, omega, alpha
 
 
+def angle_locked_motion(t: np.ndarray, speed: float, m: float, p: float):
+    """Angle, angular velocity and acceleration of ``w = speed * (1 + m sin(theta + p))`` (speed a function of angle).
+
+    ``t(theta) = int dtheta / w(theta)`` on a grid of 1 mrad (trapezoid rule, error ~1e-9 s per
+    turn) is inverted by linear interpolation (error ~ h^2 alpha / 8, below 1e-8 rad); the velocity
+    and acceleration are then exact functions of the angle: ``alpha = w dw/dtheta``.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time from 0, s (increasing).
+    speed : float
+        ``w0``, rad/s (> 0).
+    m : float
+        Relative ripple, |m| < 1.
+    p : float
+        Phase, rad.
+    """
+    span = speed * (1.0 + abs(m)) * float(t[-1] - t[0]) + 1.0
+    grid = np.linspace(0.0, span, int(math.ceil(span / 1e-3)) + 2)
+    inv = 1.0 / (speed * (1.0 + m * np.sin(grid + p)))
+    tg = np.concatenate([[0.0], np.cumsum(0.5 * (inv[1:] + inv[:-1]) * np.diff(grid))])
+    theta = np.interp(t - t[0], tg, grid)
+    omega = speed * (1.0 + m * np.sin(theta + p))
+    alpha = omega * speed * m * np.cos(theta + p)
+    return theta, omega, alpha
+
+
 def ar1_noise(rng: np.random.Generator, std: float, rho: float, n: int) -> np.ndarray:
     """Stationary AR(1) noise of standard deviation ``std`` and lag-one correlation ``rho`` (white for 0)."""
     white = rng.normal(0.0, std, n)
@@ -60,6 +88,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
                    ripple_freq: float = 2.7, sync_ripple: float = 0.0, cal_duration: float = 20.0,
                    test_speed_rps: float = 2.0, modulation: float = 0.5, modulation_freq: float = 0.5,
                    test_duration: float = 10.0, wrap: bool = True, g: float = G, noise_rho: float = 0.0,
+                   angle_ripple: float = 0.0, angle_ripple_phase_deg: float = 0.0, eccentricity_deg: float = 0.0,
                    seed: int | None = None) -> tuple[Recording, Recording, dict[str, Any]]:
     """Calibration and test runs of a tangential accelerometer on a tilted shaft.
 
@@ -113,6 +142,18 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
         Lag-one correlation of the output noise, in [0, 1): AR(1) noise of
         standard deviation ``noise`` (a departure from white noise: an
         accelerometer's own low-pass, mains hum or mechanical vibration).
+    angle_ripple : float
+        Relative speed ripple of the calibration run as a function of the
+        shaft angle: ``w = w0 (1 + angle_ripple sin(theta + angle_ripple_phase))``
+        (a once-per-turn drive or load torque; its harmonics follow the angle
+        exactly).  Replaces the time-domain terms (``ripple``,
+        ``sync_ripple``) of the calibration run when nonzero; must be < 1.
+    angle_ripple_phase_deg : float
+        Its phase, deg.
+    eccentricity_deg : float
+        Once-per-turn error of the encoder angle (an eccentric or tilted
+        disc), deg: the encoder reads ``theta + e sin(theta + q)`` before
+        rounding, in both runs, with ``q`` drawn at random (in ``truth``).
     seed : int, optional
         Random seed.
 
@@ -130,19 +171,29 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
         raise InputError("sensitivity must be positive")
     if not (0.0 <= noise_rho < 1.0):
         raise InputError(f"noise_rho (--noise-rho) must be in [0, 1), got {noise_rho!r}; 0 gives white noise")
+    if not (0.0 <= abs(angle_ripple) < 1.0 and math.isfinite(eccentricity_deg)):
+        raise InputError(f"angle_ripple must be in (-1, 1) and eccentricity finite, got {angle_ripple!r}, "
+                         f"{eccentricity_deg!r}")
     rng = np.random.default_rng(seed)
     d = math.radians(misalignment_deg)
+    ecc = math.radians(eccentricity_deg)
+    # Drawn only when asked for, so the other runs' random streams stay those of earlier versions.
+    ecc_phase = float(rng.uniform(0, 2 * math.pi)) if ecc else 0.0
     amp = sensitivity * g * math.cos(math.radians(tilt_deg))
     ph = math.radians(phase_deg) + d
     step = 2.0 * math.pi / encoder_counts
     out_unit = "m/s^2" if sensitivity == 1.0 else "V"
 
-    def run(duration, speed, terms, name):
+    def run(duration, speed, terms, name, locked=0.0):
         t = np.arange(int(round(duration * fs))) / fs
-        theta, omega, alpha = shaft_motion(t, speed, terms)
+        if locked:
+            theta, omega, alpha = angle_locked_motion(t, speed, locked, math.radians(angle_ripple_phase_deg))
+        else:
+            theta, omega, alpha = shaft_motion(t, speed, terms)
         v = sensitivity * (math.cos(d) * radius * alpha + math.sin(d) * radius * omega**2) \
             + amp * np.sin(theta + ph) + bias + ar1_noise(rng, noise, noise_rho, t.size)
-        enc = np.degrees(np.round(theta / step) * step)
+        read = theta + ecc * np.sin(theta + ecc_phase) if ecc else theta
+        enc = np.degrees(np.round(read / step) * step)
         if wrap:
             enc = np.mod(enc, 360.0)
         rec = Recording(channels={"angle": enc, "accel": v}, t=t, units={"angle": "deg", "accel": out_unit},
@@ -153,7 +204,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
     cal_terms = [(ripple, ripple_freq, float(rng.uniform(0, 2 * math.pi)))]
     if sync_ripple:
         cal_terms.append((sync_ripple, speed_rps, float(rng.uniform(0, 2 * math.pi))))
-    cal, w_cal, _ = run(cal_duration, w0, cal_terms, "calibration")
+    cal, w_cal, _ = run(cal_duration, w0, cal_terms, "calibration", locked=angle_ripple)
     w1 = 2.0 * math.pi * test_speed_rps
     test, w_test, al_test = run(test_duration, w1, [(modulation, modulation_freq, 0.0)], "test")
     leak = math.sin(d) * radius
@@ -165,12 +216,14 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
                     # the misaligned axis adds its centripetal term at the calibration speeds to the offset
                     "offset": bias + sensitivity * leak * float(np.mean(w_cal**2))},
         "calibration": {"speed_rps": speed_rps, "ripple": ripple, "ripple_freq_hz": ripple_freq,
-                        "sync_ripple": sync_ripple, "duration_s": cal_duration,
+                        "sync_ripple": sync_ripple, "angle_ripple": angle_ripple,
+                        "angle_ripple_phase_deg": angle_ripple_phase_deg, "duration_s": cal_duration,
                         "mean_square_speed": float(np.mean(w_cal**2))},
         "test": {"speed_rps": test_speed_rps, "modulation": modulation, "modulation_freq_hz": modulation_freq,
                  "duration_s": test_duration,
                  "angular_acceleration_rms": float(np.sqrt(np.mean(al_test**2))),
                  "angular_acceleration_amplitude": w1 * modulation * 2 * math.pi * modulation_freq},
+        "eccentricity_deg": eccentricity_deg, "eccentricity_phase_deg": math.degrees(ecc_phase),
         "centripetal_leakage_coefficient_m": leak,
         "angular_acceleration_noise_floor": noise / (sensitivity * radius),
         "uncompensated_error_amplitude": g * math.cos(math.radians(tilt_deg)) / radius,

@@ -15,9 +15,13 @@ the centripetal leakage removed and scores its coefficient, the axis
 misalignment and the bias change.
 
 Departures: speed ripple locked to the rotation (an unbalanced rotor), with
-and without other speed variation and with the radius given; AR(1)
-accelerometer noise.  Where the data cannot tell the departure from gravity
-the calibration must say so in the named warning ``synchronous-ripple``.
+and without other speed variation and with the radius given, as a function
+of time or of the angle itself (issue 25 item 1: 3 rev/s, r = 0.08 m); 4 %
+speed ripple at 0.7 Hz (item 2); an eccentric encoder disc (item 8), with
+its accuracy declared (``u_angle``, type B) or not; AR(1) accelerometer
+noise.  Where the data cannot tell the departure from gravity the
+calibration must say so in a named warning (``synchronous-ripple``,
+``encoder-eccentricity``).
 """
 
 from __future__ import annotations
@@ -40,10 +44,12 @@ CAL_DURATION = 10.0
 
 def _calibration_rows(case: str, n_seeds: int, seed0: int, sim: dict, cal_kw: dict | None = None,
                       expect: str = "cover", warning: str | None = None, note: str = "",
-                      with_radius: bool = False, duration: float = CAL_DURATION) -> list[CoverageRow]:
+                      with_radius: bool = False, duration: float = CAL_DURATION,
+                      sim_of_seed=None) -> list[CoverageRow]:
     est, unc, tru, warned = [], [], [], []
     for s in range(n_seeds):
-        cal, _, truth = simulate_shaft(seed=seed0 + s, cal_duration=duration, test_duration=0.5, **sim)
+        per_seed = sim_of_seed(seed0 + s) if sim_of_seed is not None else {}
+        cal, _, truth = simulate_shaft(seed=seed0 + s, cal_duration=duration, test_duration=0.5, **sim, **per_seed)
         kw = dict(cal_kw or {})
         if with_radius:
             kw["radius"] = truth["radius"]
@@ -131,6 +137,52 @@ def run_long(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
                              note="60 turns, white noise, 3 % speed ripple at 2.7 Hz")
 
 
+#: Issue 25 item 1: 3 rev/s, r = 0.08 m, tilt 25 deg, speed w0 (1 + 0.03 sin(theta + 1.1)), no --radius.
+ANGLE_SYNC = {"speed_rps": 3.0, "radius": 0.08, "tilt_deg": 25.0, "angle_ripple": 0.03,
+              "angle_ripple_phase_deg": math.degrees(1.1)}
+#: Issue 25 item 2: 4 % speed ripple at 0.7 Hz (not locked to the rotation), r = 0.08 m, noise 0.03 m/s^2
+#: (noise floor of the angular acceleration 0.375 rad/s^2), bias 0.07 m/s^2.
+RIPPLE_07 = {"radius": 0.08, "tilt_deg": 25.0, "ripple": 0.04, "ripple_freq": 0.7, "noise": 0.03, "bias": 0.07}
+#: Issue 25 item 8: declared encoder accuracy (standard uncertainty of the once-per-turn angle error) and
+#: the strongest eccentricity of the issue's range.
+U_ANGLE_DEG = 0.02
+ECCENTRICITY_DEG = 0.05
+
+
+def run_angle_sync(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Item 1: once-per-turn ripple as a function of the angle at 3 rev/s, nothing else: must warn."""
+    return _calibration_rows("angle-sync-3%", n_seeds, seed0, ANGLE_SYNC, expect="warn", warning="synchronous-ripple",
+                             note="3 rev/s, w0 (1 + 0.03 sin(theta + 1.1)), r = 0.08 m, no --radius")
+
+
+def run_ripple_07(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Item 2: 4 % speed ripple at 0.7 Hz (20 turns at 1 rev/s): the ripple is regressed out and must cover."""
+    return _calibration_rows("ripple-4%-0.7Hz", n_seeds, seed0, RIPPLE_07, duration=20.0,
+                             note="4 % speed ripple at 0.7 Hz, r = 0.08 m, noise 0.03")
+
+
+def _eccentric_disc(seed: int) -> dict:
+    # The disc's offset vector drawn normal with the declared standard uncertainty per component (RMS of
+    # the angle error over a turn = |e| / sqrt 2 = U_ANGLE_DEG on average): what a type B u promises.
+    e = np.random.default_rng([seed, 25, 8]).normal(0.0, U_ANGLE_DEG, 2)
+    return {"eccentricity_deg": float(np.hypot(*e))}
+
+
+def run_eccentric_declared(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Item 8: eccentric encoder disc, its accuracy declared (u_angle, type B): must cover."""
+    return _calibration_rows("eccentric-declared", n_seeds, seed0, {}, sim_of_seed=_eccentric_disc,
+                             cal_kw={"u_angle": math.radians(U_ANGLE_DEG)},
+                             note=f"eccentric disc, offset vector normal with {U_ANGLE_DEG} deg per component, "
+                                  f"--u-angle-deg {U_ANGLE_DEG}")
+
+
+def run_eccentric(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Item 8: 0.05 deg once-per-turn angle error, accuracy not declared: must be named."""
+    return _calibration_rows(f"eccentric-{ECCENTRICITY_DEG}deg", n_seeds, seed0,
+                             {"eccentricity_deg": ECCENTRICITY_DEG}, expect="warn", warning="encoder-eccentricity",
+                             note=f"{ECCENTRICITY_DEG} deg once-per-turn angle error, no --u-angle-deg")
+
+
 SCENARIOS = {
     "white": run_white,
     "no-ripple": run_no_ripple,
@@ -140,6 +192,10 @@ SCENARIOS = {
     "sync-only-1%-radius": run_sync_only_radius,
     "ar1-0.9": run_ar1,
     "long-60": run_long,
+    "angle-sync-3%": run_angle_sync,
+    "ripple-4%-0.7Hz": run_ripple_07,
+    "eccentric-declared": run_eccentric_declared,
+    f"eccentric-{ECCENTRICITY_DEG}deg": run_eccentric,
 }
 for _run in SCENARIOS.values():
     _run.full_seeds = 400
