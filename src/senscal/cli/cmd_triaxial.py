@@ -13,6 +13,7 @@ from senscal.cli.common import (
     FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, TimeColumnOpt, console, emit_warnings, err_console, print_json, progress_bar,
     table,
 )
+from senscal.cli.common import StartOpt, StopOpt, TimeUnitOpt
 from senscal.cli.registry_opts import (
     CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, save_if_requested,
 )
@@ -71,6 +72,9 @@ def calibrate_cmd(
     fs: FsOpt = None,
     names: NamesOpt = None,
     skip_rows: SkipRowsOpt = None,
+    time_unit: TimeUnitOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
     json_out: JsonOpt = False,
     save: SaveOpt = False,
     sensor: SensorOpt = None,
@@ -127,6 +131,9 @@ def calibrate_cmd(
                   f"({b['std_percent']:.3g} % std)")
     console.print(f"|H| - F after:  mean {a['mean']:.4g}, std {a['std']:.4g}, max {a['max_abs']:.4g} "
                   f"({a['std_percent']:.3g} % std)")
+    tt = res.time_terms or {}
+    if tt.get("note"):
+        console.print(tt["note"])
     for g in res.unidentifiable:
         console.print(f"unidentifiable: {g['reason']}")
     for c in res.model_choice:
@@ -151,6 +158,8 @@ def apply_cmd(
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Correct three field channels with saved parameters; other channels are copied."""
@@ -209,6 +218,11 @@ def simulate_magnetometer_cmd(
     tilt_deg: Annotated[float, typer.Option("--tilt-deg", help="Random tilt std of the planar turn, deg.")] = 0.0,
     outliers: Annotated[int, typer.Option("--outliers", help="Gross-error readings.")] = 0,
     clip: Annotated[Optional[float], typer.Option("--clip", help="Saturate each axis at +/- this value.")] = None,
+    order: Annotated[str, typer.Option("--order", help="random | tumble (sphere: the Z axis turned from up to down, so slow changes follow the orientation).")] = "random",
+    drift: Annotated[Optional[str], typer.Option("--drift", help="dBx,dBy,dBz: offset change over the session (e.g. 30,-20,25 nT).")] = None,
+    drift_shape: Annotated[str, typer.Option("--drift-shape", help="linear | warmup (settles like 1 - exp(-3 s)).")] = "linear",
+    field_step: Annotated[float, typer.Option("--field-step", help="The field's magnitude steps by this much (field units) at --step-at of the session.")] = 0.0,
+    step_at: Annotated[float, typer.Option("--step-at", help="Session fraction of the field step.")] = 0.5,
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
     """A rotated magnetometer (or tumbled accelerometer) with known errors: magnetometer.csv + truth JSON."""
@@ -219,14 +233,16 @@ def simulate_magnetometer_cmd(
 
     g = parse_floats(gains, "--gains")
     b = parse_floats(offsets, "--offsets") if offsets is not None else None
-    if len(g) != 3 or (b is not None and len(b) != 3):
-        raise InputError("--gains and --offsets need three comma-separated numbers")
+    d = parse_floats(drift, "--drift") if drift is not None else None
+    if len(g) != 3 or (b is not None and len(b) != 3) or (d is not None and len(d) != 3):
+        raise InputError("--gains, --offsets and --drift need three comma-separated numbers")
     if n is not None and n < 1:
         raise InputError("--n must be at least 1")
     rec, truth = simulate_magnetometer(motion=motion, n=n, field=field, noise=noise, alpha_deg=alpha_deg,
                                        beta_deg=beta_deg, gamma_deg=gamma_deg, gains=tuple(g),
                                        offsets=tuple(b) if b else None, tilt_deg=tilt_deg, n_outliers=outliers,
-                                       clip=clip, seed=seed)
+                                       clip=clip, order=order, drift=tuple(d) if d else None,
+                                       drift_shape=drift_shape, field_step=field_step, step_at=step_at, seed=seed)
     p = write_recording(rec, out / "magnetometer.csv")
     q = write_truth(truth, out / "magnetometer_truth.json")
     console.print(f"wrote {p} and {q}")

@@ -186,7 +186,7 @@ class TriaxialCalibrateResult(JobResult):
             "noise": res.noise, "norm_error_before": res.norm_error_before, "norm_error_after": res.norm_error_after,
             "outliers": {"count": len(res.outliers), "indices": list(res.outliers)},
             "saturated": {"count": len(res.saturated)}, "plausibility": list(res.plausibility),
-            "plausibility_supported": list(res.plausibility_supported),
+            "plausibility_supported": list(res.plausibility_supported), "time_terms": res.time_terms,
             "warnings": list(res.warnings), "lms_vs_least_squares": res.lms_vs_least_squares,
             "n_samples": res.n_samples, "n_used": res.n_used,
             "model_evidence": list(res.model_evidence),

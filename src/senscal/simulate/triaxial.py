@@ -23,7 +23,10 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
                           offsets: tuple[float, float, float] | None = None, noise: float | None = None,
                           inclination_deg: float = 60.0, tilt_deg: float = 0.0, fs: float | None = None,
                           hold_s: float = 3.0, move_s: float = 1.5, clip: float | None = None,
-                          n_outliers: int = 0, band_deg: float = 15.0, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
+                          n_outliers: int = 0, band_deg: float = 15.0, order: str = "random",
+                          drift: tuple[float, float, float] | None = None, drift_shape: str = "linear",
+                          field_step: float = 0.0, step_at: float = 0.5,
+                          seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
     """Readings ``H_hat = K S R^T H + B + noise`` of a sensor turned in a constant field.
 
     Parameters
@@ -57,6 +60,30 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
         Saturate every axis at +/- this value (sensor units).
     n_outliers : int
         Readings replaced by gross errors (spikes of 5-20 % of the field).
+    order : {"random", "tumble"}
+        ``sphere`` only.  ``random``: orientations in random order (the
+        default).  ``tumble``: a systematic session, the sensor's Z axis
+        turned from straight up to straight down (orientations sorted by the
+        elevation of the Z axis; the field is inclined by
+        ``inclination_deg``), so anything that changes slowly in time
+        follows the orientation.
+    drift : (float, float, float), optional
+        Offset change over the session, sensor units (e.g. 10-30 nT while
+        the sensor warms up).  The offsets of the truth are the session
+        averages (mid-session values of a linear drift); ``drift_linear``
+        is the change over the session of the best straight line through
+        the offsets' path (``drift`` itself for a linear drift).
+    drift_shape : {"linear", "warmup"}
+        ``linear`` ramp, or a ``warmup`` that settles (``1 - exp(-3 s)``,
+        ``s`` the session fraction): a drift the linear drift term models
+        only approximately.
+    field_step : float
+        The field's magnitude changes by this much (field units) at
+        ``step_at`` of the session (something nearby switching on); the
+        change is parallel to the field.  The truth's ``field`` is then the
+        session average (``field_before`` the value before the step).
+    step_at : float
+        Session fraction of the step.
     seed : int, optional
 
     Returns
@@ -81,7 +108,33 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
         raise InputError(f"the number of outliers must not be negative, got {n_outliers}")
     m = sensor_matrix(*gains, math.radians(alpha_deg), math.radians(beta_deg), math.radians(gamma_deg))
     intervals: list[list[float]] = []
-    if motion in ("sphere", "hemisphere", "band"):
+    if order not in ("random", "tumble"):
+        raise InputError(f"unknown order {order!r}; use random or tumble")
+    if order == "tumble" and motion != "sphere":
+        raise InputError("order='tumble' is a sphere session (Z up to Z down); use motion='sphere'")
+    if drift_shape not in ("linear", "warmup"):
+        raise InputError(f"unknown drift shape {drift_shape!r}; use linear or warmup")
+    if not 0.0 < step_at < 1.0:
+        raise InputError(f"step_at is a session fraction in (0, 1), got {step_at!r}")
+    timed = order == "tumble" or field_step != 0.0
+    if timed and motion != "sphere":
+        raise InputError("a field step is simulated for motion='sphere'")
+    if motion == "sphere" and timed:
+        # Sensor orientations (not only field directions), so that a field fixed in the room can step and the
+        # session can be ordered by where the Z axis points.
+        n = 500 if n is None else n
+        rots = Rotation.random(n, random_state=rng.integers(2**31))
+        if order == "tumble":
+            rots = rots[np.argsort(-rots.as_matrix()[:, 2, 2], kind="stable")]
+        inc = math.radians(inclination_deg)
+        earth = np.array([math.cos(inc), 0.0, -math.sin(inc)])
+        frac = np.arange(n) / max(n - 1, 1)
+        mag = f + field_step * (frac >= step_at)
+        h = rots.inv().apply(earth).T * mag[None, :]
+        f_avg = float(np.mean(mag))
+        rate = 10.0 if fs is None else fs
+        t = np.arange(n) / rate
+    elif motion in ("sphere", "hemisphere", "band"):
         n = 500 if n is None else n
         if motion == "band" and not 0 < band_deg <= 90:
             raise InputError(f"the band half-width must be in (0, 90] deg, got {band_deg!r}")
@@ -133,6 +186,16 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
         h = np.concatenate(parts, axis=1)
         t = np.arange(h.shape[1]) / rate
     y = m @ h + b[:, None] + rng.normal(0.0, sigma, size=h.shape)
+    drift_line = None
+    if drift is not None:
+        d = np.asarray(drift, float)
+        sfrac = np.arange(h.shape[1]) / max(h.shape[1] - 1, 1)
+        shape = sfrac if drift_shape == "linear" else (1 - np.exp(-3 * sfrac)) / (1 - math.exp(-3))
+        # The truth's offsets are the session averages (the mid-session values of a linear drift), and its
+        # drift the change over the session of the straight line that fits the offsets' path best.
+        y = y + d[:, None] * (shape - shape.mean())[None, :]
+        tc = sfrac - sfrac.mean()
+        drift_line = (d * float(tc @ (shape - shape.mean()) / (tc @ tc))).tolist()
     out_idx: list[int] = []
     if n_outliers:
         out_idx = sorted(rng.choice(y.shape[1], size=n_outliers, replace=False).tolist())
@@ -143,13 +206,16 @@ def simulate_magnetometer(*, motion: str = "sphere", n: int | None = None, field
     rec = Recording(channels={"x": y[0], "y": y[1], "z": y[2]}, t=t, units=dict.fromkeys("xyz", unit),
                     metadata={"simulator": "triaxial", "motion": motion})
     truth = {
-        "motion": motion, "field": f, "unit": unit, "noise_std": sigma,
+        "motion": motion, "field": f if not timed or motion != "sphere" else f_avg, "unit": unit, "noise_std": sigma,
         "alpha_deg": alpha_deg, "beta_deg": beta_deg, "gamma_deg": gamma_deg,
         "Kx": gains[0], "Ky": gains[1], "Kz": gains[2], "Bx": b[0], "By": b[1], "Bz": b[2],
         "linear_weights": {"dKx": gains[0] - 1, "dKy": gains[1] - 1, "gamma": math.radians(gamma_deg),
                            "alpha": math.radians(alpha_deg), "beta": math.radians(beta_deg),
                            "Bx": b[0], "By": b[1], "Bz": b[2]},
-        "matrix": m, "outlier_indices": out_idx, "clip": clip,
+        "matrix": m, "outlier_indices": out_idx, "clip": clip, "order": order,
+        "drift": list(drift) if drift is not None else None, "drift_shape": drift_shape,
+        "drift_linear": drift_line if drift is not None else None, "field_step": field_step,
+        "step_at": step_at, "field_before": f,
         "static_intervals_s": intervals,
     }
     return rec, truth

@@ -16,7 +16,9 @@ import numpy as np
 
 from senscal._result import ResultMixin
 from senscal.diagnostics import named
-from senscal.errors import ConvergenceError, DegenerateGeometryError, DiagnosticError, InputError, TooFewSamplesError
+from senscal.errors import (
+    ConvergenceError, DegenerateGeometryError, DiagnosticError, InputError, SenscalError, TooFewSamplesError,
+)
 from senscal.triaxial import diagnostics as dg
 from senscal.triaxial.estimators import (
     PAIR_ANGLE, ModelFit, _calibration, _design, _linear_problem, fit_algebraic, fit_linear, fit_lms, fit_ml, param_names,
@@ -24,6 +26,8 @@ from senscal.triaxial.estimators import (
 )
 from senscal.triaxial.heading import heading_report
 from senscal.triaxial.models import MODELS, TriaxialCalibration
+from senscal.triaxial.consistency import inconsistent_blocks
+from senscal.triaxial.timeterms import BIAS_LIMIT_U, DRIFT_NAMES, fit_with_terms, session_time, term_evidence
 from senscal.triaxial.selection import (
     N_BLOCKS, Z_SIGNIFICANT, Candidate, choose, held_out_norm_error, held_out_residuals, paired_z, safe,
 )
@@ -67,6 +71,14 @@ class TriaxialResult(ResultMixin):
         Values outside the usual physical range (angles above 5 deg, gain
         ratios outside [0.8, 1.25], offsets above half the axis response)
         that the data do not establish (named ``implausible-parameters``).
+    time_terms : dict or None
+        Slow changes during the session (:mod:`senscal.triaxial.timeterms`):
+        ``drift`` and ``step`` tests (F, p, adopted), the adopted terms'
+        values with u (``terms``; the parameters are then those of the model
+        with the terms: offsets at mid-session, field the session average), the
+        bound on what an undetected term could do to the quoted parameters
+        (``bias_bound``), and the first-half / second-half refit
+        (``consistency``).  None for the planar and linearised fits.
     plausibility_supported : tuple of str
         Values outside that range which the data do establish (beyond it by
         more than 2 u, and the model without the term corrects held-out
@@ -116,6 +128,7 @@ class TriaxialResult(ResultMixin):
     heading: dict[str, Any] | None = None
     linearisation_bias: dict[str, Any] | None = None
     plausibility_supported: tuple[str, ...] = ()
+    time_terms: dict[str, Any] | None = None
 
     def value(self, name: str) -> float:
         """A parameter's value (NaN if unidentifiable)."""
@@ -263,11 +276,90 @@ def _param_units(names, unit: str, field_known: bool) -> dict[str, str]:
     return out
 
 
+def _time_analysis(chosen: str, fit: ModelFit, h: np.ndarray, tau: np.ndarray, field: float | None, report: set,
+                   prior, unit: str, channels, refit_static) -> tuple[ModelFit, dict[str, Any], list[str]]:
+    """Offset drift and field step by evidence, what an undetected one could hide, and the halves refit.
+
+    Returns the fit to report (with the adopted terms, if any), the
+    ``time_terms`` report and the named warnings.
+    """
+    warns: list[str] = []
+    try:
+        ev = term_evidence(chosen, h, tau, field, fit.names, fit.values, report, prior)
+    except (np.linalg.LinAlgError, ValueError, SenscalError) as exc:
+        return fit, {"error": f"time terms not evaluated: {exc}"}, warns
+    us = f" {unit}" if unit else ""
+    rep: dict[str, Any] = {"drift": ev["drift"], "step": ev["step"], "alpha": ev["alpha"],
+                           "bias_bound": ev["bias_bound"], "bias_limit_in_u": BIAS_LIMIT_U, "terms": {}}
+    tf = ev["fit"]
+    p = len(fit.names)
+    if tf is not None:
+        vals, cov = tf.values, tf.covariance
+        for k in range(p, len(tf.names)):
+            rep["terms"][tf.names[k]] = {"value": float(vals[k]), "u": float(math.sqrt(max(cov[k, k], 0.0))),
+                                         "unit": unit}
+        cal = _calibration(chosen, fit.method, vals[:p], field, None, unit, channels)
+        fit = ModelFit(model=fit.model, method=fit.method, names=fit.names, values=vals[:p], covariance=cov[:p, :p],
+                       calibration=cal, noise=float(math.sqrt(tf.rss / max(tf.dof, 1))), field=float(cal.field),
+                       field_estimated=fit.field_estimated, n_used=fit.n_used)
+    for term, c in ev["confounded"].items():
+        what = "an offset drift" if term == "drift" else "a field step"
+        adopted = ev[term]["adopted"]
+        warns.append(named("time-confounded", (
+            f"the orientations follow time, so these data cannot tell {what} from {c['worst']}: "
+            + (f"the {term} found is modelled, and the answer rests on its assumed shape in time (linear drift, "
+               "one step)" if adopted else
+               f"one too small to detect would shift {c['worst']} by about {c['bias_in_u']:.3g} of its u (the "
+               "quoted u assume none)")
+            + "; turn the sensor through the orientations in random order, or return to the first orientations "
+              "at the end of the session")))
+    # The two halves of the session (or before / after an adopted step) fitted apart must agree within their u.
+    n = h.shape[1]
+    cut = int(np.searchsorted(tau, ev["step"]["at_fraction"] - 0.5)) if ev["step"]["adopted"] else n // 2
+    cut = min(max(cut, 1), n - 1)
+    parts = [np.arange(cut), np.arange(cut, n)]
+    comp = [nm for nm in fit.names if nm in report and not (ev["step"]["adopted"] and nm == "field")]
+    ests, covs, err = [], [], None
+    for part in parts:
+        try:
+            if ev["drift"]["adopted"]:
+                f_ = fit_with_terms(chosen, h[:, part], tau[part], field, fit.names, fit.values, True, None, prior)
+                v_, c_ = f_.values[:p], f_.covariance[:p, :p]
+            else:
+                f_ = refit_static(h[:, part])
+                v_, c_ = f_.values, f_.covariance
+        except (SenscalError, np.linalg.LinAlgError, ValueError) as exc:
+            err = str(exc)
+            break
+        k_ = [fit.names.index(nm) for nm in comp]
+        ests.append(np.asarray(v_)[k_])
+        covs.append(np.asarray(c_)[np.ix_(k_, k_)])
+    if err is None and len(ests) == 2 and min(len(parts[0]), len(parts[1])) > 2 * p:
+        bc = inconsistent_blocks(ests, covs, comp)
+        rep["consistency"] = {"split": "before / after the step" if ev["step"]["adopted"] else "halves",
+                              **bc.to_dict()}
+        if bc.inconsistent:
+            parts_txt = ("the readings before and after the field step" if ev["step"]["adopted"] else
+                         "the first and the second half of the session")
+            warns.append(named("inconsistent-blocks", (
+                f"{parts_txt} give different calibrations (chi-square "
+                f"{bc.chi2:.3g} on {bc.dof} dof, p = {bc.p_value:.2g}; {bc.worst} differs by {bc.worst_z:.3g} u): "
+                "the sensor or the field changed during the session in a way the model does not follow, so the "
+                "quoted u understate the error; keep the sensor's temperature and surroundings steady")))
+    else:
+        rep["consistency"] = {"error": err or "too few readings in a half"}
+    if tf is not None:
+        terms = ", ".join(f"{k} = {v['value']:.4g} +/- {2 * v['u']:.2g}" for k, v in rep["terms"].items())
+        rep["note"] = (f"slow changes during the session modelled ({terms}{us}, k=2): offsets are mid-session "
+                       "values" + (", the field is the session average" if ev["step"]["adopted"] else ""))
+    return fit, rep, warns
+
+
 def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto", model: str | None = None,
               lr: float = 0.01, epochs: int = 50, strict: bool = False, outlier_sigma: float | None = 5.0,
               min_coverage: float = 0.25, planar_thickness: float = 0.05, max_angle_deg: float = 5.0,
               gain_ratio: tuple[float, float] = (0.8, 1.25), max_offset: float = 0.5, unit: str = "",
-              channels: Sequence[str] = ("x", "y", "z")) -> TriaxialResult:
+              channels: Sequence[str] = ("x", "y", "z"), time_terms: bool = True) -> TriaxialResult:
     """Calibrate a three-axis magnetometer or accelerometer without a reference.
 
     Parameters
@@ -307,6 +399,12 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         Sensor unit (for reports).
     channels : sequence of str
         Channel names (for the saved calibration).
+    time_terms : bool
+        Test the readings, in time order, for an offset drift and a field
+        step, add the terms the data ask for, name what the data cannot tell
+        from the parameters (``time-confounded``) and refit the two halves
+        of the session against their stated u (``inconsistent-blocks``).
+        Exact 3-D models only.
 
     Returns
     -------
@@ -413,6 +511,20 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
     def weak_of(mdl: str) -> set:
         return {p for g in analyses[mdl][2]["groups"] for p in g["parameters"]}
 
+    def prior_for(mdl: str) -> tuple[np.ndarray, np.ndarray] | None:
+        """Directions the data cannot see, pinned weakly at the nominal point.
+
+        One noise floor (sensor units, like the residuals) per plausible
+        range, so that the fit converges; they are reported as unknown.
+        """
+        weak_ = weak_of(mdl)
+        if not weak_:
+            return None
+        names_ = analyses[mdl][0]
+        sc = dg.physical_scales(names_, f0 if mdl != "planar" else r_plane, k0 if mdl != "planar" else 1.0)
+        wt = np.array([sigma0 / s_ if n in weak_ else 0.0 for n, s_ in zip(names_, sc)])
+        return analyses[mdl][1], wt
+
     def fit_model(hh: np.ndarray, mdl: str, warm: np.ndarray | None = None, quick: bool = False) -> ModelFit:
         """Maximum-likelihood (or ellipsoid) fit of an exact model, directions the data cannot see pinned.
 
@@ -433,17 +545,9 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
                 start = None
         if method == "ellipsoid":
             return start
-        prior = None
+        prior = prior_for(mdl)
         theta0 = start.values if start is not None else analyses[mdl][1]
-        if weak_:
-            # Directions the data cannot see: pin them weakly at the nominal
-            # point (one noise floor, in sensor units like the residuals, per
-            # plausible range) so the fit converges;
-            # they are reported as unknown.
-            names_ = analyses[mdl][0]
-            sc = dg.physical_scales(names_, f0 if mdl != "planar" else r_plane, k0 if mdl != "planar" else 1.0)
-            wt = np.array([sigma0 / s_ if n in weak_ else 0.0 for n, s_ in zip(names_, sc)])
-            prior = (analyses[mdl][1], wt)
+        if prior is not None:
             theta0 = analyses[mdl][1]
         if warm is not None:
             theta0 = warm
@@ -637,6 +741,15 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
                     one_axis.append(f"{ang} ~ B{'xyz'[other]}")
     is_turn = bool(one_axis) and plan["normal_alignment"] >= 0.95
     plan = {**plan, "planar": is_turn, "evidence": {**evidence, "confounded_by_one_axis_turn": one_axis}}
+    # -- slow changes during the session (offset drift, field step) ------------
+    time_report, time_warn = None, []
+    if time_terms and not linear_method and chosen in ("full", "diagonal", "offsets") and fit.covariance is not None:
+        kept_ = np.setdiff1d(np.arange(hu.shape[1]), outl)
+        tau2 = session_time(idx, n_total)[kept_]
+        fit, time_report, time_warn = _time_analysis(
+            chosen, fit, hu2, tau2, field, {n for n in fit.names if n not in weak}, prior_for(chosen), unit, channels,
+            lambda hh: fit_model(hh, chosen))
+        warnings.extend(time_warn)
     units = _param_units(fit.names, unit, field is not None and chosen != "planar")
     u_all = fit.uncertainties
     params = {}
@@ -742,9 +855,10 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         warnings.append(named("insufficient-coverage", f"insufficient coverage: {coverage_problem}"))
     if plaus:
         warnings.append(named("implausible-parameters", "implausible parameters: " + "; ".join(plaus)))
-    if strict and (coverage_problem or plaus):
+    if strict and (coverage_problem or plaus or time_warn):
         what = "; ".join(([f"insufficient coverage: {coverage_problem}"] if coverage_problem else [])
-                         + ([f"implausible parameters: {'; '.join(plaus)}"] if plaus else []))
+                         + ([f"implausible parameters: {'; '.join(plaus)}"] if plaus else [])
+                         + [w for w in time_warn])
         raise DiagnosticError(f"--strict: {what}; record more orientations or drop --strict to accept the "
                               f"{chosen} model")
     if linear_method and is_turn:
@@ -770,5 +884,5 @@ def calibrate(h: np.ndarray, *, field: float | None = None, method: str = "auto"
         lms_vs_least_squares=lms_cmp,
         linearisation_bias=lin_bias,
         n_samples=int(n_total), n_used=int(kept.size),
-        model_evidence=tuple(c.to_dict() for c in candidates), heading=heading,
+        model_evidence=tuple(c.to_dict() for c in candidates), heading=heading, time_terms=time_report,
     )

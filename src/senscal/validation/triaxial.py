@@ -33,7 +33,7 @@ from senscal.diagnostics import has_warning
 from senscal.triaxial import calibrate
 from senscal.validation import CoverageRow, coverage_row
 
-__all__ = ["SCENARIOS", "run_sphere", "run_hemisphere", "run_band", "run_level_turn", "truth_full",
+__all__ = ["SCENARIOS", "TIMED_RUNS", "TIME_WARNINGS", "run_sphere", "run_hemisphere", "run_band", "run_level_turn", "truth_full",
            "truth_planar"]
 
 JOB = "triaxial"
@@ -159,6 +159,91 @@ def run_linear_default(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 for _f in (run_sphere, run_hemisphere, run_band, run_level_turn, run_linear_small, run_linear_default):
     _f.full_seeds = 400  # type: ignore[attr-defined]
 
+
+# -- slow changes during the session (issue 26 item 1) -----------------------------------------------------
+# 300 orientations over the sphere, either in random order or as a systematic tumble (Z axis from up to
+# down), with an offset drift over the session or a field step halfway.  In random order the drift and the
+# step are found and modelled (the parameters must cover); in a tumble the orientations follow time, the data
+# cannot tell a drift or a step from the angles, gains, Bz and the field, and that must be named
+# (time-confounded, or inconsistent-blocks when the halves of the session disagree): every row of a tumble
+# case, the terms' values included, expects the warning.
+TIME_WARNINGS = ("time-confounded", "inconsistent-blocks")
+TERM_TRUTH = {f"dB{a}": (lambda t, k=k: t["drift_linear"][k] if t["drift"] is not None else 0.0)
+              for k, a in enumerate("xyz")}
+TERM_TRUTH["dF"] = lambda t: t["field_step"] * t["Kz"]
+
+
+def _run_timed(case: str, sim_kw: dict, expect: str, n_seeds: int, seed0: int, note: str,
+               term_rows: tuple[str, ...] = ()) -> list[CoverageRow]:
+    names = FULL_NAMES + tuple(TERM_TRUTH)
+    est: dict[str, list] = {n: [] for n in names}
+    unc: dict[str, list] = {n: [] for n in names}
+    tru: dict[str, list] = {n: [] for n in names}
+    warned, adopted = [], []
+    for s in range(seed0, seed0 + n_seeds):
+        rec, t = simulate_magnetometer(seed=s, motion="sphere", n=300, **sim_kw)
+        res = calibrate(rec.data())
+        warned.append(any(has_warning(res.warnings, w) for w in TIME_WARNINGS))
+        tt = res.time_terms or {}
+        terms = tt.get("terms", {})
+        adopted.append(bool(terms))
+        tv = truth_full(t)
+        for n in FULL_NAMES:
+            p = res.parameters.get(n)
+            ok = p is not None and p["value"] is not None and p["u"] is not None
+            est[n].append(p["value"] if ok else math.nan)  # a null in a case that must cover is a miss
+            unc[n].append(p["u"] if ok else math.nan)
+            tru[n].append(tv[n])
+        for n, truth in TERM_TRUTH.items():
+            # A term's own row only where the scenario has it at a size the test finds in nearly every seed
+            # (term_rows): a term adopted on weak evidence was selected for looking large, so its interval
+            # misses by construction (post-selection); the parameters' rows judge those seeds.
+            if n in terms and n in term_rows:
+                est[n].append(terms[n]["value"])
+                unc[n].append(terms[n]["u"])
+                tru[n].append(truth(t))
+    full_note = f"{note}; a time term modelled in {100 * sum(adopted) / max(len(adopted), 1):.0f} % of seeds"
+    return [coverage_row(JOB, case, n, est[n], unc[n], tru[n], warned=warned, expect=expect, note=full_note)
+            for n in names if est[n]]
+
+
+def _timed(case, sim_kw, expect, note, ci_seeds, term_rows=()):
+    def run(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+        return _run_timed(case, sim_kw, expect, n_seeds, seed0, note, term_rows)
+
+    run.__doc__ = f"{note} (expect: {expect})."
+    run.full_seeds = 200  # type: ignore[attr-defined]
+    run.ci_seeds = ci_seeds  # type: ignore[attr-defined]
+    return run
+
+
+DRIFT_10 = (10.0, -7.0, 8.0)
+DRIFT_30 = (30.0, -20.0, 25.0)
+DRIFT_TERMS = ("dBx", "dBy", "dBz")
+TIMED = {
+    "tumble-white": ({"order": "tumble"}, "warn",
+                     "tumble Z up -> Z down, no drift: the design alone cannot tell a drift from the parameters", 5),
+    "tumble-drift-10nT": ({"order": "tumble", "drift": DRIFT_10}, "warn",
+                          "tumble Z up -> Z down, offsets drift (10, -7, 8) nT over the session", 5, DRIFT_TERMS),
+    "tumble-drift-30nT": ({"order": "tumble", "drift": DRIFT_30}, "warn",
+                          "tumble Z up -> Z down, offsets drift (30, -20, 25) nT over the session", 5, DRIFT_TERMS),
+    "tumble-step-3nT": ({"order": "tumble", "field_step": 3.0}, "warn",
+                        "tumble Z up -> Z down, the field steps by 3 nT halfway", 5, ("dF",)),
+    "tumble-step-100nT": ({"order": "tumble", "field_step": 100.0}, "warn",
+                          "tumble Z up -> Z down, the field steps by 100 nT halfway", 5, ("dF",)),
+    "random-drift-30nT": ({"drift": DRIFT_30}, "cover",
+                          "random order, offsets drift (30, -20, 25) nT over the session", 8, DRIFT_TERMS),
+    "random-warmup-30nT": ({"drift": DRIFT_30, "drift_shape": "warmup"}, "cover",
+                           "random order, offsets settle by (30, -20, 25) nT like a warm-up (1 - exp(-3 s))", 8,
+                           DRIFT_TERMS),
+    "random-step-100nT": ({"field_step": 100.0}, "cover", "random order, the field steps by 100 nT halfway", 8,
+                          ("dF",)),
+    # A 3 nT step is about 1.3 u of dF: found in ~10 % of seeds, and then because the noise made it look large,
+    # so dF has no row here (post-selection); the parameters must cover either way.
+    "random-step-3nT": ({"field_step": 3.0}, "cover", "random order, the field steps by 3 nT halfway", 8),
+}
+TIMED_RUNS = {k: _timed(k, *v) for k, v in TIMED.items()}
+
 SCENARIOS = {"sphere": run_sphere, "hemisphere": run_hemisphere, "band-15deg": run_band,
              "level-turn": run_level_turn, "linear-small-errors": run_linear_small,
-             "linear-3pct-errors": run_linear_default}
+             "linear-3pct-errors": run_linear_default, **TIMED_RUNS}
