@@ -52,7 +52,7 @@ def test_expand_files(recordings):
 def test_run_one_failure_is_a_row(recordings):
     _, _, bad = recordings
     row = run_one("fit", bad, FitOptions(freq=10.0))
-    assert not row.ok and "NaN at sample 1" in row.error and "\n" not in row.error
+    assert not row.ok and "NaN in data row 2" in row.error and "\n" not in row.error
 
 
 def test_run_one_strict_fails_a_recording_with_warnings(tmp_path):

@@ -80,7 +80,7 @@ def test_nan_file(cli, tmp_path):
     p = tmp_path / "n.csv"
     p.write_text("t,x\n0,1\n0.1,NaN\n0.2,1\n0.3,0\n0.4,1\n0.5,0\n")
     r = cli("fit", str(p))
-    assert r.code == 2 and "NaN at sample 1" in r.err
+    assert r.code == 2 and "NaN in data row 2" in r.err
 
 
 def test_simulate_then_fit(cli, tmp_path):
@@ -220,7 +220,7 @@ def test_fit_nan_channel_is_skipped_not_the_file(cli, tmp_path):
     r = cli("fit", p, "--json")
     assert r.code == 0, r.err
     assert list(json.loads(r.out)["channels"]) == ["a"]
-    assert "channel-not-fitted: channel 'b' was not fitted: it has NaN at sample 5" in r.err
+    assert "channel-not-fitted: channel 'b' was not fitted: it has NaN in data row 6" in r.err
 
 
 def test_simulate_far_origin_then_fit_names_the_phase(cli, tmp_path):

@@ -19,5 +19,5 @@ def test_empty_fields_in_first_data_row_are_data_not_header(tmp_path):
 def test_nan_row_still_refused_without_allow_nan(tmp_path):
     p = tmp_path / "w.csv"
     p.write_text("t,a,b\n0,,1\n1,2,3\n")
-    with pytest.raises(DataError, match="NaN at sample 0"):
+    with pytest.raises(DataError, match="NaN in data row 1"):
         read_recording(p)

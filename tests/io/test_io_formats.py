@@ -94,11 +94,11 @@ def test_fs_instead_of_time_column(tmp_path):
 @pytest.mark.parametrize(
     "text, error, pattern",
     [
-        ("t,x\n0,1\n1,abc\n2,3\n", DataError, r"non-numeric value 'abc' at data row 1"),
-        ("t,x\n0,1\n1,nan\n2,3\n", DataError, r"channel 'x'.*NaN at sample 1"),
-        ("t,x\n0,1\n1,inf\n2,3\n", DataError, r"inf at sample 1"),
-        ("t,x\n0,1\n2,1\n1,3\n", DataError, r"non-monotonic .* at sample 2"),
-        ("t,x\n0,1\n0,1\n1,3\n", DataError, r"duplicate at sample 1"),
+        ("t,x\n0,1\n1,abc\n2,3\n", DataError, r"non-numeric value 'abc' in data row 2 \(the 2nd row below the header\)"),
+        ("t,x\n0,1\n1,nan\n2,3\n", DataError, r"channel 'x'.*NaN in data row 2"),
+        ("t,x\n0,1\n1,inf\n2,3\n", DataError, r"inf in data row 2"),
+        ("t,x\n0,1\n2,1\n1,3\n", DataError, r"non-monotonic .* in data row 3"),
+        ("t,x\n0,1\n0,1\n1,3\n", DataError, r"duplicate in data row 2"),
         ("t,x\n", FileFormatError, r"no data rows"),
     ],
 )

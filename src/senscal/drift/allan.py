@@ -210,7 +210,7 @@ def allan_deviation(y: Sequence[float] | np.ndarray, fs: float, taus: Sequence[f
         raise InputError(f"confidence must lie between 0 and 1, got {confidence!r}")
     if not np.isfinite(y).all():
         i = int(np.flatnonzero(~np.isfinite(y))[0])
-        raise InputError(f"the signal has a non-finite value at sample {i}; remove or interpolate it first")
+        raise InputError(f"the signal has a non-finite value in data row {i + 1}; remove or interpolate it first")
     n = y.size
     warnings: list[str] = []
     if taus is None:

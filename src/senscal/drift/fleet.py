@@ -1030,7 +1030,7 @@ def run_block(block: FleetBlock, group: FleetGroup, states: Mapping[str, Channel
             continue
         if not np.all(np.isfinite(t)):
             raise DataError(f"{block.file}, row group {rg}: time stamps must be finite and strictly increasing "
-                            f"(t has NaN or inf at row {int(np.argmin(np.isfinite(t)))})")
+                            f"(t has NaN or inf in data row {int(np.argmin(np.isfinite(t))) + 1})")
         # Channels continue from where each stopped: those with the same last time run together
         # (a channel new in this file starts from its prior beside the others).
         parts: dict[float, list[int]] = {}

@@ -334,10 +334,12 @@ def _numeric(name: str, values: Any, path: Path) -> np.ndarray:
         row = int(np.flatnonzero(bad.to_numpy())[0])
         cell = str(ser.iloc[row])
         cell = cell if len(cell) <= 40 else cell[:37] + "..."
-        raise DataError(
-            f"column '{name}' in {path} has a non-numeric value {cell!r} at data row {row}; "
-            "keep only numbers in data columns"
-        )
+        hint = ("keep only numbers in data columns" if not _DECIMAL_COMMA.match(cell.strip()) else
+                "it has a decimal comma: senscal reads decimal commas in files separated by ';' or tabs when "
+                "every number of the column has one; export the CSV with '.' as decimal mark, or with ';' as "
+                "separator")
+        raise DataError(f"column '{name}' in {path} has a non-numeric value {cell!r} in data row {row + 1} "
+                        f"(the {_ordinal(row + 1)} row below the header); {hint}")
     return num.to_numpy(dtype=np.float64)
 
 
@@ -348,6 +350,10 @@ _COMMENT = (";", "#", "%", "//")
 _SNIFF_LINES = 500
 
 
+def _ordinal(n: int) -> str:
+    return f"{n}{'th' if 10 <= n % 100 <= 20 else {1: 'st', 2: 'nd', 3: 'rd'}.get(n % 10, 'th')}"
+
+
 def _is_number(s: str) -> bool:
     try:
         float(s)
@@ -356,8 +362,23 @@ def _is_number(s: str) -> bool:
         return False
 
 
+# A number written with a decimal comma (Excel in many locales): "0,001", "-1,5e-3", ",5".
+_DECIMAL_COMMA = re.compile(r"^[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?$")
+
+
+def _decimal_comma_row(fields: list[str]) -> bool:
+    """True for fields that are numbers, some with a decimal comma (and no field that is neither)."""
+    fields = [f.strip() for f in fields if f.strip()]
+    return (any(_DECIMAL_COMMA.match(f) for f in fields)
+            and all(_is_number(f) or _DECIMAL_COMMA.match(f) for f in fields))
+
+
 def _sep_of(line: str) -> str:
     if "," in line:
+        # "0,001;1,25": ';' (or tab) separates and the commas are decimal marks.
+        for sep in (";", "\t"):
+            if sep in line and _decimal_comma_row(line.rstrip("\r\n").split(sep)):
+                return sep
         return ","
     if ";" in line:
         return ";"
@@ -367,8 +388,8 @@ def _sep_of(line: str) -> str:
 
 
 def _data_like(fields: list[str]) -> bool:
-    """True for a row of numbers, some of which may be empty (missing values)."""
-    return any(fields) and all(_is_number(f) for f in fields if f)
+    """True for a row of numbers, some of which may be empty (missing values) or have a decimal comma."""
+    return any(fields) and all(_is_number(f) or _DECIMAL_COMMA.match(f) for f in fields if f)
 
 
 def _fields(line: str, sep: str) -> list[str]:
@@ -426,6 +447,13 @@ def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
         fields = list(names)
     elif header_i is None:
         n = len(_fields(ref_line, sep))
+        names_line = [i for i in content if first_data is not None and i < first_data][-1:]
+        if sep == "," and names_line and len(_fields(head[names_line[0]], ",")) < n:
+            # "t,x" over "0,5,1,25": decimal commas in a comma-separated file cannot be told from separators.
+            raise FileFormatError(f"{path}: the header has {len(_fields(head[names_line[0]], ','))} columns but the "
+                                  f"data rows have {n}; if the numbers use decimal commas ('0,5'), they cannot be "
+                                  "told from the separators: export the CSV with ';' as separator (senscal reads its "
+                                  "decimal commas) or with '.' as decimal mark")
         raise FileFormatError(
             f"{path} has no header row ({n} columns); give column names, e.g. --names "
             f"{','.join(['t', 'x', 'y', 'z'][:n]) if n <= 4 else ','.join(f'c{k}' for k in range(n))}"
@@ -461,6 +489,8 @@ def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
     if body is None:
         body = _read_body_pandas(path, sep=sep, width=len(fields), skip=body_start)
     _check_not_truncated(path, sep, len(fields))
+    if sep != ",":
+        body = [_decimal_points(col, nm, path) for col, (_, nm, _) in zip(body, cols_meta)]
     units: dict[str, str] = {}
     cols: dict[str, np.ndarray] = {}
     raw: dict[str, str] = {}
@@ -469,6 +499,27 @@ def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
         if unit is not None:
             units[nm] = unit
     return cols, units, meta, file_fs, 0.0
+
+
+def _decimal_points(col: np.ndarray, name: str, path: Path) -> np.ndarray:
+    """A text column whose numbers use a decimal comma ("1,25"), with decimal points; others unchanged.
+
+    Only a file separated by ';', tabs or blanks gets here: there a comma can only be a decimal mark.  A
+    column that mixes commas with points is refused naming the first point (``1.234`` beside ``0,5`` may
+    be a thousands separator: never guessed).
+    """
+    if col.dtype.kind != "O":
+        return col
+    text = [v.strip() if isinstance(v, str) else "" for v in col]
+    commas = [i for i, v in enumerate(text) if _DECIMAL_COMMA.match(v)]
+    if not commas:
+        return col
+    dots = [i for i, v in enumerate(text) if "." in v]
+    if dots:
+        raise DataError(f"column '{name}' in {path} mixes decimal commas ({text[commas[0]]!r} in data row "
+                        f"{commas[0] + 1}) with decimal points ({text[dots[0]]!r} in data row {dots[0] + 1}); "
+                        "export the CSV again with one decimal mark")
+    return np.array([v.replace(",", ".") if isinstance(v, str) else v for v in col], dtype=object)
 
 
 def _read_body_pandas(path: Path, *, sep: str, width: int, skip: int) -> list[np.ndarray]:

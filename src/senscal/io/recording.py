@@ -20,6 +20,8 @@ def _first_bad(mask: np.ndarray) -> int:
 def check_finite(name: str, values: np.ndarray, *, source: str | None = None, allow_nan: bool = False) -> None:
     """Raise :class:`DataError` naming the channel and first bad row.
 
+    Rows are counted from 1, as a user counts the data rows of a file below its header.
+
     Parameters
     ----------
     name : str
@@ -37,7 +39,7 @@ def check_finite(name: str, values: np.ndarray, *, source: str | None = None, al
         where = f" in {source}" if source else ""
         kind = "NaN" if np.isnan(values[row]) else "inf"
         raise DataError(
-            f"channel '{name}'{where} has {kind} at sample {row} (and {int(bad.sum()) - 1} more); "
+            f"channel '{name}'{where} has {kind} in data row {row + 1} (and {int(bad.sum()) - 1} more); "
             "remove or interpolate the bad samples before calibrating"
         )
 
@@ -47,14 +49,14 @@ def check_time(t: np.ndarray, *, source: str | None = None, name: str = "t") -> 
     where = f" in {source}" if source else ""
     if not np.all(np.isfinite(t)):
         row = _first_bad(~np.isfinite(t))
-        raise DataError(f"time column '{name}'{where} is not finite at sample {row}; fix the time stamps")
+        raise DataError(f"time column '{name}'{where} is not finite in data row {row + 1}; fix the time stamps")
     if t.size > 1:
         d = np.diff(t)
         if np.any(d <= 0):
             row = _first_bad(d <= 0) + 1
             what = "duplicate" if d[row - 1] == 0 else "non-monotonic (goes backwards)"
             raise DataError(
-                f"time column '{name}'{where} is {what} at sample {row} "
+                f"time column '{name}'{where} is {what} in data row {row + 1} "
                 f"(t={float(t[row - 1])!r} then {float(t[row])!r}); time stamps must strictly increase"
             )
 

@@ -119,7 +119,7 @@ def not_a_signal(y: np.ndarray) -> str | None:
     if bad.size:
         more = f" (and {bad.size - 1} more)" if bad.size > 1 else ""
         kind = "NaN" if np.isnan(y[bad[0]]) else "inf"
-        return f"it has {kind} at sample {bad[0]}{more}; remove or interpolate the bad samples"
+        return f"it has {kind} in data row {bad[0] + 1}{more}; remove or interpolate the bad samples"
     if y.size and np.ptp(y) == 0.0:
         return f"it is constant ({y[0]:g}): there is no signal to fit"
     if y.size > 2:

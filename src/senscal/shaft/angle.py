@@ -69,7 +69,7 @@ def angle_to_rad(angle, unit: str = "rad", *, monotonic: bool = False, name: str
     if a.ndim != 1:
         raise InputError(f"angle '{name}' must be 1-D, got shape {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise DataError(f"angle '{name}' has NaN or inf at sample {int(np.flatnonzero(~np.isfinite(a))[0])}; "
+        raise DataError(f"angle '{name}' has NaN or inf in data row {int(np.flatnonzero(~np.isfinite(a))[0]) + 1}; "
                         "fix the encoder channel")
     rad = np.radians(a) if unit == "deg" else a.copy()
     rad = np.unwrap(rad, period=TWO_PI)
@@ -80,7 +80,7 @@ def angle_to_rad(angle, unit: str = "rad", *, monotonic: bool = False, name: str
         if back.size:
             i = int(back[0]) + 1
             raise DataError(
-                f"angle '{name}' is not monotonic: it reverses at sample {i} "
+                f"angle '{name}' is not monotonic: it reverses at data row {i + 1} "
                 f"({math.degrees(rad[i - 1]):.6g} -> {math.degrees(rad[i]):.6g} deg after unwrapping); "
                 "calibrate on a run that turns one way, or check --angle-unit and the encoder channel"
             )

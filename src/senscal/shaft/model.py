@@ -384,7 +384,7 @@ def check_accel(accel, n: int | None = None) -> np.ndarray:
     if a.ndim != 1 or (n is not None and a.size != n):
         raise InputError(f"the accelerometer channel must be 1-D with one sample per angle sample ({n}), got {a.shape}")
     if not np.all(np.isfinite(a)):
-        raise DataError(f"the accelerometer channel has NaN or inf at sample {int(np.flatnonzero(~np.isfinite(a))[0])}; "
+        raise DataError(f"the accelerometer channel has NaN or inf in data row {int(np.flatnonzero(~np.isfinite(a))[0]) + 1}; "
                         "remove or interpolate bad samples first")
     peak = float(np.max(np.abs(a))) if a.size else 0.0
     if peak > 1e150:

@@ -376,7 +376,7 @@ def _check_y(y, full: bool = True) -> np.ndarray:
         idx = np.argwhere(bad)[0]
         ch = tuple(int(i) for i in idx[:-1])
         where = f"channel {ch if len(ch) > 1 else ch[0]} " if ch else ""
-        raise DataError(f"{where}has NaN or inf at sample {int(idx[-1])}; remove or interpolate bad samples before fitting")
+        raise DataError(f"{where}has NaN or inf in data row {int(idx[-1]) + 1}; remove or interpolate bad samples before fitting")
     _check_magnitude(y)
     return y
 

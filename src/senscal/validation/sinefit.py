@@ -48,7 +48,7 @@ from senscal.simulate.sine import adc, ar1_noise, flicker_noise, jittered_times
 from senscal.sinefit import fit_sine
 from senscal.validation import CoverageRow, coverage_row
 
-__all__ = ["SCENARIOS", "simulate_batch"]
+__all__ = ["SCENARIOS", "INSTRUMENT_SCENARIOS", "simulate_batch"]
 
 JOB = "sinefit"
 FS, N, FREQ, AMP, OFFSET, NOISE = 1000.0, 2000, 12.5, 1.0, 0.3, 0.05
@@ -263,6 +263,9 @@ for _run in (run_white, run_ar1_05, run_ar1_09, run_ar1_09_white_model, run_far_
     _run.full_seeds = 400
 for _run in _DEPARTED.values():
     _run.full_seeds = 200
+
+#: The instrument departures (issue 25): tests/sinefit/test_coverage_instrument.py runs them.
+INSTRUMENT_SCENARIOS = tuple(_DEPARTED)
 
 SCENARIOS = {"white": run_white, "ar1-0.5": run_ar1_05, "ar1-0.9": run_ar1_09,
              "ar1-0.9-white-model": run_ar1_09_white_model, "far-origin": run_far_origin, **_DEPARTED}

@@ -196,7 +196,7 @@ def cut_whole_revolutions(angle_deg, t) -> AngleSync:
     if np.any(d <= 0) or np.any(d >= 180.0):
         i = int(np.flatnonzero((d <= 0) | (d >= 180.0))[0]) + 1
         raise DataError(
-            f"turntable angle does not turn steadily one way at sample {i} (step {direction * d[i - 1]:g} deg); "
+            f"turntable angle does not turn steadily one way at data row {i + 1} (step {direction * d[i - 1]:g} deg); "
             "the angle channel must be in degrees and sampled at least 2 times per revolution"
         )
     k = np.floor(psi / 360.0)
