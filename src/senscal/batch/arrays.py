@@ -20,15 +20,23 @@ from senscal.io.recording import check_time
 
 __all__ = ["ArrayFit", "SUMMARY_FIELDS", "check_stored_array", "fit_sine_dask", "fit_stored_array", "fit_hdf5_dataset"]
 
-SUMMARY_FIELDS = ("frequency", "amplitude", "phase", "offset", "u_frequency", "u_amplitude", "u_phase",
-                  "u_offset", "residual_rms", "snr_db")
+FIT_FIELDS = ("frequency", "amplitude", "phase", "offset", "u_frequency", "u_amplitude", "u_phase",
+              "u_offset", "residual_rms", "snr_db")
+# What the converter did (senscal.io.instrument, as `senscal fit` reports it): samples at a clipped end,
+# 1 where the clipping was handled (the fit used only samples away from the clip level), the ADC's LSB
+# (NaN: no grid), 1 where the quantiser was under-dithered (u does not cover).
+INSTRUMENT_FIELDS = ("n_clipped", "clip_handled", "lsb", "under_dithered")
+SUMMARY_FIELDS = FIT_FIELDS + INSTRUMENT_FIELDS
 
 
 @dataclass(frozen=True)
 class ArrayFit(ResultMixin):
     """Per-channel sine-fit summaries of a large array (SI units, phase in rad).
 
-    Every attribute of :data:`SUMMARY_FIELDS` is an array of shape (n_channels,).
+    Every attribute of :data:`SUMMARY_FIELDS` is an array of shape (n_channels,):
+    the fit's numbers and what the converter did (``n_clipped``,
+    ``clip_handled``, ``lsb``, ``under_dithered``; see
+    :func:`senscal.jobs.fit.instrument_check`).
     """
 
     frequency: np.ndarray
@@ -41,6 +49,10 @@ class ArrayFit(ResultMixin):
     u_offset: np.ndarray
     residual_rms: np.ndarray
     snr_db: np.ndarray
+    n_clipped: np.ndarray
+    clip_handled: np.ndarray
+    lsb: np.ndarray
+    under_dithered: np.ndarray
     n_samples: int
 
     @property
@@ -49,16 +61,22 @@ class ArrayFit(ResultMixin):
 
 
 def _summaries(block: np.ndarray, t, fs, freq, harmonics) -> np.ndarray:
+    from senscal.jobs.fit import instrument_check
     from senscal.sinefit import fit_sine
 
     block = np.asarray(block, dtype=np.float64)
+    tt = np.asarray(t, dtype=float) if t is not None else np.arange(block.shape[-1]) / float(fs)
     if freq is not None:
-        fit = fit_sine(block, t, fs=fs, freq=freq, harmonics=harmonics)
-        return np.stack([np.atleast_1d(getattr(fit, f)) for f in SUMMARY_FIELDS], axis=1)
+        batch = fit_sine(block, t, fs=fs, freq=freq, harmonics=harmonics)
+        fits = [batch.channel(i) for i in range(block.shape[0])] if batch.shape else [batch]
+    else:
+        fits = [fit_sine(block[i], t, fs=fs, harmonics=harmonics) for i in range(block.shape[0])]
     rows = []
-    for i in range(block.shape[0]):
-        fit = fit_sine(block[i], t, fs=fs, harmonics=harmonics)
-        rows.append([float(getattr(fit, f)) for f in SUMMARY_FIELDS])
+    for i, fit in enumerate(fits):
+        fit, found, _, _ = instrument_check(block[i], tt, fit, freq=freq, harmonics=harmonics)
+        rows.append([float(getattr(fit, f)) for f in FIT_FIELDS]
+                    + [float(found.n_clipped), float(found.clipped and bool(found.handled)),
+                       float(found.lsb) if found.lsb is not None else math.nan, float(bool(found.under_dithered))])
     return np.asarray(rows).reshape(block.shape[0], len(SUMMARY_FIELDS))
 
 

@@ -218,10 +218,21 @@ def fit_array_cmd(
     df["u_phase_deg"] = np.degrees(df["u_phase"])
     with atomic_output(out, what="results table") as tmp:
         df.to_parquet(tmp, index=False) if out.suffix.lower() in (".parquet", ".pq") else df.to_csv(tmp, index=False)
+    under = int(np.sum(res.under_dithered > 0))
+    clipped = int(np.sum(res.n_clipped > 0))
+    unhandled = int(np.sum((res.n_clipped > 0) & ~(res.clip_handled > 0)))
     summary = {"file": str(file), "dataset": dataset, "n_channels": res.n_channels, "n_samples": res.n_samples,
                "out": str(out), "amplitude_median": float(np.median(res.amplitude)),
-               "u_amplitude_median": float(np.median(res.u_amplitude))}
+               "u_amplitude_median": float(np.median(res.u_amplitude)),
+               "n_clipped_channels": clipped, "n_clipped_unhandled": unhandled, "n_under_dithered": under}
     if json_out:
         print_json(summary)
     else:
         console.print(f"fitted {res.n_channels} channels x {res.n_samples} samples; results in {out}")
+    # Per-channel flags are in the table (n_clipped, clip_handled, lsb, under_dithered); the count is said here.
+    if clipped:
+        err_console.print(f"[yellow]warning:[/yellow] clipped: {clipped} channel(s) clipped ({unhandled} not "
+                          "handled: their amplitude and offset are biased); see n_clipped and clip_handled")
+    if under:
+        err_console.print(f"[yellow]warning:[/yellow] under-dithered: {under} channel(s) quantised with analogue "
+                          "noise too small to dither the ADC; their u does not cover (see under_dithered)")

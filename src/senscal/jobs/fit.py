@@ -379,7 +379,8 @@ def instrument_check(y, t, fit: SineFit, *, freq: float | None = None, harmonics
     warns: list[str] = []
     keep = None
     need = 8 * (2 * harmonics + 3)
-    if found.n_samples > need and found.levels > 2:
+    # One sample at each extreme is no pile-up (and at most one clipped sample): nothing to test.
+    if found.n_samples > need and found.levels > 2 and max(found.n_at_low, found.n_at_high) >= 2:
         inner = (y > found.low) & (y < found.high)
         ct = None
         try:
