@@ -462,11 +462,12 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         acceleration and to ``w^2`` (centripetal term of a misaligned axis)
         together with the gravity term (instrumental variables [2]_), so
         speed ripple does not leak into the fit.  The coefficients are learnt
-        from speed variation that is not once per turn and then remove the
-        once-per-turn part as well; their uncertainty enters the reported
-        covariance.  A run whose only speed variation is locked to the turn
-        cannot separate them: the named warning ``synchronous-ripple`` says
-        so.  False gives the plain three-parameter fit of the paper [1]_.
+        from speed variation that differs from turn to turn (judged after
+        removing the regressors' synchronous part, all harmonics of the
+        angle) and then remove the once-per-turn part as well; their
+        uncertainty enters the reported covariance.  A run whose only speed
+        variation repeats with the angle cannot separate them: the named
+        warning ``synchronous-ripple`` says so.  False gives the plain three-parameter fit of the paper [1]_.
     g : float
         Local gravity, m/s^2.
     window : float
