@@ -306,13 +306,13 @@ def _time_analysis(chosen: str, fit: ModelFit, h: np.ndarray, tau: np.ndarray, f
         what = "an offset drift" if term == "drift" else "a field step"
         adopted = ev[term]["adopted"]
         warns.append(named("time-confounded", (
-            f"the orientations follow time, so these data cannot tell {what} from {c['worst']}: "
+            f"these orientations, in their time order, cannot tell {what} from {c['worst']}: "
             + (f"the {term} found is modelled, and the answer rests on its assumed shape in time (linear drift, "
                "one step)" if adopted else
                f"one too small to detect would shift {c['worst']} by about {c['bias_in_u']:.3g} of its u (the "
                "quoted u assume none)")
-            + "; turn the sensor through the orientations in random order, or return to the first orientations "
-              "at the end of the session")))
+            + "; turn the sensor through the orientations in random order (with few readings: more of them), or "
+              "return to the first orientations at the end of the session")))
     # The two halves of the session (or before / after an adopted step) fitted apart must agree within their u.
     n = h.shape[1]
     cut = int(np.searchsorted(tau, ev["step"]["at_fraction"] - 0.5)) if ev["step"]["adopted"] else n // 2
