@@ -158,7 +158,9 @@ def same_unit(a: str | None, b: str | None) -> bool:
 
 def _scale(ua, ub) -> float:
     reg = _registry()
-    return float(reg.Quantity(1.0, ua).to(ub).magnitude - reg.Quantity(0.0, ua).to(ub).magnitude)
+    f = float(reg.Quantity(1.0, ua).to(ub).magnitude - reg.Quantity(0.0, ua).to(ub).magnitude)
+    # pint goes through base units (1e-6 / 1e-9 = 999.9999999999999): 15 digits give the factor as written.
+    return float(f"{f:.15g}")
 
 
 def _offset(ua, ub) -> float:
