@@ -122,7 +122,10 @@ def _angle_power(unit) -> float:
 # Dimensions in words for messages (SI base units as the key); others print pint's dimensionality.
 _DIM_WORDS = {"V": "a voltage", "m": "a length", "s": "a time", "m/s": "a velocity", "m/s^2": "an acceleration",
               "C": "a charge", "A": "a current", "T": "a magnetic flux density", "Hz": "a frequency",
-              "K": "a temperature", "N": "a force", "Pa": "a pressure", "1": "a ratio or count"}
+              "K": "a temperature", "N": "a force", "Pa": "a pressure", "1": "a ratio or count",
+              "V/(m/s^2)": "a voltage per acceleration", "V/(m/s)": "a voltage per velocity",
+              "V/m": "a voltage per length", "C/(m/s^2)": "a charge per acceleration",
+              "1/(m/s^2)": "a count per acceleration", "V/T": "a voltage per flux density"}
 _ANGLE_WORDS = {"rad": "an angle", "rad/s": "an angular velocity", "rad/s^2": "an angular acceleration"}
 
 
@@ -243,16 +246,23 @@ def parse_quantity(text: str | float | None, unit: str, *, option: str) -> float
     if text is None:
         return None
     if isinstance(text, (int, float, np.integer, np.floating)) and not isinstance(text, bool):
+        if not math.isfinite(float(text)):
+            raise InputError(f"{option} must be a finite number in {unit}, got {text!r}")
         return float(text)
     m = _QTY.match(str(text))
+    if m is not None and m.group(2)[:1] in (",", "."):
+        raise InputError(f"{option} {text!r} has a decimal comma or a stray mark; write the number with a decimal "
+                         "point, e.g. 0.05 or '50 mV/(m/s^2)'")
     if m is None:
         raise InputError(f"{option} must be a number, optionally with a unit (e.g. 0.05 or '50 mV/(m/s^2)'), "
                          f"got {text!r}")
     value, given = float(m.group(1)), m.group(2)
-    if not given:
-        return value
-    return float(convert(value, given, unit, what=f"{option} {text}",
-                         fix=f"give {option} in {unit} or a unit convertible to it"))
+    if given:
+        value = float(convert(value, given, unit, what=f"{option} {text}",
+                              fix=f"give {option} in {unit} or a unit convertible to it"))
+    if not math.isfinite(value):
+        raise InputError(f"{option} {text} is beyond the range of a float ({value} {unit}); give a finite value")
+    return value
 
 
 def unit_text(text: str | None) -> str:
