@@ -32,7 +32,8 @@ def one_pass(record):
     setup, y, t, c = record
     out = {}
     for lag in (0, 9):
-        out[lag] = correct_drift(setup, y, t, {"c": c}, window=lag or None, compare=False)
+        # The tracker keeps the levels it is given: compare with the one pass at those levels (no level u).
+        out[lag] = correct_drift(setup, y, t, {"c": c}, window=lag or None, compare=False, level_u=False)
     return out
 
 

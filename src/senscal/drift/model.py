@@ -16,11 +16,13 @@ standard deviations ``[unit]`` with a time constant ``tau`` [s].
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
+import numba as nb
 import numpy as np
 
 from senscal._result import ResultMixin
@@ -28,7 +30,7 @@ from senscal.errors import FileFormatError, InputError, UnobservableError
 from senscal.kalman import StateSpaceModel
 
 __all__ = ["Bias", "SignalModel", "DriftSetup", "redundant_setup", "covariate_setup", "known_setup", "load_model_yaml",
-           "augmented_model", "check_observable", "DYNAMICS", "SIGNAL_KINDS"]
+           "augmented_model", "augmented_arrays", "lag_filter", "check_observable", "DYNAMICS", "SIGNAL_KINDS"]
 
 #: Bias dynamics: random walk, first-order Gauss-Markov, and ``ramp`` (an
 #: integrated random walk: the bias and its slope, the slope a random walk).
@@ -63,6 +65,13 @@ class Bias(ResultMixin):
         [unit/s/sqrt(s)].  None: estimated by maximum likelihood.
     tau : float, optional
         Gauss-Markov time constant [s].
+    lag : float, optional
+        Covariate-linked bias only: the bias follows the covariate through a
+        first-order lag of this time constant [s] (a sensor whose own
+        temperature lags the probe that is recorded); None or 0: no lag.
+    fit_lag : bool
+        Estimate that time constant by maximum likelihood (noise parameter
+        ``NAME_lag`` [s]); ``lag`` is then ignored.
     """
 
     channel: str
@@ -71,6 +80,8 @@ class Bias(ResultMixin):
     dynamics: str = "random_walk"
     level: float | None = None
     tau: float | None = None
+    lag: float | None = None
+    fit_lag: bool = False
 
     def __post_init__(self) -> None:
         if self.dynamics not in DYNAMICS:
@@ -82,6 +93,16 @@ class Bias(ResultMixin):
         if self.reference is not None and not math.isfinite(self.reference):
             raise InputError(f"the covariate reference of the bias of {self.channel} must be a finite number, "
                              f"got {self.reference}")
+        if (self.lag or self.fit_lag) and self.covariate is None:
+            raise InputError(f"a covariate lag is for a covariate-linked bias; the bias of {self.channel} has no "
+                             "covariate")
+        if self.lag is not None and not (math.isfinite(self.lag) and self.lag >= 0):
+            raise InputError(f"the covariate lag of the bias of {self.channel} must be >= 0 seconds, got {self.lag}")
+
+    @property
+    def lag_name(self) -> str | None:
+        """Name of the estimated covariate lag [s], None when the lag is not estimated."""
+        return self.name + "_lag" if self.fit_lag else None
 
     @property
     def name(self) -> str:
@@ -167,6 +188,12 @@ class DriftSetup(ResultMixin):
         left out are estimated.
     trusted : sequence of str
         Channels declared free of bias (documentation of the set-up).
+    ar_noise : sequence of str
+        Channels whose measurement noise is coloured: besides the white
+        noise, a first-order autoregressive term (one state per channel,
+        ``NAME_noise_ar``, stationary std ``NAME_noise_ar_std`` [unit] and
+        time constant ``NAME_noise_ar_tau`` [s], both estimated).  It is
+        noise, not bias: the corrected output keeps it.
     """
 
     channels: tuple[str, ...]
@@ -174,11 +201,18 @@ class DriftSetup(ResultMixin):
     biases: tuple[Bias, ...] = ()
     noise_std: Mapping[str, float] = field(default_factory=dict)
     trusted: tuple[str, ...] = ()
+    ar_noise: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "channels", tuple(self.channels))
         object.__setattr__(self, "biases", tuple(self.biases))
         object.__setattr__(self, "trusted", tuple(self.trusted))
+        object.__setattr__(self, "ar_noise", tuple(self.ar_noise))
+        for c in self.ar_noise:
+            if c not in self.channels:
+                raise InputError(f"coloured (AR) noise given for {c}, which is not a measured channel")
+        if len(set(self.ar_noise)) != len(self.ar_noise):
+            raise InputError(f"a channel is repeated in the coloured-noise channels {list(self.ar_noise)}")
         object.__setattr__(self, "noise_std", dict(self.noise_std))
         if not self.channels:
             raise InputError("a drift set-up needs at least one measured channel")
@@ -221,19 +255,27 @@ class DriftSetup(ResultMixin):
     def state_names(self) -> list[str]:
         ns = self.signal.n_states
         sig = ["signal"] if ns == 1 else [f"signal_{i}" for i in range(ns)]
-        return sig + [s for b in self.biases for s in b.state_names]
+        return sig + [s for b in self.biases for s in b.state_names] + [f"{c}_noise_ar" for c in self.ar_noise]
 
     @property
     def state_channels(self) -> list[str | None]:
-        """The channel each state biases (None for signal states)."""
-        return [None] * self.signal.n_states + [b.channel for b in self.biases for _ in b.state_names]
+        """The channel each state biases (None for signal and coloured-noise states)."""
+        return ([None] * self.signal.n_states + [b.channel for b in self.biases for _ in b.state_names]
+                + [None] * len(self.ar_noise))
+
+    @property
+    def n_bias_states(self) -> int:
+        """Number of bias states (they follow the signal states; coloured-noise states come last)."""
+        return sum(len(b.state_names) for b in self.biases)
 
     def level_names(self) -> list[str]:
         """Every noise parameter of the set-up (given or to estimate)."""
         out = [f"{c}_noise_std" for c in self.channels]
         if self.signal.level_name:
             out.append(self.signal.level_name)
-        return out + [b.level_name for b in self.biases]
+        out += [b.level_name for b in self.biases]
+        out += [b.lag_name for b in self.biases if b.lag_name]
+        return out + [n for c in self.ar_noise for n in (f"{c}_noise_ar_std", f"{c}_noise_ar_tau")]
 
     def given_levels(self) -> dict[str, float]:
         """The noise parameters the user fixed."""
@@ -381,6 +423,8 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
           - {channel: B, dynamics: random_walk, level: 1.0e-5}      # unit/sqrt(s)
           - {channel: C, covariate: temperature, reference: 20.0}
           - {channel: C, dynamics: gauss_markov, tau: 86400, level: 0.05}
+          - {channel: C, covariate: humidity, fit_lag: true}       # lag estimated
+        ar_noise: [B]                 # coloured (AR(1)) noise on B
 
     Parameters
     ----------
@@ -409,10 +453,10 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
         raise FileFormatError(f"cannot read model file {path}: {exc.strerror or exc}") from None
     if not isinstance(doc, dict) or "channels" not in doc:
         raise FileFormatError(f"model file {path} must be a mapping with at least 'channels' (see docs/drift.md)")
-    unknown = set(doc) - {"channels", "trusted", "signal", "noise_std", "biases"}
+    unknown = set(doc) - {"channels", "trusted", "signal", "noise_std", "biases", "ar_noise"}
     if unknown:
         raise FileFormatError(f"model file {path} has unknown keys {sorted(unknown)}; allowed: channels, trusted, "
-                              "signal, noise_std, biases")
+                              "signal, noise_std, biases, ar_noise")
     try:
         sig = doc.get("signal") or {}
         if not isinstance(sig, dict):
@@ -424,7 +468,8 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
                 raise TypeError("each bias must be a mapping")
             biases.append(Bias(**b))
         return DriftSetup(channels=tuple(doc["channels"]), signal=signal, biases=tuple(biases),
-                          noise_std=doc.get("noise_std") or {}, trusted=tuple(doc.get("trusted") or ()))
+                          noise_std=doc.get("noise_std") or {}, trusted=tuple(doc.get("trusted") or ()),
+                          ar_noise=tuple(doc.get("ar_noise") or ()))
     except TypeError as exc:
         raise FileFormatError(f"model file {path}: {exc}") from None
 
@@ -465,57 +510,89 @@ def _scalar_dynamics(kind: str, dt: np.ndarray, level: float | None, tau: float 
     return F[:, None, None], Q[:, None, None]
 
 
-def augmented_model(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, float],
-                    covariates: Mapping[str, np.ndarray] | None = None, *, x0: np.ndarray | None = None,
-                    P0: np.ndarray | None = None) -> StateSpaceModel:
-    """The augmented state-space model ``z = [x; b]`` (patent step a).
+def lag_filter(c: np.ndarray, dt: np.ndarray, tau: float) -> np.ndarray:
+    """First-order lag of a sampled signal, started in equilibrium.
 
-    ``F* = blockdiag(F, A)``, ``H*_t = [H, E_t]`` where column ``j`` of
-    ``E_t`` is the unit vector of the bias's channel (additive) or that
-    vector times ``c_t - c_ref`` (covariate-linked), ``Q* = blockdiag(Q, G)``,
-    ``R = diag(noise_std^2)``.
+    Exact for an input that is linear between samples (first-order hold):
+    ``y_k = a y_(k-1) + (1 - a - g) c_(k-1) + g c_k`` with ``a = exp(-dt/tau)``
+    and ``g = 1 - tau (1 - a) / dt``.
 
     Parameters
     ----------
-    setup : DriftSetup
-    dt : ndarray, (T,)
-        Step into each sample [s] (``dt[0]`` unused).
-    levels : mapping
-        Every noise parameter of ``setup.level_names()``.
-    covariates : mapping of str to ndarray (T,), optional
-        Covariate channels, already referenced (``c_t - c_ref``).
-    x0, P0 : ndarray, optional
-        Prior of the augmented state (default zeros, vague).
+    c : ndarray, (T,)
+        Input (e.g. a referenced temperature) [any unit].
+    dt : ndarray, (T,) or (1,)
+        Step into each sample [s] (``dt[0]`` unused); one value when uniform.
+    tau : float
+        Time constant [s]; 0 returns ``c``.
 
     Returns
     -------
-    StateSpaceModel
-        Per-step matrices when the sampling is non-uniform or a covariate is
-        used, constant otherwise.
-
-    References
-    ----------
-    Patent CN102564486A (Shanghai Dianji University, 2012), step a and
-    claim 4.
+    ndarray, (T,)
     """
+    c = np.asarray(c, dtype=float)
+    if not tau > 0:
+        return c
+    d = np.broadcast_to(np.asarray(dt, dtype=float), c.shape)
+    r = d / tau
+    a = np.exp(-r)
+    # (1 - a) / r without cancellation when dt << tau.
+    g = 1.0 + np.expm1(-r) / np.where(r > 0, r, 1.0)
+    g = np.where(r > 0, g, 0.0)
+    return _lag_kernel(c, a, g)
+
+
+@nb.njit(cache=True)
+def _lag_kernel(c, a, g):
+    out = np.empty_like(c)
+    if c.size == 0:
+        return out
+    out[0] = c[0]
+    for k in range(1, c.size):
+        out[k] = a[k] * out[k - 1] + (1.0 - a[k] - g[k]) * c[k - 1] + g[k] * c[k]
+    return out
+
+
+def _uniform_dt(dt: np.ndarray) -> np.ndarray:
+    """The steps with dt[0] filled, reduced to one value when uniform."""
     dt = np.array(dt, dtype=float)
     T = dt.size
     if T > 1:
         dt[0] = dt[1]  # never used by the recursion; keeps the discretisation finite
-    uniform = T < 3 or np.ptp(dt) <= 1e-9 * np.abs(dt).max()
-    if uniform:
-        dt = dt[:1]
+    if T < 3 or np.ptp(dt) <= 1e-9 * np.abs(dt).max():
+        return dt[:1]
+    return dt
+
+
+def augmented_arrays(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, float],
+                     covariates: Mapping[str, np.ndarray] | None = None, *, x0: np.ndarray | None = None,
+                     P0: np.ndarray | None = None, T: int | None = None):
+    """The matrices of :func:`augmented_model` as raw stacks, without validation.
+
+    For the likelihood loop of parameter estimation, which builds the model
+    hundreds of times: ``F, Q`` are ``(1|T, n, n)``, ``H`` ``(1|T, m, n)``,
+    ``R`` ``(1, m, m)``; ``dt`` as returned by :func:`_uniform_dt` (one value
+    when uniform).  A coloured-noise state's prior variance is its
+    stationary variance.
+
+    Returns
+    -------
+    F, H, Q, R, x0, P0 : ndarray
+    """
+    T = dt.size if T is None else T
     m = len(setup.channels)
     ns = setup.signal.n_states
-    nb = sum(len(b.state_names) for b in setup.biases)
-    n = ns + nb
+    nb_ = setup.n_bias_states
+    na = len(setup.ar_noise)
+    n = ns + nb_ + na
     Fs, Qs = _signal_blocks(setup.signal, dt, levels.get(setup.signal.level_name) if setup.signal.level_name else None)
     F = np.zeros((dt.size, n, n))
     Q = np.zeros((dt.size, n, n))
     F[:, :ns, :ns] = Fs
     Q[:, :ns, :ns] = Qs
     Hs = np.ones((m, 1)) if setup.signal.kind != "matrix" else np.atleast_2d(np.asarray(setup.signal.H, dtype=float))
-    H = np.zeros((T, m, n))
+    varying_h = bool(setup.covariates)
+    H = np.zeros((T if varying_h else 1, m, n))
     H[:, :, :ns] = Hs
     j = 0
     for b in setup.biases:
@@ -532,15 +609,73 @@ def augmented_model(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, floa
         else:
             if covariates is None or b.covariate not in covariates:
                 raise InputError(f"covariate channel {b.covariate} is needed by the bias of {b.channel} but was not given")
-            H[:, row, col] = covariates[b.covariate]
-    R = np.diag([levels[f"{c}_noise_std"] ** 2 for c in setup.channels])
+            lag = levels[b.lag_name] if b.lag_name else (b.lag or 0.0)
+            H[:, row, col] = lag_filter(covariates[b.covariate], dt, lag) if lag > 0 else covariates[b.covariate]
+    x0 = np.zeros(n) if x0 is None else np.array(x0, dtype=float)
+    P0 = np.eye(n) * 1e6 if P0 is None else np.array(P0, dtype=float)
+    for i, c in enumerate(setup.ar_noise):
+        a = ns + nb_ + i
+        std, tau = levels[f"{c}_noise_ar_std"], levels[f"{c}_noise_ar_tau"]
+        Fa, Qa = _scalar_dynamics("gauss_markov", dt, std, tau)
+        F[:, a, a] = Fa[:, 0, 0]
+        Q[:, a, a] = Qa[:, 0, 0]
+        H[:, setup.channels.index(c), a] = 1.0
+        # Stationary from the start: its first value is as uncertain as any.
+        x0[a] = 0.0
+        P0[a, :] = 0.0
+        P0[:, a] = 0.0
+        P0[a, a] = std**2
+    R = np.diag([levels[f"{c}_noise_std"] ** 2 for c in setup.channels])[None]
+    return F, H, Q, R, x0, P0
+
+
+def augmented_model(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, float],
+                    covariates: Mapping[str, np.ndarray] | None = None, *, x0: np.ndarray | None = None,
+                    P0: np.ndarray | None = None) -> StateSpaceModel:
+    """The augmented state-space model ``z = [x; b; a]`` (patent step a).
+
+    ``F* = blockdiag(F, A, Phi)``, ``H*_t = [H, E_t, C]`` where column ``j``
+    of ``E_t`` is the unit vector of the bias's channel (additive) or that
+    vector times ``c_t - c_ref`` (covariate-linked, optionally through a
+    first-order lag), ``C`` maps each coloured-noise state to its channel,
+    ``Q* = blockdiag(Q, G, W)``, ``R = diag(noise_std^2)``.
+
+    Parameters
+    ----------
+    setup : DriftSetup
+    dt : ndarray, (T,)
+        Step into each sample [s] (``dt[0]`` unused).
+    levels : mapping
+        Every noise parameter of ``setup.level_names()``.
+    covariates : mapping of str to ndarray (T,), optional
+        Covariate channels, already referenced (``c_t - c_ref``).
+    x0, P0 : ndarray, optional
+        Prior of the augmented state (default zeros, vague); a coloured-noise
+        state's prior is its stationary distribution whatever is given.
+
+    Returns
+    -------
+    StateSpaceModel
+        Per-step matrices when the sampling is non-uniform or a covariate is
+        used, constant otherwise.
+
+    References
+    ----------
+    Patent CN102564486A (Shanghai Dianji University, 2012), step a and
+    claim 4.
+    """
+    T = np.asarray(dt).size
+    F, H, Q, R, x0_, P0_ = augmented_arrays(setup, _uniform_dt(dt), levels, covariates, x0=x0, P0=P0, T=T)
+    if x0 is None and not setup.ar_noise:
+        x0_ = None
+    if P0 is None and not setup.ar_noise:
+        P0_ = None
     # Constant matrices where possible: cheaper validation, and a
     # time-invariant model lets the engine take its steady-state path.
-    if uniform:
-        F, Q = F[0], Q[0]
-    if not setup.covariates:
-        H = H[0]
-    return StateSpaceModel(F=F, H=H, Q=Q, R=R, x0=x0, P0=P0)
+    F = F[0] if F.shape[0] == 1 else F
+    Q = Q[0] if Q.shape[0] == 1 else Q
+    H = H[0] if H.shape[0] == 1 else H
+    return StateSpaceModel(F=F, H=H, Q=Q, R=R[0], x0=x0_, P0=P0_)
 
 
 def check_observable(setup: DriftSetup, dt: np.ndarray, covariates: Mapping[str, np.ndarray] | None = None,
@@ -577,6 +712,9 @@ def check_observable(setup: DriftSetup, dt: np.ndarray, covariates: Mapping[str,
     """
     dt = np.asarray(dt, dtype=float)
     T = dt.size
+    # Coloured measurement noise is noise: it need not be observable, and its
+    # fast-decaying states would only blur the test of the biases.
+    setup = dataclasses.replace(setup, ar_noise=())
     # Unit noise levels: observability is structural.
     levels = {k: 1.0 for k in setup.level_names()}
     model = augmented_model(setup, dt, levels, covariates)
@@ -585,6 +723,10 @@ def check_observable(setup: DriftSetup, dt: np.ndarray, covariates: Mapping[str,
     W = np.zeros((n, n))
     Phi = np.eye(n)
     Ft = model._F
+    if Ft.shape[0] > 1 and np.all(Ft == Ft[:1]):
+        # Irregular steps that do not change the transition (random walks):
+        # jump between the picked samples instead of 65,000 small products.
+        Ft = Ft[:1]
     Ht = model._H
     prev = 0
     for t in pick:

@@ -55,9 +55,12 @@ def setup_to_dict(setup: DriftSetup) -> dict[str, Any]:
         "signal": {"kind": sig.kind, "level": sig.level, "tau": sig.tau, "mean": sig.mean,
                    "F": _plain(sig.F), "Q": _plain(sig.Q), "H": _plain(sig.H)},
         "biases": [{"channel": b.channel, "covariate": b.covariate, "reference": b.reference,
-                    "dynamics": b.dynamics, "level": b.level, "tau": b.tau} for b in setup.biases],
+                    "dynamics": b.dynamics, "level": b.level, "tau": b.tau,
+                    **({"lag": b.lag, "fit_lag": b.fit_lag} if (b.lag or b.fit_lag) else {})}
+                   for b in setup.biases],
         "noise_std": {k: float(v) for k, v in setup.noise_std.items()},
         "trusted": list(setup.trusted),
+        **({"ar_noise": list(setup.ar_noise)} if setup.ar_noise else {}),
     }
 
 
@@ -66,7 +69,8 @@ def setup_from_dict(doc: Mapping[str, Any]) -> DriftSetup:
     sig = dict(doc["signal"])
     return DriftSetup(channels=tuple(doc["channels"]), signal=SignalModel(**sig),
                       biases=tuple(Bias(**b) for b in doc["biases"]),
-                      noise_std=dict(doc.get("noise_std") or {}), trusted=tuple(doc.get("trusted") or ()))
+                      noise_std=dict(doc.get("noise_std") or {}), trusted=tuple(doc.get("trusted") or ()),
+                      ar_noise=tuple(doc.get("ar_noise") or ()))
 
 
 # --------------------------------------------------------------------------- results and state

@@ -229,8 +229,9 @@ def start_tracker(setup, y: np.ndarray, t: np.ndarray, cov: Mapping[str, np.ndar
                             f"sample t = {state.t_last:.9g} s (time going backwards: an old or repeated file?)")
     if state is None or opts.fit_levels:
         start = drift_levels_from_allan(setup, y, t) if opts.levels_from_allan else None
+        # A state keeps the set-up it was started with: the comparison only warns.
         res = correct_drift(setup, y, t, cov, compare=opts.compare and state is None, start=start,
-                            progress=progress, false_alarm_rate=opts.false_alarm_rate)
+                            progress=progress, false_alarm_rate=opts.false_alarm_rate, select=False)
         noise = tuple(res.noise)
         levels = {p.name: p.value for p in noise}
         warnings += [w for w in res.warnings if not w.startswith("covariate-reference-defaulted")] \
@@ -375,14 +376,12 @@ def drift(source: Any, options: DriftOptions = DriftOptions(), *,
     from senscal.drift import correct_drift
     from senscal.drift.allan import drift_levels_from_allan
     from senscal.drift.stream import TrackerState
-    from senscal.io.plausibility import check_time
-
-    rec = options.read(source, allow_nan=True)
+    rec = options.read(source, allow_nan=True, job="drift")
     name = source_name(source)
     setup = drift_setup_for(rec, options)
     y, t, cov = _arrays(rec, setup, f"in {name}")
     units = {c: rec.unit(c) or "" for c in setup.biased_channels}
-    time_warnings = list(check_time(rec.time, "drift"))
+    time_warnings = list(rec.warnings)  # the reading layer's time-base checks, for a drift record
     if options.state is None:
         start = drift_levels_from_allan(setup, y, t) if options.levels_from_allan else None
         res = correct_drift(setup, y, t, cov, window=options.window, smooth=options.smooth,

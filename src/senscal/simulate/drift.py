@@ -91,7 +91,8 @@ def simulate_drift_batch(n_series: int = 1, *, n: int = 600, dt: float = 1.0, ch
                          bias: str = "random_walk", bias_rate: float = 0.01, ramp_start: float | None = None,
                          ramp_slope: float = 2e-3, covariate_coefficient: float | None = None,
                          covariate_reference: float = 20.0, covariate_offset: float = 0.0,
-                         seed: int | None = None) -> dict[str, Any]:
+                         noise_rho: float = 0.0, coloured: tuple[str, ...] | None = None,
+                         covariate_lag: float | None = None, seed: int | None = None) -> dict[str, Any]:
     """Many independent records of sensors watching one quantity (Monte Carlo).
 
     ``y_i = s + b_i + alpha_i (c - c_ref) + v_i`` for every channel not in
@@ -111,7 +112,15 @@ def simulate_drift_batch(n_series: int = 1, *, n: int = 600, dt: float = 1.0, ch
       0.1 degC/sqrt(s), measured without noise) and a bias ``alpha (c -
       covariate_reference)``, plus a constant offset ``covariate_offset``
       (the sensor's offset at the reference, which one sensor cannot
-      separate from the quantity).
+      separate from the quantity);
+    * ``noise_rho``: the measurement noise of the ``coloured`` channels
+      (default: the biased ones) is AR(1), ``v_t = rho v_(t-1) + e_t``, with
+      the same stationary std ``noise`` (coloured sensor noise: an
+      anti-aliasing filter, a slow ADC reference);
+    * ``covariate_lag``: the bias follows the covariate through a
+      first-order lag of this time constant [s] (the sensor's own
+      temperature lags the probe that is recorded); the recorded covariate
+      is the probe's.
 
     Parameters
     ----------
@@ -123,14 +132,22 @@ def simulate_drift_batch(n_series: int = 1, *, n: int = 600, dt: float = 1.0, ch
         Sample interval [s].
     channels, trusted : tuple of str
     noise : float
-        White measurement noise std of every channel [unit].
+        Measurement noise std of every channel [unit].
+    noise_rho : float
+        AR(1) coefficient of the coloured channels' noise per sample (0: white).
+    coloured : tuple of str, optional
+        Channels with AR(1) noise (default: every channel not in ``trusted``).
+    covariate_lag : float, optional
+        First-order lag between the recorded covariate and the one the bias
+        follows [s].
     seed : int, optional
 
     Returns
     -------
     dict
         ``t`` (n,) [s], ``y`` (S, m, n), ``signal`` (S, n), ``bias`` (S, m,
-        n) total bias of each channel, ``covariate`` (S, n) or None, and the
+        n) total bias of each channel, ``covariate`` (S, n) or None (as
+        recorded), ``covariate_lagged`` (what the bias follows), and the
         scalars used.
     """
     rng = np.random.default_rng(seed)
@@ -158,6 +175,15 @@ def simulate_drift_batch(n_series: int = 1, *, n: int = 600, dt: float = 1.0, ch
         walk = np.cumsum(rng.normal(0.0, 0.1 * math.sqrt(dt), (S, n)), axis=1)
         phase = rng.uniform(-math.pi, math.pi, (S, 1))
         cov = 20.0 + 3.0 * np.sin(2 * math.pi * t / t[-1] + phase) + walk
+    cov_b = cov
+    if cov is not None and covariate_lag:
+        # Exact first-order lag of a piecewise-linear input, started in equilibrium.
+        a = math.exp(-dt / covariate_lag)
+        cov_b = np.empty_like(cov)
+        cov_b[:, 0] = cov[:, 0]
+        g = 1.0 - covariate_lag / dt * (1.0 - a)
+        for k in range(1, n):
+            cov_b[:, k] = a * cov_b[:, k - 1] + (1.0 - a - g) * cov[:, k - 1] + g * cov[:, k]
     for i, c in enumerate(channels):
         if c in trusted:
             continue
@@ -170,10 +196,20 @@ def simulate_drift_batch(n_series: int = 1, *, n: int = 600, dt: float = 1.0, ch
         elif bias != "none":
             raise ValueError(f"unknown bias model {bias!r}")
         if cov is not None:
-            b[:, i] += covariate_coefficient * (cov - covariate_reference) + covariate_offset
-    y = sig[:, None, :] + b + rng.normal(0.0, noise, (S, m, n))
+            b[:, i] += covariate_coefficient * (cov_b - covariate_reference) + covariate_offset
+    v = rng.normal(0.0, noise, (S, m, n))
+    if noise_rho:
+        col = [i for i, c in enumerate(channels) if c in (coloured if coloured is not None else
+                                                             tuple(x for x in channels if x not in trusted))]
+        e = v[:, col] * math.sqrt(1.0 - noise_rho**2)
+        for k in range(1, n):
+            e[:, :, k] += noise_rho * e[:, :, k - 1]
+        # e_0 ~ N(0, noise^2 (1 - rho^2)) so far: start it in the stationary distribution.
+        v[:, col] = e + (v[:, col, :1] - e[:, :, :1]) * noise_rho ** np.arange(n)
+    y = sig[:, None, :] + b + v
     return {"t": t, "y": y, "signal": sig, "bias": b, "covariate": cov, "noise": noise, "dt": dt,
             "channels": tuple(channels), "trusted": tuple(trusted), "signal_kind": signal,
             "signal_level": signal_level, "signal_tau": signal_tau, "signal_mean": signal_mean, "bias_kind": bias,
             "bias_rate": bias_rate, "ramp_slope": ramp_slope, "covariate_coefficient": covariate_coefficient,
-            "covariate_reference": covariate_reference}
+            "covariate_reference": covariate_reference, "covariate_lagged": cov_b, "noise_rho": noise_rho,
+            "covariate_lag": covariate_lag}
