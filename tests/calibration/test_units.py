@@ -112,3 +112,15 @@ def test_triaxial_apply_cli_converts_units(cli, tmp_path):
     r = cli("triaxial", "apply", f, "--params", params, "--channels", "x,y,z", "--out", tmp_path / "ov.csv")
     assert r.code == 2 and len(r.err.strip().splitlines()) == 1
     assert "is in 'V' (a voltage) but the sensor was calibrated in 'm/s^2' (an acceleration)" in r.err
+
+
+@pytest.mark.parametrize("text,fragment", [
+    ("1,5", "decimal comma"), ("1e400", "beyond the range"), ("1e308 g", "beyond the range"), ("nan", "a number"),
+    ("0x10", "not a unit"),
+])
+def test_option_quantities_refuse_in_one_line(text, fragment):
+    with pytest.raises(InputError) as exc:
+        parse_quantity(text, "m/s^2", option="--a")
+    assert fragment in str(exc.value) and "\n" not in str(exc.value)
+    with pytest.raises(InputError, match="finite"):
+        parse_quantity(float("inf"), "m/s^2", option="--a")
