@@ -220,7 +220,8 @@ def convert(values: Any, have: str | None, want: str | None, *, what: str = "the
         raise _refuse(str(have), str(want), what, fix)
     if ua == ub:
         return arr
-    return np.asarray(_registry().Quantity(arr, ua).to(ub).magnitude, dtype=float)
+    with np.errstate(over="ignore"):  # beyond float range becomes inf, which the callers refuse
+        return np.asarray(_registry().Quantity(arr, ua).to(ub).magnitude, dtype=float)
 
 
 _QTY = re.compile(r"^\s*([+-]?(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)\s*(.*?)\s*$")
