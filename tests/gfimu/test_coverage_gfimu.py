@@ -13,7 +13,8 @@ from senscal.validation import check_coverage, mc_seeds
 from senscal.validation.gfimu import SCENARIOS
 
 CI_SEEDS = {"paper-white": 60, "three-axis-white": 100, "three-axis-smooth": 60, "paper-rest": 60, "paper-plain": 20,
-            "paper-mounting": 20, "three-axis-mounting": 20}
+            "paper-mounting": 20, "three-axis-mounting": 20, "three-axis-scale-0.05%": 20, "three-axis-scale-0.1%": 20,
+            "paper-scale-0.05%": 20}
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))

@@ -11,8 +11,8 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app
-from senscal.cli.common import (JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, load, parse_floats,
-                                print_json, table)
+from senscal.cli.common import (JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt,
+                                console, emit_warnings, load, parse_floats, print_json, table)
 from senscal.diagnostics import named
 from senscal.errors import InputError
 
@@ -20,32 +20,50 @@ JITTER_LIMIT = 0.05  # relative spread of the sample intervals above which the t
 
 
 def allan_doc(file: Path, *, channel: str, fs: float | None, taus: str | None, modified: bool, confidence: float,
-              time_column: str, names: str | None):
-    """Read the channel and return (JSON document, AllanResult, NoiseLevels)."""
+              time_column: str, names: str | None, time_unit: str | None = None, skip_rows: int | None = None,
+              start: float | None = None, stop: float | None = None):
+    """Read the channel and return (JSON document, AllanResult, NoiseLevels).
+
+    The sample rate is ``--fs``, else the recording's (:func:`senscal.io.recording.sample_rate_of`:
+    the mean rate over the record when the stamps are irregular, as every job derives it).
+    """
     from senscal.drift.allan import allan_deviation, identify_noise
+    from senscal.io.plausibility import merge_time_warnings
 
     if not 0 < confidence < 1:
         raise InputError(f"--confidence must lie between 0 and 1, got {confidence:g}")
     if fs is not None and not (math.isfinite(fs) and fs > 0):
         raise InputError(f"--fs must be a positive number, got {fs:g}")
-    rec = load(file, time_column=time_column, fs=fs, names=names, channels=[channel])
+    rec = load(file, time_column=time_column, fs=fs, names=names, channels=[channel], time_unit=time_unit,
+               skip_rows=skip_rows, start=start, stop=stop, job="allan")
     y = rec[channel]
     warnings: list[str] = []
     if fs is None:
-        dt = np.diff(rec.time)
-        if dt.size == 0 or not np.all(dt > 0):
-            raise InputError(f"the time stamps of {file} do not increase; give the sample rate with --fs")
-        step = float(np.median(dt))
-        fs = 1.0 / step
-        spread = float(np.max(np.abs(dt / step - 1.0)))
-        if spread > JITTER_LIMIT:
-            warnings.append(named("allan-irregular-sampling",
-                                  f"sample intervals vary by up to {100 * spread:.0f}% of their median {step:g} s; "
-                                  f"the Allan deviation treats the samples as equally spaced at {fs:g} Hz"))
+        fs = rec.sample_rate
+        if rec.t is not None and not rec.is_uniform:
+            dt = np.diff(rec.t)
+            spread = float(np.max(np.abs(dt * fs - 1.0)))
+            if spread > JITTER_LIMIT:
+                step = float(np.median(dt))
+                # Most intervals far below the mean: buffered samples stamped as a host read them (bursts);
+                # intervals near the median with a few long ones: samples missing (gaps).
+                if step < 0.5 / fs:
+                    how = (f"the stamps come in bursts (median interval {step:.3g} s, mean {1.0 / fs:.3g} s), as a "
+                           "host stamps buffered samples when it reads them, so they do not say when each was taken")
+                elif float(dt.max()) > 1.8 * step:  # one missing sample doubles an interval
+                    how = (f"intervals reach {float(dt.max()) / step:.3g}x the median {step:.3g} s, as where samples "
+                           "are missing; cut the record at the gaps with --start/--stop")
+                else:
+                    how = f"the sample intervals jitter by up to {100 * spread:.0f}% of their mean {1.0 / fs:.3g} s"
+                warnings.append(named(
+                    "allan-irregular-sampling",
+                    f"{how}; the Allan deviation treats the samples as equally spaced at the mean rate {fs:.6g} Hz "
+                    f"({dt.size} intervals over {rec.duration:.6g} s), right when the sensor sampled on its own "
+                    "clock and no sample was lost; give --fs if its rate is known"))
     res = allan_deviation(y, fs, None if taus is None else parse_floats(taus, "--taus"),
                           kind="modified" if modified else "overlapping", confidence=confidence)
     lev = identify_noise(res)
-    warnings += list(res.warnings)
+    warnings = list(merge_time_warnings(warnings + list(res.warnings), rec.warnings))
     unit = rec.unit(channel) or ""
     doc = {
         "file": str(file), "channel": channel, "unit": unit, "fs_hz": fs, "n_samples": res.n_samples,
@@ -106,7 +124,8 @@ def allan_cmd(
     file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ) of a sensor at rest.")],
     channel: Annotated[str, typer.Option("--channel", "-c", help="Channel to analyse.")],
     fs: Annotated[Optional[float], typer.Option(
-        "--fs", help="Sample rate in Hz (default: from the median interval of the time column).")] = None,
+        "--fs", help="Sample rate in Hz (default: the time column's mean rate over the record, the rule of "
+                     "every command).")] = None,
     taus: Annotated[Optional[str], typer.Option("--taus", help="Cluster times in s, comma separated "
                                                 "(default: octaves while 3 clusters fit).")] = None,
     modified: Annotated[bool, typer.Option(
@@ -117,6 +136,10 @@ def allan_cmd(
     strict: StrictOpt = False,
     time_column: TimeColumnOpt = "t",
     names: NamesOpt = None,
+    time_unit: TimeUnitOpt = None,
+    skip_rows: SkipRowsOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Allan deviation with confidence intervals; white noise N, bias instability B, rate random walk K."""
@@ -126,7 +149,8 @@ def allan_cmd(
     if out is not None:
         out = check_output(out, suffixes=(".csv",), what="table")
     doc, res, lev = allan_doc(file, channel=channel, fs=fs, taus=taus, modified=modified, confidence=confidence,
-                              time_column=time_column, names=names)
+                              time_column=time_column, names=names, time_unit=time_unit, skip_rows=skip_rows,
+                              start=start, stop=stop)
     if out is not None:
         write_text(out, table_csv(doc), what="table")
     if plot is not None:

@@ -12,6 +12,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, load,
                                 print_json, progress_bar, split_names, table)
+from senscal.cli.common import StartOpt, StopOpt
 from senscal.cli.common import TimeUnitOpt
 from senscal.errors import InputError
 from senscal.io import Recording, write_recording
@@ -89,6 +90,8 @@ def drift_cmd(
     fs: FsOpt = None,
     names: NamesOpt = None,
     time_unit: TimeUnitOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Estimate and remove slowly drifting sensor biases (augmented Kalman filter)."""
@@ -126,7 +129,8 @@ def drift_cmd(
     if plot is not None:
         from senscal.drift.plot import plot_drift
 
-        rec = load(file, time_column=time_column, fs=fs, names=names, allow_nan=True, time_unit=time_unit)
+        rec = load(file, time_column=time_column, fs=fs, names=names, allow_nan=True, time_unit=time_unit,
+                   start=start, stop=stop)
         chans = res.result.channels
         plot_drift(res.result, {c: rec[c] for c in chans}, plot, unit=rec.unit(chans[0]) if chans else "")
     doc = res.to_dict()

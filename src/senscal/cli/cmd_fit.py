@@ -11,6 +11,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings,
                                 print_json, table)
+from senscal.cli.common import StartOpt, StopOpt, TimeUnitOpt
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.jobs._base import with_read_options
@@ -40,6 +41,9 @@ def fit_cmd(
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
+    time_unit: TimeUnitOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
     json_out: JsonOpt = False,
     save: SaveOpt = False,
     sensor: SensorOpt = None,
@@ -50,7 +54,7 @@ def fit_cmd(
 ) -> None:
     """Least-squares sine fit: amplitude, phase, offset, frequency with uncertainties."""
     opts = fit_options(channel=channel, freq=freq, harmonics=harmonics, noise_model=noise_model,
-                       time_column=time_column, fs=fs, names=names)
+                       time_column=time_column, fs=fs, names=names, time_unit=time_unit, start=start, stop=stop)
     result = fit(file, opts)
     save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
                       operator=operator, method=opts.method, input_files=[file])

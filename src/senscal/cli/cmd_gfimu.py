@@ -12,6 +12,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console,
                                 emit_warnings, err_console, parse_floats, print_json, table)
+from senscal.cli.common import StartOpt, StopOpt, parse_relative
 from senscal.errors import InputError
 from senscal.jobs._base import with_read_options
 
@@ -70,6 +71,8 @@ def gfimu_cmd(
     fs: FsOpt = None,
     names: NamesOpt = None,
     time_unit: TimeUnitOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
     smooth: Annotated[bool, typer.Option("--smooth", help="Offline: the Kalman estimate from the fixed-interval (RTS) smoother over the whole record instead of the causal filter.")] = False,
     json_out: JsonOpt = False,
 ) -> None:
@@ -107,8 +110,16 @@ def gfimu_cmd(
     if "errors" in doc:
         rows = [[m] + [f"{e[ax][k]:.3g}" for ax in _AXES for k in ("max_abs_error", "std_error")]
                 for m, e in doc["errors"].items()]
-        console.print(table("Angular-velocity error vs truth (rad/s)",
+        tr = doc.get("errors_transient")
+        since = f" from t = {doc['errors_from_s']:.4g} s, after the filter's start-up" if tr else ""
+        console.print(table(f"Angular-velocity error vs truth (rad/s){since}",
                             ["method", "max |e| wx", "std wx", "max |e| wy", "std wy", "max |e| wz", "std wz"], rows))
+        if tr:
+            k = tr.get("kalman")
+            worst = f"; the Kalman filter's max |e| there {max(k[ax]['max_abs_error'] for ax in _AXES):.3g} rad/s" \
+                if k else ""
+            console.print(f"start-up transient before t = {tr['until_s']:.4g} s (the filter learns the constant errors "
+                          f"until its u(w) settles within 2x of its median){worst}; 'errors_transient' in --json")
     else:
         rows = [[m] + [f"{np.nanmin(w[i]):.4g} .. {np.nanmax(w[i]):.4g}" for i in range(3)] for m, w in est.omega.items()]
         console.print(table("Angular velocity range (rad/s)", ["method", "wx", "wy", "wz"], rows))
@@ -142,6 +153,7 @@ def simulate_gfimu_cmd(
     direction_error: Annotated[float, typer.Option("--direction-error", help="Mounting direction error std, rad.")] = 0.0,
     direction_error_deg: Annotated[Optional[float], typer.Option("--direction-error-deg", help="Mounting direction error std, deg (instead of --direction-error).")] = None,
     rest: Annotated[float, typer.Option("--rest", help="Rest before the motion starts, s (mark it with 'senscal gfimu --rest 0:REST').")] = 0.0,
+    scale_error: Annotated[str, typer.Option("--scale-error", help="Per-channel scale-factor error, random sign, as a fraction or percentage (0.05%); the layout assumes unit gains.")] = "0",
     offset: Annotated[Optional[str], typer.Option("--offset", help="Array origin relative to the rotation centre X,Y,Z in m (default 0.1,0,0 with --paper, else 0.05,-0.03,0.02).")] = None,
     amplitudes: Annotated[Optional[str], typer.Option("--amplitudes", help="Roll, pitch, yaw amplitudes R,P,Y in deg (default 0,0,30 with --paper, else 10,15,30).")] = None,
     freqs: Annotated[Optional[str], typer.Option("--freqs", help="Roll, pitch, yaw frequencies in Hz (default 1,1,2 with --paper, else 1.3,0.7,2).")] = None,
@@ -168,6 +180,7 @@ def simulate_gfimu_cmd(
     rec, truth, info = simulate_gfimu(paper=paper, fs=fs, duration=duration, distance=distance, bias_g=bias_g,
                                       noise_g=noise_g, position_error_m=position_error,
                                       direction_error_rad=direction_error, seed=seed, rest_s=rest,
+                                      scale_error=parse_relative(scale_error, "--scale-error"),
                                       offset_m=three(offset, "--offset"),
                                       amplitudes_deg=three(amplitudes, "--amplitudes"),
                                       freqs_hz=three(freqs, "--freqs"), linear_amplitude=linear_amplitude)

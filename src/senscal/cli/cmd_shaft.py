@@ -12,6 +12,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings,
                                 print_json, progress_bar, table)
+from senscal.cli.common import StartOpt, StopOpt, TimeUnitOpt
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.errors import InputError
@@ -87,6 +88,9 @@ def calibrate_cmd(
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
+    time_unit: TimeUnitOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
     json_out: JsonOpt = False,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None,
@@ -148,6 +152,9 @@ def compensate_cmd(
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
     names: NamesOpt = None,
+    time_unit: TimeUnitOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
     json_out: JsonOpt = False,
 ) -> None:
     """Remove gravity at the measured angle: tangential and angular acceleration, checked against the encoder."""

@@ -17,6 +17,7 @@ from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, Operator
                                        save_if_requested)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console, emit_warnings,
                                 err_console, parse_floats, parse_relative, print_json, table, track)
+from senscal.cli.common import StartOpt, StopOpt
 from senscal.errors import InputError
 from senscal.jobs._base import with_read_options
 from senscal.jobs.vibration import LinearityOptions, ResponseOptions, VelocityOptions
@@ -164,6 +165,7 @@ def velocity_cmd(
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics of the motion fitted with the fundamental.")] = 1,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
+    start: StartOpt = None, stop: StopOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = None, model: ModelOpt = None, condition: ConditionOpt = None,
     dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,
@@ -231,6 +233,7 @@ def response_cmd(
     u_angle_deg: Annotated[float, typer.Option("--u-angle-deg", help="Standard uncertainty of the encoder's angle reading (accuracy specification), deg: type B in the phase delay.")] = 0.0,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
+    start: StartOpt = None, stop: StopOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = None, model: ModelOpt = None, condition: ConditionOpt = None,
     dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,
@@ -313,6 +316,7 @@ def linearity_cmd(
     u_input: Annotated[Optional[str], typer.Option("--u-input", help="Standard uncertainty of each input level, random from level to level (e.g. main-arm speed set anew), e.g. 0.05%.")] = None,
     output_unit: UnitOpt = None,
     time_column: TimeColumnOpt = "t", fs: FsOpt = None, names: NamesOpt = None, time_unit: TimeUnitOpt = None,
+    start: StartOpt = None, stop: StopOpt = None,
     json_out: JsonOpt = False, report: ReportOpt = None, plot: PlotOpt = None,
     sensor_id: SensorIdOpt = None, model: ModelOpt = None, condition: ConditionOpt = None,
     dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,

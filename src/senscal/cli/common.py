@@ -113,6 +113,10 @@ SkipRowsOpt = Annotated[Optional[int], typer.Option(
     "--skip-rows", help="Text files: lines before the header to skip (default: a preamble of ';'/'#' comments and "
                         "key,value lines such as 'Fs,50' is detected).")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON result on stdout.")]
+StartOpt = Annotated[Optional[float], typer.Option(
+    "--start", help="Drop the samples before this many seconds after the recording's first sample.")]
+StopOpt = Annotated[Optional[float], typer.Option(
+    "--stop", help="Drop the samples after this many seconds after the recording's first sample.")]
 
 
 def split_names(text: str | None) -> list[str] | None:
@@ -157,18 +161,22 @@ def parse_relative(text: str, what: str) -> float:
 def load(path: Path | str, *, time_column: str = "t", fs: float | None = None,
          names: str | None = None, channels: Sequence[str] | None = None,
          allow_nan: bool = False, time_unit: str | None = None, skip_rows: int | None = None,
-         time_required: bool = True) -> Recording:
+         time_required: bool = True, start: float | None = None, stop: float | None = None,
+         job: str | None = None) -> Recording:
     """Read a recording for a command (errors are one-line SenscalErrors).
 
     ``time_required=False`` for jobs that never use time: a file with neither
     time column nor sample rate is then read on a sample-index time base.
-    ``-`` reads a CSV recording from standard input.
+    ``-`` reads a CSV recording from standard input. ``start``/``stop``
+    (``--start``/``--stop``) keep a window in seconds from the first sample;
+    ``job`` selects the time-base checks, whose warnings are in the
+    Recording's ``warnings`` (the command must report them).
     """
     from senscal.io import read_recording
 
     return read_recording(path, time_column=time_column, fs=fs, names=split_names(names),
                           channels=channels, allow_nan=allow_nan, time_unit=time_unit, skip_rows=skip_rows,
-                          time_required=time_required)
+                          time_required=time_required, start=start, stop=stop, job=job)
 
 
 def print_json(obj: Any) -> None:

@@ -393,7 +393,9 @@ def drift_levels_from_allan(setup, y: np.ndarray, t: np.ndarray, *, with_u: bool
     if not np.isfinite(y).all():
         raise InputError("--levels-from-allan needs gap-free channels (an Allan deviation has no missing samples); "
                          "interpolate the gaps or drop the option")
-    fs = 1.0 / float(np.median(np.diff(t)))
+    from senscal.io.recording import sample_rate_of
+
+    fs = sample_rate_of(t)  # the rule of every job: the mean rate over the record
     chans = list(setup.channels)
     idx = {c: i for i, c in enumerate(chans)}
 

@@ -12,8 +12,8 @@ References
 """
 
 from senscal.gfimu.attitude import AttitudeError, attitude_error, integrate_attitude
-from senscal.gfimu.core import (DEFAULT_BIAS_STD, METHODS, ErrorStatistics, RateEstimate, RestOffsets, angular_velocity,
-                               error_statistics, rest_offsets)
+from senscal.gfimu.core import (DEFAULT_BIAS_STD, METHODS, ErrorStatistics, RateEstimate, RestOffsets, ScaleFactorTest,
+                               angular_velocity, convergence_index, error_statistics, rest_offsets, scale_factor_test)
 from senscal.gfimu.filter import OBSERVATIONS, RateFilterResult, kalman_rate
 from senscal.gfimu.layout import (UNKNOWNS, KinematicSolution, Layout, paper_layout, read_layout, solve_kinematics,
                                   write_layout)
@@ -22,7 +22,7 @@ from senscal.gfimu.methods import differential_rate, estimate_noise_std, integra
 __all__ = [
     "AttitudeError", "attitude_error", "integrate_attitude",
     "DEFAULT_BIAS_STD", "METHODS", "ErrorStatistics", "RateEstimate", "RestOffsets", "angular_velocity",
-    "error_statistics", "rest_offsets",
+    "error_statistics", "rest_offsets", "ScaleFactorTest", "convergence_index", "scale_factor_test",
     "OBSERVATIONS", "RateFilterResult", "kalman_rate",
     "UNKNOWNS", "KinematicSolution", "Layout", "paper_layout", "read_layout", "solve_kinematics", "write_layout",
     "differential_rate", "estimate_noise_std", "integration_rate", "sqrt_rate",

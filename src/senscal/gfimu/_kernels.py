@@ -205,7 +205,9 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=
     offsets constant; measurement ``W_meas = h(w) + c_W + noise(R)``.  The
     measurement Jacobian is ``[H_w, 0, I]``, which the update exploits.
     Returns the filtered state (12, T), the covariance of ``w`` (3, 3, T),
-    the final full covariance (12, 12), the NIS (T,) and the gate flags.
+    the final full covariance (12, 12), the NIS (T,), the gate flags, and
+    the innovations (6, T) with their inverse covariances (6, 6, T), NaN on
+    skipped samples (for score tests of unmodelled errors).
     ``reset_after`` and ``inflate`` as in :func:`quadratic_ekf`; only the
     rate block is widened (its rows and columns scaled by ``sqrt(inflate)``,
     which keeps ``P`` positive definite), the constant errors keep theirs.
@@ -218,6 +220,8 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=
     Pw = np.empty((3, 3, n))
     nis = np.empty(n)
     rejected = np.zeros(n, dtype=np.bool_)
+    innov = np.full((6, n), np.nan)
+    sinv = np.full((6, 6, n), np.nan)
     xk = x0.copy()
     Pk = P0.copy()
     Hw = np.zeros((6, 3))
@@ -299,6 +303,10 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=
                 s += Si[r, m] * nu[m]
             d2 += nu[r] * s
         nis[k] = d2
+        for r in range(6):
+            innov[r, k] = nu[r]
+            for m in range(6):
+                sinv[r, m, k] = Si[r, m]
         if gate > 0 and d2 > gate:
             rejected[k] = True
             run += 1
@@ -334,4 +342,4 @@ def quadratic_ekf_offsets(wq, u, dt, Q, R, x0, P0, gate, reset_after=0, inflate=
         for i in range(3):
             for j in range(3):
                 Pw[i, j, k] = Pk[i, j]
-    return x, Pw, Pk, nis, rejected
+    return x, Pw, Pk, nis, rejected, innov, sinv

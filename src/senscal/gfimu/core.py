@@ -10,7 +10,7 @@ References
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Sequence
 
 import numpy as np
@@ -23,8 +23,12 @@ from senscal.gfimu.filter import OBSERVATIONS, RateFilterResult, channel_covaria
 from senscal.gfimu.layout import KinematicSolution, Layout, solve_kinematics, square_map
 from senscal.gfimu.methods import differential_rate, estimate_noise_std, integration_rate, sqrt_rate
 
-__all__ = ["METHODS", "DEFAULT_BIAS_STD", "RestOffsets", "RateEstimate", "ErrorStatistics", "angular_velocity",
-           "error_statistics", "rest_offsets"]
+__all__ = ["METHODS", "DEFAULT_BIAS_STD", "RestOffsets", "RateEstimate", "ErrorStatistics", "ScaleFactorTest",
+           "angular_velocity", "error_statistics", "rest_offsets", "scale_factor_test", "convergence_index",
+           "CONVERGENCE_FACTOR"]
+
+#: The filter has converged once its stated u(w) stays within this factor of its median over the record.
+CONVERGENCE_FACTOR = 2.0
 
 #: Methods in the order the paper presents them.
 METHODS = ("integration", "sqrt", "differential", "kalman")
@@ -292,6 +296,10 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
 
         filt = run(sig)
         fw = _filter_warnings(filt, states, gate_probability)
+        if states:
+            fw += _scale_factor_warning(scale_factor_test(kin, y, filt), layout)
+            # The inverse covariances served the test; a result does not keep 36 numbers a sample.
+            filt = replace(filt, innovation_inv_cov=None)
         mismatch = any(w.startswith(("filter-gated", "innovations-")) for w in fw)
         if noise_std is None and filt.nis is not None and mismatch:
             # The measurements disagree with the model by more than white noise: re-run with the channel
@@ -308,11 +316,114 @@ def angular_velocity(readings: np.ndarray, t: np.ndarray, layout: Layout, *,
                   if w.startswith(("filter-gated", "innovations-")) else w for w in fw]
         out["kalman"] = filt.omega
         u_om = filt.u_omega
+        if states and filt.innovation_inv_cov is not None:
+            filt = replace(filt, innovation_inv_cov=None)
         warns.extend(fw)
     ordered = {m: out[m] for m in METHODS if m in out}
     return RateEstimate(t=t, omega=ordered, u_omega=u_om, kinematics=kin, noise_std=np.asarray(sig),
                         condition_number=kin.condition_number, filter=filt, differential_rejected=n_rej,
                         rest=rest_res, noise_scale=noise_scale, warnings=tuple(warns))
+
+
+@dataclass(frozen=True)
+class ScaleFactorTest(ResultMixin):
+    """Score test of per-channel scale-factor errors on the filter's innovations.
+
+    A channel reading ``(1 + e_i) a_i`` instead of ``a_i`` puts
+    ``K_W diag(a) e`` into the six quadratic terms the filter observes
+    (``K_W``: the rows of the solve's sensitivity for them); the
+    constant-error states absorb only its constant part. Under the array
+    model the innovations ``nu_k`` are independent ``N(0, S_k)``, so the
+    score ``g = sum_k G_k' S_k^-1 nu_k`` with ``G_k = K_W diag(a_k)`` has
+    mean zero and covariance ``F = sum_k G_k' S_k^-1 G_k``, and
+    ``g' F^+ g`` is chi-square with ``rank(F)`` degrees of freedom (the
+    Lagrange-multiplier test of ``e = 0``). The regressor takes ``a_k`` from
+    the next reading ``y_{k+1}``: the causal filter's ``nu_k`` holds the
+    white noise of samples up to ``k`` only, while the noise of ``y_k``
+    itself is in ``nu_k`` through near-singular directions of the solve and
+    would dominate the score.
+
+    Attributes
+    ----------
+    statistic : float
+        ``g' F^+ g``.
+    dof : int
+        Rank of ``F`` (at most the number of channels).
+    p_value : float
+        Chi-square tail probability of ``statistic``.
+    scale : ndarray, shape (M,)
+        One-step estimate ``F^+ g`` of the scale-factor errors (fractions); the
+        filter's states absorb part of a real error, so it underestimates.
+    n : int
+        Innovations used (accepted by the gate).
+    """
+
+    statistic: float
+    dof: int
+    p_value: float
+    scale: np.ndarray
+    n: int
+
+
+def scale_factor_test(kin: KinematicSolution, readings: np.ndarray, filt: RateFilterResult, *,
+                      chunk: int = 4096) -> ScaleFactorTest | None:
+    """The score test of :class:`ScaleFactorTest` on a quadratic filter with constant-error states.
+
+    Parameters
+    ----------
+    kin : KinematicSolution
+    readings : ndarray, shape (M, T)
+        The readings the kinematics were solved from, m/s^2.
+    filt : RateFilterResult
+        With ``innovations`` and ``innovation_inv_cov`` (the constant-error filter).
+
+    Returns
+    -------
+    ScaleFactorTest or None
+        None when the filter kept fewer than two innovations.
+    """
+    if filt.innovations is None or filt.innovation_inv_cov is None:
+        return None
+    nu, si = filt.innovations, filt.innovation_inv_cov
+    ok = np.isfinite(nu).all(axis=0)
+    if filt.gated is not None:
+        ok &= ~filt.gated
+    ok[-1] = False  # no next reading
+    idx = np.flatnonzero(ok)
+    if idx.size < 2:
+        return None
+    y = np.asarray(readings, float)
+    Kw = kin.sensitivity[6:12]
+    m = Kw.shape[1]
+    g = np.zeros(m)
+    F = np.zeros((m, m))
+    for a in range(0, idx.size, chunk):
+        k = idx[a:a + chunk]
+        Sk = np.moveaxis(si[:, :, k], -1, 0)                       # (n, 6, 6)
+        v = np.einsum("nij,jn->ni", Sk, nu[:, k])                   # S^-1 nu
+        yk = y[:, k + 1].T                                          # (n, M): the next reading
+        g += np.einsum("nm,im,ni->m", yk, Kw, v)
+        A = np.einsum("im,nij,jl->nml", Kw, Sk, Kw)                 # K_W' S^-1 K_W
+        F += np.einsum("nm,nml,nl->ml", yk, A, yk)
+    w, V = np.linalg.eigh(0.5 * (F + F.T))
+    keep = w > 1e-10 * max(float(w.max()), 1e-300)
+    proj = V[:, keep].T @ g
+    stat = float(np.sum(proj ** 2 / w[keep]))
+    dof = int(keep.sum())
+    est = V[:, keep] @ (proj / w[keep])
+    return ScaleFactorTest(statistic=stat, dof=dof, p_value=float(chi2.sf(stat, dof)), scale=est, n=int(idx.size))
+
+
+def _scale_factor_warning(test: ScaleFactorTest | None, layout: Layout) -> list[str]:
+    """``scale-factor-mismatch`` when the score test rejects unit gains at :data:`CHECK_PROBABILITY`."""
+    if test is None or test.dof == 0 or test.statistic <= chi2.isf(CHECK_PROBABILITY, test.dof):
+        return []
+    i = int(np.argmax(np.abs(test.scale)))
+    return [named("scale-factor-mismatch", (
+        f"the filter's innovations follow the channels' readings (score test of per-channel scale factors: "
+        f"chi-square {test.statistic:.4g} on {test.dof} degrees of freedom, p = {test.p_value:.2g}): the channels' "
+        f"gains differ from the layout's unit gains (largest one-step estimate {100 * test.scale[i]:+.2g} % on "
+        f"'{layout.names[i]}'), which u(w) does not include; calibrate the channels' sensitivities"))]
 
 
 def _filter_warnings(filt: RateFilterResult, states: bool, gate_probability: float) -> list[str]:
@@ -375,6 +486,38 @@ class ErrorStatistics(ResultMixin):
     def axis(self, i: int) -> dict:
         return {"max_abs_error": float(self.max_abs_error[i]), "std_error": float(self.std_error[i]),
                 "mean_error": float(self.mean_error[i]), "n_valid": int(self.n_valid[i])}
+
+
+def convergence_index(u_omega: np.ndarray, factor: float = CONVERGENCE_FACTOR) -> int:
+    """First sample of a Kalman estimate's converged part (0 when there is no start-up transient).
+
+    The filter starts at rest with its constant errors unknown: its stated
+    ``u(w)`` first grows (the unknown offsets integrate) and then settles as
+    it learns them, and its error does the same. The converged part starts
+    after the last sample in the record's first half at which any axis's
+    ``u(w)`` exceeds ``factor`` times that axis's median over the record
+    (later excursions belong to the motion, not the start-up).
+
+    Parameters
+    ----------
+    u_omega : ndarray, shape (3, T)
+        The filter's standard uncertainty of ``w``, rad/s.
+    factor : float
+        How far above its median ``u(w)`` may still be once converged.
+
+    Returns
+    -------
+    int
+        Index of the first converged sample.
+    """
+    u = np.asarray(u_omega, float)
+    if u.ndim != 2 or u.shape[1] < 2:
+        return 0
+    med = np.nanmedian(u, axis=1)
+    above = np.any(u > factor * med[:, None], axis=0)
+    above[u.shape[1] // 2:] = False
+    idx = np.flatnonzero(above)
+    return int(idx[-1] + 1) if idx.size else 0
 
 
 def error_statistics(omega: dict, truth: np.ndarray, *, skip: int = 0) -> dict[str, ErrorStatistics]:

@@ -78,6 +78,11 @@ class RateFilterResult(ResultMixin):
         holds), before gating.
     gated : ndarray of bool, shape (T,) or None
         Samples the innovation gate rejected.
+    innovations : ndarray, shape (6, T) or None
+        Quadratic observation with constant-error states: the causal
+        filter's innovations (NaN where a sample was only predicted).
+    innovation_inv_cov : ndarray, shape (6, 6, T) or None
+        Their inverse covariances (for score tests of unmodelled errors).
     """
 
     omega: np.ndarray = field(repr=False)
@@ -92,6 +97,8 @@ class RateFilterResult(ResultMixin):
     smoothed: bool = False
     nis: np.ndarray | None = field(default=None, repr=False)
     gated: np.ndarray | None = field(default=None, repr=False)
+    innovations: np.ndarray | None = field(default=None, repr=False)
+    innovation_inv_cov: np.ndarray | None = field(default=None, repr=False)
 
 
 def sqrt_observation(squares: np.ndarray, cov_squares: np.ndarray, sign_reference: np.ndarray,
@@ -250,7 +257,9 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
     inc = rate_increments(alpha, t)
     u = np.zeros_like(inc)
     u[:, :-1] = inc[:, 1:]  # control of step k-1 drives the prediction of step k
-    dt = float(np.median(np.diff(t)))
+    from senscal.io.recording import sample_rate_of
+
+    dt = 1.0 / sample_rate_of(t)  # the rule of every job: the mean interval over the record
     Q = dt * dt * C[3:6, 3:6]
     if initial is None and observation != "quadratic":
         x0, P0 = np.zeros(3), np.eye(3) * 1e6
@@ -277,7 +286,8 @@ def kalman_rate(kin: KinematicSolution, t: np.ndarray, noise_std, *, observation
         x, P = _smooth(x, P, u_c, Q, x0, P0)
         # The diagnostics (NIS, gating) stay the causal filter's: they judge the model, not the smoother.
         return replace(_result(x, P, res.gated, np.ones((6, x.shape[1]), bool), observation, 1, True),
-                       offsets=res.offsets, u_offsets=res.u_offsets, nis=res.nis)
+                       offsets=res.offsets, u_offsets=res.u_offsets, nis=res.nis, innovations=res.innovations,
+                       innovation_inv_cov=res.innovation_inv_cov)
     if observation == "quadratic":
         x, P, nis, rej = quadratic_ekf(np.ascontiguousarray(kin.W), u, Q, np.linalg.inv(C[6:12, 6:12]), x0, P0,
                                        gate, reset_after)
@@ -335,11 +345,12 @@ def _offsets_filter(kin, t, C, u, Q, x0, P0, gate, bias_std, offsets_prior=None,
         P12[3:, 3:] = channel_covariance(kin, np.maximum(b, 1e-12))[3:12, 3:12]
     dt = np.zeros(t.size)
     dt[1:] = np.diff(t)
-    x, Pw, Pend, nis, rej = quadratic_ekf_offsets(np.ascontiguousarray(kin.W), u, dt, Q, C[6:12, 6:12], x12, P12,
+    x, Pw, Pend, nis, rej, innov, sinv = quadratic_ekf_offsets(np.ascontiguousarray(kin.W), u, dt, Q, C[6:12, 6:12], x12, P12,
                                                   gate, reset_after, 4.0,
                                                   None if prior_samples is None else np.asarray(prior_samples, bool))
     res = _result(x[:3], Pw, rej, np.ones((6, x.shape[1]), bool), "quadratic", 1)
-    return replace(res, offsets=x[3:, -1].copy(), u_offsets=np.sqrt(np.maximum(np.diag(Pend)[3:], 0.0)), nis=nis)
+    return replace(res, offsets=x[3:, -1].copy(), u_offsets=np.sqrt(np.maximum(np.diag(Pend)[3:], 0.0)), nis=nis,
+                   innovations=innov, innovation_inv_cov=sinv)
 
 
 def _result(x, P, rej, ok, observation, passes, smoothed=False) -> RateFilterResult:

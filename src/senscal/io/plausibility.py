@@ -14,7 +14,14 @@ fails. Where something is known about the job, the wrong unit shows:
 * a sample interval that is a whole-second logger interval in ms (300000);
 * an angular rate whose centripetal load is far beyond what an accelerometer
   array reads;
-* a drift record spans decades.
+* a drift record spans decades;
+* every stamp is a whole number at least 1 apart (1 Hz or slower read as
+  seconds): what a clock counting ms or us writes (not for drift, whose
+  loggers write whole seconds);
+* a header unit (``t [ms]``) that makes the rate higher than the job's
+  instruments sample (seconds labelled ms);
+* a preamble rate (``Fs,1000``) or ``--fs`` that disagrees with the time
+  column: a contradiction, refused (:func:`reconcile_rates`).
 
 Each check returns a tuple of named warnings (empty when plausible); the
 caller adds them to its result so ``--strict`` exits 3. Pure functions of
@@ -31,8 +38,9 @@ from senscal.diagnostics import named
 
 __all__ = ["TIME_UNIT_WARNING", "UNIT_FACTORS", "MIN_SAMPLE_RATE_HZ", "MAX_SPAN_S", "dominant_frequency",
            "check_known_frequency", "check_sample_rate", "check_angular_rate", "check_epoch_ms", "check_logger_interval",
-           "check_span",
-           "check_time", "with_time_warnings"]
+           "check_span", "check_counter_clock", "check_declared_unit", "reconcile_rates", "MAX_SAMPLE_RATE_HZ",
+           "SLOW_LOGGER_JOBS", "RATE_TOLERANCE", "time_base_warnings", "check_time", "with_time_warnings",
+           "merge_time_warnings"]
 
 TIME_UNIT_WARNING = "time-unit-suspect"
 
@@ -48,6 +56,20 @@ MIN_SAMPLE_RATE_HZ = {
     # Accelerometer arrays track body motion of a few Hz and faster; an IMU below 10 Hz cannot.
     "gfimu": 10.0,
 }
+
+#: Highest sample rate a job's instruments plausibly use (Hz): MEMS accelerometers, gyroscopes and
+#: magnetometers output at most a few tens of kHz (32 kHz for the fastest); 100 kHz is above all of them.
+#: Seconds labelled ms make a 1 kHz recording 1 MHz. Sine fits (oscilloscopes at MS/s to GS/s) and the
+#: vibration rigs (checked against their known frequency instead) have no such bound.
+MAX_SAMPLE_RATE_HZ = {"gfimu": 1e5, "triaxial": 1e5, "allan": 1e5, "shaft": 1e5}
+
+#: Jobs whose records come from slow loggers, where whole-second stamps at 1 Hz or slower are normal.
+SLOW_LOGGER_JOBS = frozenset({"drift"})
+
+#: Relative disagreement of two statements of one sample rate (a preamble's Fs, --fs, the time column's
+#: mean rate) beyond which they contradict: crystal clocks agree to 1e-4, a host clock's mean rate over a
+#: record to a few 1e-3; 1 % is neither, and is far below any unit factor (1000, 60).
+RATE_TOLERANCE = 0.01
 
 #: Longest record a job plausibly holds (s): a drift record over decades outlives the sensor.
 MAX_SPAN_S = {"drift": 20 * 365.25 * 86400.0}
@@ -123,6 +145,13 @@ def check_known_frequency(estimated_hz: float, known_hz: float, *, what: str = "
             share = {"ms": "1/1000 of", "us": "1/1000000 of", "min": "60 times"}[unit]
             return (_suspect(f"the recording's dominant frequency is {share} {what}, the factor of a time "
                              f"column in {unit} read as seconds", unit),)
+    for unit, factor in UNIT_FACTORS.items():
+        if abs(ratio * factor - 1.0) < _RATIO_TOL:
+            # The other way round: seconds whose header (or --time-unit) says ms.
+            share = {"ms": "1000 times", "us": "1000000 times", "min": "1/60 of"}[unit]
+            return (named(TIME_UNIT_WARNING, f"the recording's dominant frequency is {share} {what}, the factor "
+                                             f"of time stamps in seconds read as {unit}; fix: give the header as "
+                                             "'t [s]' or drop --time-unit"),)
     return ()
 
 
@@ -230,9 +259,193 @@ def check_span(t: np.ndarray, job: str) -> tuple[str, ...]:
                      f"runs (limit {hi / 3.15576e7:.0f} years); in ms it would be {span / 3.15576e10:.3g} years"),)
 
 
+def _whole_numbers(t: np.ndarray) -> bool:
+    return bool(np.all(np.abs(t - np.round(t)) <= 1e-9 * np.maximum(1.0, np.abs(t))))
+
+
+def check_counter_clock(t: np.ndarray, job: str | None) -> tuple[str, ...]:
+    """Warn when every stamp is a whole number at least 1 apart: a ms or us clock read as seconds.
+
+    A clock counting milliseconds (``millis()``) or microseconds writes whole
+    numbers; read as seconds a 1 kHz recording becomes 1 Hz, every frequency
+    1000x low. Whole seconds 1 s or more apart are what slow loggers write,
+    normal for drift (:data:`SLOW_LOGGER_JOBS`) and suspect elsewhere; a time
+    column whose unit is stated (``t [s]``, ``--time-unit s``) is not checked.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time stamps as read (s).
+    job : str or None
+        The job reading the recording (None: no job-specific check).
+    """
+    t = np.asarray(t, dtype=float)
+    if job is None or job in SLOW_LOGGER_JOBS or t.size < 3:
+        return ()
+    dt = float(np.median(np.diff(t)))
+    if not (math.isfinite(dt) and dt >= 1.0) or not _whole_numbers(t):
+        return ()
+    return (named(TIME_UNIT_WARNING,
+                  f"every time stamp is a whole number, {dt:g} apart ({1.0 / dt:.3g} Hz read as seconds): what a "
+                  f"clock counting milliseconds ({1e3 / dt:.3g} Hz) or microseconds ({1e6 / dt:.3g} Hz) writes; "
+                  "fix: give the header as 't [ms]' or --time-unit ms (us), or --time-unit s if they are seconds"),)
+
+
+def check_declared_unit(t: np.ndarray, unit: str, job: str | None) -> tuple[str, ...]:
+    """Warn when a stated time unit (``t [ms]``) makes the rate higher than the job's instruments sample.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time stamps converted to seconds with ``unit``.
+    unit : str
+        The unit the header or ``--time-unit`` gave.
+    job : str or None
+        Key of :data:`MAX_SAMPLE_RATE_HZ`; other jobs are not checked.
+    """
+    hi = MAX_SAMPLE_RATE_HZ.get(job or "")
+    t = np.asarray(t, dtype=float)
+    if hi is None or t.size < 2:
+        return ()
+    span = float(t[-1] - t[0])
+    if not (math.isfinite(span) and span > 0):
+        return ()
+    rate = (t.size - 1) / span
+    if rate <= hi:
+        return ()
+    return (named(TIME_UNIT_WARNING,
+                  f"the time column is in {unit.strip()} by its header or --time-unit, which makes the sample rate "
+                  f"{rate:.4g} Hz, above any {job} instrument (<= {hi:g} Hz); seconds labelled {unit.strip()} "
+                  f"look like this; fix: give the header as 't [s]' if the values are seconds"),)
+
+
+def _factor_name(ratio: float) -> str | None:
+    """The unit mix-up a rate ratio (time column / stated) is, if it is one: 'ms', 'us', 'min', 's-as-ms' ..."""
+    for unit, factor in UNIT_FACTORS.items():
+        if abs(ratio / factor - 1.0) < _RATIO_TOL:
+            return unit
+    for unit, factor in UNIT_FACTORS.items():
+        if abs(ratio * factor - 1.0) < _RATIO_TOL:
+            return "s-as-" + unit
+    return None
+
+
+def reconcile_rates(t: np.ndarray | None, *, file_fs: float | None, user_fs: float | None, source: str,
+                    time_name: str = "t", file_fs_text: str = "Fs") -> None:
+    """Refuse a sample rate stated twice (preamble ``Fs``, ``--fs``, the time column) with two values.
+
+    Agreement is within :data:`RATE_TOLERANCE`; the time column's rate is its
+    mean rate ``(n - 1) / span``. A disagreement by a unit factor (1000, 1e6,
+    60) says so and names the fix.
+
+    Parameters
+    ----------
+    t : ndarray or None
+        Time column in seconds (None: the file has none).
+    file_fs : float or None
+        Sample rate the file states about itself (CSV preamble, TDMS increment, HDF5 attribute), Hz.
+    user_fs : float or None
+        ``--fs`` (Hz).
+    source : str
+        File name for the message.
+    time_name : str
+        Name of the time column for the message.
+    file_fs_text : str
+        How the file states its rate, for the message (``'Fs,1000'``).
+
+    Raises
+    ------
+    InputError
+        Two of the statements disagree (one line naming both and the fix).
+    """
+    from senscal.errors import InputError
+
+    col = None
+    if t is not None and np.asarray(t).size > 1:
+        t = np.asarray(t, dtype=float)
+        span = float(t[-1] - t[0])
+        col = (t.size - 1) / span if span > 0 and math.isfinite(span) else math.nan
+
+    def agree(a: float, b: float) -> bool:
+        return math.isfinite(a) and math.isfinite(b) and abs(a / b - 1.0) <= RATE_TOLERANCE
+
+    if user_fs is not None and file_fs is not None and not agree(user_fs, file_fs):
+        raise InputError(f"--fs {user_fs:g} Hz contradicts {source}, which states its sample rate as "
+                         f"{file_fs:g} Hz ({file_fs_text}); drop --fs, or skip the file's preamble with --skip-rows "
+                         "if its rate is wrong")
+    if col is not None and file_fs is not None and not agree(col, file_fs):
+        mix = _factor_name(col / file_fs) if math.isfinite(col) else None
+        if mix is not None and not mix.startswith("s-as-"):
+            fix = f"the time column looks like {mix} read as seconds: give the header as '{time_name} [{mix}]' or --time-unit {mix}"
+        elif mix is not None:
+            fix = (f"the time column looks like seconds labelled {mix[5:]}: give the header as '{time_name} [s]' "
+                   "or drop --time-unit")
+        else:
+            fix = ("fix the file, or read it without the preamble (--skip-rows) or without the time column "
+                   "(--time-column none --fs HZ)")
+        raise InputError(f"the time column '{time_name}' of {source} gives {col:.6g} samples/s but the file states "
+                         f"{file_fs:g} Hz ({file_fs_text}); {fix}")
+    if col is not None and user_fs is not None and not agree(col, user_fs):
+        mix = _factor_name(col / user_fs) if math.isfinite(col) else None
+        hint = f" (a factor of a time column in {mix} read as seconds)" if mix and not mix.startswith("s-as-") else ""
+        raise InputError(f"--fs {user_fs:g} Hz contradicts the time column '{time_name}' of {source} "
+                         f"(about {col:.6g} samples/s{hint}); --fs is for files without a time column")
+
+
+def time_base_warnings(t: np.ndarray, job: str | None, *, unit: str | None = None,
+                       declared: bool = False) -> tuple[str, ...]:
+    """The suspicions about a time column that reading can name, for the job the recording is read for.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time stamps in seconds (converted with ``unit`` when one was stated).
+    job : str or None
+        The job (limits of :data:`MIN_SAMPLE_RATE_HZ`, :data:`MAX_SAMPLE_RATE_HZ`, :data:`MAX_SPAN_S`).
+    unit : str, optional
+        A unit other than seconds that the header or ``--time-unit`` stated (``ms``).
+    declared : bool
+        A unit was stated (``t [s]``, ``--time-unit s``): the checks of what
+        clocks write (whole numbers, logger intervals) are skipped.
+
+    Returns
+    -------
+    tuple of str
+        At most one ``time-unit-suspect`` warning.
+    """
+    # The most specific message first: all say "the time is not in the unit it is read in".
+    found = check_epoch_ms(t)
+    if not declared:
+        # What clocks write (whole numbers, logger intervals) is only a suspicion where no unit was stated.
+        found += check_counter_clock(t, job) + check_logger_interval(t)
+    if job is not None:
+        found += check_sample_rate(t, job) + check_span(t, job)
+    if unit is not None:
+        found += check_declared_unit(t, unit, job)
+    return found[:1]
+
+
+def merge_time_warnings(warnings, read: tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """``warnings`` plus the reading layer's time-base warnings ``read``: no repeat, one ``time-unit-suspect``.
+
+    A job may find its own evidence of a wrong time unit (a known frequency,
+    an impossible angular rate); the reading layer's is added only when the
+    job named none, since both say the same thing.
+    """
+    out = list(warnings)
+    have = {w.split(":", 1)[0] for w in out}
+    for w in read:
+        name = w.split(":", 1)[0]
+        if w in out or (name == TIME_UNIT_WARNING and name in have):
+            continue
+        out.append(w)
+        have.add(name)
+    return tuple(out)
+
+
 def check_time(t: np.ndarray, job: str, *, y: np.ndarray | None = None, known_hz: float | None = None,
                what: str = "--freq") -> tuple[str, ...]:
-    """Every check that applies: epoch ms, sample rate, span and, with ``y`` and ``known_hz``, the frequency.
+    """Every check that applies: :func:`time_base_warnings` and, with ``y`` and ``known_hz``, the frequency.
 
     Parameters
     ----------
@@ -251,7 +464,8 @@ def check_time(t: np.ndarray, job: str, *, y: np.ndarray | None = None, known_hz
         Named ``time-unit-suspect`` warnings; at most one (the first that fires),
         since they all say the same thing.
     """
-    found = check_epoch_ms(t) + check_sample_rate(t, job) + check_logger_interval(t) + check_span(t, job)
+    # The reading layer's rule for a time column of no stated unit (time_base_warnings), plus the frequency.
+    found = time_base_warnings(t, job)
     if y is not None and known_hz is not None:
         found = check_known_frequency(dominant_frequency(y, t), known_hz, what=what) + found
     return found[:1]

@@ -58,6 +58,9 @@ def read_recording(
     skip_rows: int | None = None,
     time_required: bool = True,
     time_unit: str | None = None,
+    start: float | None = None,
+    stop: float | None = None,
+    job: str | None = None,
 ) -> Recording:
     """Read a recording file into a :class:`Recording`.
 
@@ -97,6 +100,21 @@ def read_recording(
         Unit of a time column whose header gives none (``s``, ``ms``,
         ``us``, ``min``, ...); converted to seconds. A header that states
         another unit, or a file without time column, is refused.
+    start, stop : float, optional
+        Keep only the samples from ``start`` to ``stop`` seconds after the
+        first sample (``--start``/``--stop``; see :meth:`Recording.window`).
+    job : str, optional
+        The job the recording is read for (``fit``, ``allan``, ``gfimu`` ...):
+        selects the limits of the time-base checks
+        (:func:`senscal.io.plausibility.time_base_warnings`), whose named
+        warnings land in ``Recording.warnings``.
+
+    The time base follows one rule for every job: a rate stated twice (a
+    preamble's ``Fs``, ``--fs``, the time column's mean rate) must agree
+    within 1 % or the file is refused (:func:`~senscal.io.plausibility.reconcile_rates`);
+    a time column named ``time`` or ``Time(S)`` (an oscilloscope's) is the
+    time column when no ``t`` exists; suspicions (a time column that looks
+    like ms read as s) become ``time-unit-suspect`` warnings.
 
     Returns
     -------
@@ -111,7 +129,7 @@ def read_recording(
     if is_stdio(path):
         return _read_stdin(time_column=time_column, fs=fs, channels=channels, names=names, group=group,
                            format=format, allow_nan=allow_nan, skip_rows=skip_rows, time_required=time_required,
-                           time_unit=time_unit)
+                           time_unit=time_unit, start=start, stop=stop, job=job)
     path = Path(path)
     if fs is not None and not (isinstance(fs, (int, float, np.floating, np.integer)) and math.isfinite(float(fs))
                                and float(fs) > 0):
@@ -152,13 +170,20 @@ def read_recording(
     src = str(path)
     t = None
     use_fs = fs
+    time_column, units = _recognise_time_column(cols, units, time_column)
     if time_unit is not None:
         _time_unit_agrees(time_unit, units.get(time_column) if time_column in cols else None, time_column, path,
                           has_time=time_column in cols and fs is None)
         if time_column in cols and not units.get(time_column):
             units = {**units, time_column: time_unit}
-    if time_column in cols and units.get(time_column):
-        cols[time_column] = _time_in_seconds(cols[time_column], units[time_column], time_column, path)
+    stated_unit = units.get(time_column) if time_column in cols else None
+    if stated_unit:
+        cols[time_column] = _time_in_seconds(cols[time_column], stated_unit, time_column, path)
+    # One time-base rule for every job: a rate stated twice must agree (plausibility.reconcile_rates).
+    from senscal.io.plausibility import reconcile_rates, time_base_warnings
+
+    reconcile_rates(cols.get(time_column), file_fs=file_fs, user_fs=fs, source=src, time_name=time_column,
+                    file_fs_text=_rate_statement(meta, kind))
     if fs is None:
         if time_column in cols:
             t = cols[time_column]
@@ -172,14 +197,11 @@ def read_recording(
                 f"{path} has no time column '{time_column}' (columns: {', '.join(cols)}); "
                 "name it with --time-column or give the sample rate with --fs"
             )
-    elif time_column in cols and cols[time_column].size > 1:
-        # Both a time column and --fs: silently preferring one would shift every frequency.
-        tc = cols[time_column]
-        span = float(tc[-1] - tc[0])
-        rate = (tc.size - 1) / span if span > 0 and math.isfinite(span) else float("nan")
-        if not (np.isfinite(rate) and abs(rate / fs - 1.0) < 0.01):
-            raise InputError(f"--fs {fs:g} Hz contradicts the time column '{time_column}' of {path} "
-                             f"(about {rate:.6g} samples/s); --fs is for files without a time column")
+    warnings: tuple[str, ...] = ()
+    if t is not None and t.size > 1 and np.all(np.isfinite(t)):
+        factor = _TIME_UNITS.get(stated_unit.strip()) if stated_unit else 1.0
+        warnings = time_base_warnings(t, job, unit=stated_unit if factor != 1.0 else None,
+                                      declared=bool(stated_unit))
     cols.pop(time_column, None)
     if not cols:
         raise FileFormatError(f"{path} holds only the time column; it needs data channels")
@@ -188,9 +210,52 @@ def read_recording(
         if missing:
             raise InputError(f"no channel '{missing[0]}' in {path}; channels are: {', '.join(cols)}")
         cols = {c: cols[c] for c in channels}
-    return Recording(channels=cols, t=t, fs=use_fs, t0=file_t0 if t is None else 0.0,
-                     units={k: v for k, v in units.items() if k in cols}, metadata=meta,
-                     source=src, allow_nan=allow_nan)
+    rec = Recording(channels=cols, t=t, fs=use_fs, t0=file_t0 if t is None else 0.0,
+                    units={k: v for k, v in units.items() if k in cols}, metadata=meta,
+                    source=src, allow_nan=allow_nan, warnings=warnings)
+    return rec.window(start, stop)
+
+
+# A time column by another name: "time", "Time(S)" (an oscilloscope's export), "TIME (ms)".
+_TIME_NAME = re.compile(r"\s*time\s*(?:\(\s*([^()]*?)\s*\))?\s*", re.I)
+
+
+def _recognise_time_column(cols: dict[str, np.ndarray], units: dict[str, str],
+                           time_column: str) -> tuple[str, dict[str, str]]:
+    """The time column's name, and the units with its unit: ``Time(S)`` is time in seconds.
+
+    Only when the default ``t`` is asked for and absent, and exactly one
+    column is called ``time`` (any case), optionally with a time unit in
+    parentheses (``Time(S)``, ``Time (ms)``) or in the header's brackets.
+    """
+    if time_column != "t" or "t" in cols:
+        return time_column, units
+    found = []
+    for name in cols:
+        m = _TIME_NAME.fullmatch(name)
+        if not m:
+            continue
+        unit = m.group(1) if m.group(1) is not None else units.get(name)
+        if unit is not None and unit.strip().lower() not in _TIME_UNITS and unit.strip() not in _TIME_UNITS:
+            continue  # "Time(samples)": not a time in a unit senscal knows
+        found.append((name, unit))
+    if len(found) != 1:
+        return time_column, units
+    name, unit = found[0]
+    if unit is not None:
+        u = unit.strip()
+        units = {**units, name: u if u in _TIME_UNITS else u.lower()}
+    return name, units
+
+
+def _rate_statement(meta: dict, kind: str) -> str:
+    """How a file states its own sample rate, for a message: ``'Fs,50.00' in its preamble`` ..."""
+    if kind == "csv":
+        for key, value in meta.items():
+            if isinstance(key, str) and _FS_KEY.match(key):
+                return f"'{key},{value}' in its preamble"
+        return "its preamble"
+    return {"tdms": "its waveform increment", "hdf5": "its fs attribute"}.get(kind, "its fs entry")
 
 
 _LABEL = {"csv": "CSV/text", "parquet": "Parquet", "hdf5": "HDF5", "tdms": "TDMS", "npz": "NPZ"}
@@ -454,10 +519,8 @@ def _read_csv(path: Path, *, names=None, group=None, skip_rows=None):
                                   f"data rows have {n}; if the numbers use decimal commas ('0,5'), they cannot be "
                                   "told from the separators: export the CSV with ';' as separator (senscal reads its "
                                   "decimal commas) or with '.' as decimal mark")
-        raise FileFormatError(
-            f"{path} has no header row ({n} columns); give column names, e.g. --names "
-            f"{','.join(['t', 'x', 'y', 'z'][:n]) if n <= 4 else ','.join(f'c{k}' for k in range(n))}"
-        )
+        raise FileFormatError(f"{path} has no header row ({n} columns); give column names, e.g. "
+                              f"{_names_hint(head[data_i:], sep, n, file_fs)}")
     else:
         fields = _fields(head[header_i], sep)
     if names is not None and header_i is not None:
@@ -520,6 +583,27 @@ def _decimal_points(col: np.ndarray, name: str, path: Path) -> np.ndarray:
                         f"{commas[0] + 1}) with decimal points ({text[dots[0]]!r} in data row {dots[0] + 1}); "
                         "export the CSV again with one decimal mark")
     return np.array([v.replace(",", ".") if isinstance(v, str) else v for v in col], dtype=object)
+
+
+def _names_hint(rows: list[str], sep: str, n: int, file_fs: float | None) -> str:
+    """``--names ...`` for a headerless file: a first column that strictly increases is time, else all data.
+
+    Three columns of readings (x, y, z) are not told ``t,x,y``: without a time
+    column they need a sample rate (``--fs``) unless the job ignores time.
+    """
+    first = []
+    for line in rows[:200]:
+        f = _fields(line, sep)
+        if len(f) != n or not f[0] or not _is_number(f[0]):
+            continue
+        first.append(float(f[0]))
+    increasing = n >= 2 and len(first) >= 3 and all(b > a for a, b in zip(first, first[1:]))
+    data = {2: ["x", "y"], 3: ["x", "y", "z"]}.get(n - 1 if increasing else n) or \
+        [f"c{k}" for k in range(1, (n - 1 if increasing else n) + 1)]
+    if increasing:
+        return f"--names {','.join(['t', *data])} (the first column increases like time stamps in s)"
+    rate = "" if file_fs is not None else " (no column increases like time: give --fs HZ where the job needs a time base)"
+    return f"--names {','.join(data)}{rate}"
 
 
 def _read_body_pandas(path: Path, *, sep: str, width: int, skip: int) -> list[np.ndarray]:

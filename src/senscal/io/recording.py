@@ -10,7 +10,7 @@ import numpy as np
 
 from senscal.errors import DataError, InputError, TooFewSamplesError, UnknownChannelError
 
-__all__ = ["Recording", "check_finite", "check_time"]
+__all__ = ["Recording", "check_finite", "check_time", "sample_rate_of", "is_regular"]
 
 
 def _first_bad(mask: np.ndarray) -> int:
@@ -61,6 +61,41 @@ def check_time(t: np.ndarray, *, source: str | None = None, name: str = "t") -> 
             )
 
 
+def is_regular(t: np.ndarray) -> bool:
+    """True when time stamps ``t`` (s) are equally spaced within rounding (1e-6 of the spacing).
+
+    Stamps far from zero carry rounding jitter of ~1e-16 * |t|, which is allowed for.
+    """
+    t = np.asarray(t, dtype=float)
+    if t.size < 3:
+        return True
+    d = np.diff(t)
+    tol = 1e-6 * float(np.mean(d)) + 4e-16 * float(np.max(np.abs(t)))
+    return bool(np.ptp(d) <= tol)
+
+
+def sample_rate_of(t: np.ndarray) -> float:
+    """The sample rate (Hz) of time stamps ``t`` (s): the one rule every job uses.
+
+    The mean rate over the record, ``(n - 1) / (t[-1] - t[0])``: for equally
+    spaced stamps it is 1 / their spacing (and more exact than any single
+    interval: stamps near 1.7e9 s carry 2e-7 s of rounding each), for
+    irregular ones (a host clock stamping bursts of buffered samples, jitter)
+    it counts every sample once over the time they took. The median interval
+    of bursty host stamps is the spacing inside a burst (2 ms for a 100 Hz
+    MPU6050 read in bursts: 5x the rate).
+
+    Raises
+    ------
+    TooFewSamplesError
+        Fewer than two stamps.
+    """
+    t = np.asarray(t, dtype=float)
+    if t.size < 2:
+        raise TooFewSamplesError("a single sample has no sample rate")
+    return float((t.size - 1) / (t[-1] - t[0]))
+
+
 @dataclass(frozen=True)
 class Recording:
     """Named channels sampled on one time base.
@@ -83,6 +118,9 @@ class Recording:
         Where the recording came from (file path), used in messages.
     allow_nan : bool
         Accept NaN as missing samples (inf is always refused).
+    warnings : tuple of str
+        Named warnings about the time base found while reading the file
+        (``time-unit-suspect: ...``); every job adds them to its result.
 
     Notes
     -----
@@ -97,6 +135,7 @@ class Recording:
     metadata: Mapping[str, Any] = field(default_factory=dict)
     source: str | None = None
     allow_nan: bool = False
+    warnings: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         chans: dict[str, np.ndarray] = {}
@@ -134,6 +173,7 @@ class Recording:
             object.__setattr__(self, "fs", fs)
         object.__setattr__(self, "units", MappingProxyType(dict(self.units)))
         object.__setattr__(self, "metadata", MappingProxyType(dict(self.metadata)))
+        object.__setattr__(self, "warnings", tuple(str(w) for w in self.warnings))
 
     # -- basic facts ---------------------------------------------------------
     @property
@@ -158,19 +198,14 @@ class Recording:
         """True when samples are equally spaced (within 1e-6 of the spacing)."""
         if self.fs is not None or self.n_samples < 3:
             return True
-        d = np.diff(self.t)
-        # Time stamps far from zero carry rounding jitter of ~1e-16 * |t|.
-        tol = 1e-6 * float(np.mean(d)) + 4e-16 * float(np.max(np.abs(self.t)))
-        return bool(np.ptp(d) <= tol)
+        return is_regular(self.t)
 
     @property
     def sample_rate(self) -> float:
-        """Sample rate in Hz (``fs``, or 1 / median spacing of ``t``)."""
+        """Sample rate in Hz: ``fs``, or the mean rate of ``t`` (:func:`sample_rate_of`)."""
         if self.fs is not None:
             return self.fs
-        if self.n_samples < 2:
-            raise TooFewSamplesError("a single sample has no sample rate")
-        return float(1.0 / np.median(np.diff(self.t)))
+        return sample_rate_of(self.t)
 
     @property
     def duration(self) -> float:
@@ -222,9 +257,49 @@ class Recording:
         t0 = self.t0 + (first.start if len(first) else 0) / self.fs
         return self._replace(channels=chans, t0=t0)
 
+    def window(self, start: float | None = None, stop: float | None = None) -> "Recording":
+        """The samples from ``start`` to ``stop`` seconds after the first sample (both ends included).
+
+        Parameters
+        ----------
+        start, stop : float, optional
+            Seconds from the recording's first sample (``--start``/``--stop``);
+            None keeps the record's own start or end. Time itself is not
+            re-zeroed: the window's samples keep their time stamps.
+
+        Raises
+        ------
+        InputError
+            A start or stop that is negative or not finite, a stop not after
+            the start, or a window with fewer than two samples.
+        """
+        if start is None and stop is None:
+            return self
+        for what, v in (("--start", start), ("--stop", stop)):
+            if v is not None and not (isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+                                      and np.isfinite(v) and v >= 0):
+                raise InputError(f"{what} is in seconds from the first sample and must be a finite number >= 0, "
+                                 f"got {v!r}")
+        if start is not None and stop is not None and not stop > start:
+            raise InputError(f"--stop ({stop:g} s) must come after --start ({start:g} s)")
+        t = self.time
+        elapsed = t - t[0]
+        keep = np.ones(t.size, dtype=bool)
+        if start is not None:
+            keep &= elapsed >= start
+        if stop is not None:
+            keep &= elapsed <= stop
+        idx = np.flatnonzero(keep)
+        if idx.size < 2:
+            where = f" of {self.source}" if self.source else ""
+            raise InputError(f"the window {start or 0:g} to {'the end' if stop is None else f'{stop:g} s'} holds "
+                             f"{idx.size} sample(s) of the {self.duration:g} s record{where}; choose --start/--stop "
+                             "within the record (seconds from its first sample)")
+        return self.slice(int(idx[0]), int(idx[-1]) + 1)
+
     def _replace(self, **changes: Any) -> "Recording":
         kw = dict(channels=self.channels, t=self.t, fs=self.fs, t0=self.t0, units=self.units,
-                  metadata=self.metadata, source=self.source, allow_nan=self.allow_nan)
+                  metadata=self.metadata, source=self.source, allow_nan=self.allow_nan, warnings=self.warnings)
         kw.update(changes)
         return Recording(**kw)
 

@@ -87,6 +87,9 @@ class ReadOptions:
         Unit of a time column whose header gives none (s, ms, us, min).
     skip_rows : int, optional
         Lines to skip before the header of a text file.
+    start, stop : float, optional
+        Keep only the samples from ``start`` to ``stop`` seconds after the
+        recording's first sample (``--start``/``--stop``).
     """
 
     time_column: str = "t"
@@ -94,6 +97,8 @@ class ReadOptions:
     names: str | tuple[str, ...] | None = None
     time_unit: str | None = None
     skip_rows: int | None = None
+    start: float | None = None
+    stop: float | None = None
 
     def __post_init__(self):
         # One spelling of the names: "a,b" (as the command line gives it) and ("a", "b") are the same options.
@@ -103,11 +108,16 @@ class ReadOptions:
             object.__setattr__(self, "names", None)  # an empty sequence names no columns
 
     def read(self, source: Any, *, channels: Sequence[str] | None = None, allow_nan: bool = False,
-             time_required: bool = True):
-        """The :class:`~senscal.io.Recording` of ``source`` read with these options (see :func:`read_source`)."""
+             time_required: bool = True, job: str | None = None):
+        """The :class:`~senscal.io.Recording` of ``source`` read with these options (see :func:`read_source`).
+
+        ``job`` names the job reading it, for the time-base checks; their
+        warnings are in the Recording's ``warnings`` (add them to the result
+        with :func:`senscal.io.plausibility.merge_time_warnings`).
+        """
         return read_source(source, time_column=self.time_column, fs=self.fs, names=self.names, channels=channels,
                            allow_nan=allow_nan, time_unit=self.time_unit, skip_rows=self.skip_rows,
-                           time_required=time_required)
+                           time_required=time_required, start=self.start, stop=self.stop, job=job)
 
     @staticmethod
     def words(params: Mapping[str, Any]) -> dict[str, Any]:
@@ -199,7 +209,8 @@ def _split_names(names: str | Sequence[str]) -> tuple[str, ...]:
 def read_source(source: Any, *, time_column: str = "t", fs: float | None = None,
                 names: str | Sequence[str] | None = None, channels: Sequence[str] | None = None,
                 allow_nan: bool = False, time_unit: str | None = None, skip_rows: int | None = None,
-                time_required: bool = True):
+                time_required: bool = True, start: float | None = None, stop: float | None = None,
+                job: str | None = None):
     """The :class:`~senscal.io.Recording` a job works on.
 
     Parameters
@@ -212,6 +223,10 @@ def read_source(source: Any, *, time_column: str = "t", fs: float | None = None,
         comma-separated string (as the command line gives it).
     channels : sequence of str, optional
         Keep only these channels (unknown names raise, listing those that exist).
+    start, stop : float, optional
+        Seconds from the first sample: the window kept (also of a Recording given in memory).
+    job : str, optional
+        The job reading it: selects the time-base checks of a file (a Recording in memory is used as is).
 
     Raises
     ------
@@ -221,11 +236,12 @@ def read_source(source: Any, *, time_column: str = "t", fs: float | None = None,
     from senscal.io import Recording, read_recording
 
     if isinstance(source, Recording):
-        return source.select(list(channels)) if channels else source
+        return (source.select(list(channels)) if channels else source).window(start, stop)
     if not isinstance(source, (str, Path)):
         raise InputError(f"a job reads a recording file or a senscal.io.Recording, got {type(source).__name__}")
     if isinstance(names, str) or names:
         names = _split_names(names)
     return read_recording(source, time_column=time_column, fs=fs, names=list(names) if names else None,
                           channels=list(channels) if channels else None, allow_nan=allow_nan,
-                          time_unit=time_unit, skip_rows=skip_rows, time_required=time_required)
+                          time_unit=time_unit, skip_rows=skip_rows, time_required=time_required,
+                          start=start, stop=stop, job=job)

@@ -376,14 +376,12 @@ def drift(source: Any, options: DriftOptions = DriftOptions(), *,
     from senscal.drift import correct_drift
     from senscal.drift.allan import drift_levels_from_allan
     from senscal.drift.stream import TrackerState
-    from senscal.io.plausibility import check_time
-
-    rec = options.read(source, allow_nan=True)
+    rec = options.read(source, allow_nan=True, job="drift")
     name = source_name(source)
     setup = drift_setup_for(rec, options)
     y, t, cov = _arrays(rec, setup, f"in {name}")
     units = {c: rec.unit(c) or "" for c in setup.biased_channels}
-    time_warnings = list(check_time(rec.time, "drift"))
+    time_warnings = list(rec.warnings)  # the reading layer's time-base checks, for a drift record
     if options.state is None:
         start = drift_levels_from_allan(setup, y, t) if options.levels_from_allan else None
         res = correct_drift(setup, y, t, cov, window=options.window, smooth=options.smooth,

@@ -247,7 +247,7 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
 
     options = FitOptions() if options is None else options
     # NaN in one channel should not stop the others: checked per channel below.
-    rec = options.read(source, channels=options.channels, allow_nan=True)
+    rec = options.read(source, channels=options.channels, allow_nan=True, job="fit")
     name = source_name(source)
     chans = list(rec.names)
     y = rec.data(chans)
@@ -273,7 +273,11 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
                 fits[chans[i]] = fit_sine(y[i], rec.time, freq=freq, harmonics=harmonics, noise_model=noise_model)
             except InputError as exc:
                 if "Nyquist" in str(exc) and freq is not None:
-                    raise  # an argument error, the same for every channel
+                    # An argument error, the same for every channel; a time column in ms read as s is why, often.
+                    suspect = [w for w in rec.warnings if w.startswith("time-unit-suspect")]
+                    if suspect:
+                        raise InputError(f"{exc} ({suspect[0]})") from None
+                    raise
                 failed[chans[i]] = exc
                 reasons[chans[i]] = str(exc)
             except SenscalError as exc:
@@ -320,7 +324,17 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
                      units={c: rec.unit(c) for c in ordered},
                      instrument={c: instrument[c] for c in ordered},
                      consistency={c: consistency[c] for c in ordered if c in consistency},
-                     warnings=tuple(warnings))
+                     warnings=_time_warnings(tuple(warnings), rec, y[good[0]] if good else None, freq))
+
+
+def _time_warnings(warnings: tuple[str, ...], rec, y, freq: float | None) -> tuple[str, ...]:
+    """The fit's warnings plus the time-base ones: the reading layer's, and a ``--freq`` a unit factor off."""
+    from senscal.io.plausibility import check_known_frequency, dominant_frequency, merge_time_warnings
+
+    own: tuple[str, ...] = ()
+    if freq is not None and y is not None:
+        own = check_known_frequency(dominant_frequency(y, rec.time), freq)
+    return merge_time_warnings(merge_time_warnings(warnings, own), rec.warnings)
 
 
 # A block must hold at least this many samples and periods: with fewer its fit is not the same

@@ -109,7 +109,15 @@ class GfimuResult(JobResult):
     differential_max_u : float or None
         rad/s.
     errors : dict of str to senscal.gfimu.ErrorStatistics, or None
-        Error of each method against the truth, rad/s.
+        Error of each method against the truth, rad/s, after the Kalman
+        filter's start-up (from ``converged_from_s``; the whole record
+        without a Kalman estimate).
+    errors_transient : dict of str to senscal.gfimu.ErrorStatistics, or None
+        The same over the start-up, before ``converged_from_s`` (None when
+        there is none): the filter learns its constant errors there.
+    converged_from_s : float or None
+        Where the converged part starts, s (:func:`senscal.gfimu.convergence_index`:
+        the filter's stated u(w) stays within 2x of its median from there on).
     truth_omega : ndarray, shape (3, T), or None
         The truth on the recording's time base, rad/s.
     quaternion : ndarray, shape (4, T), or None
@@ -134,6 +142,8 @@ class GfimuResult(JobResult):
     bias_std: float | None = None
     differential_max_u: float | None = None
     errors: dict[str, ErrorStatistics] | None = None
+    errors_transient: dict[str, ErrorStatistics] | None = None
+    converged_from_s: float | None = None
     truth_omega: np.ndarray | None = field(default=None, repr=False)
     quaternion: np.ndarray | None = field(default=None, repr=False)
     attitude_method: str | None = None
@@ -176,7 +186,13 @@ class GfimuResult(JobResult):
                 doc["filter"]["bias_std_m_s2"] = self.bias_std
                 doc["filter"]["offsets"] = _offsets(UNKNOWNS[3:], f.offsets, f.u_offsets)
         if self.errors is not None:
+            # The headline errors are the converged filter's; the start-up transient is reported beside them.
             doc["errors"] = {m: {ax: s.axis(i) for i, ax in enumerate(_AXES)} for m, s in self.errors.items()}
+            doc["errors_from_s"] = self.converged_from_s
+            if self.errors_transient is not None:
+                doc["errors_transient"] = {
+                    "until_s": self.converged_from_s,
+                    **{m: {ax: s.axis(i) for i, ax in enumerate(_AXES)} for m, s in self.errors_transient.items()}}
         if self.quaternion is not None:
             doc["attitude"] = {"method": self.attitude_method, "initial_quaternion": list(self.initial_quaternion)}
             ae = self.attitude_error
@@ -335,8 +351,8 @@ def gfimu(source, options: GfimuOptions = GfimuOptions()) -> GfimuResult:
     The gyro-free IMU Kalman filter of ``../shared/METHODS.md``
     (integration as process, quadratic terms as measurement).
     """
-    from senscal.gfimu import DEFAULT_BIAS_STD, METHODS, angular_velocity, attitude_error, error_statistics, \
-        integrate_attitude
+    from senscal.gfimu import DEFAULT_BIAS_STD, METHODS, angular_velocity, attitude_error, convergence_index, \
+        error_statistics, integrate_attitude
 
     o = options
     _check(o)
@@ -344,7 +360,7 @@ def gfimu(source, options: GfimuOptions = GfimuOptions()) -> GfimuResult:
     methods = METHODS if o.method == "all" else (o.method,)
     w0 = tuple(float(v) for v in o.initial_omega)
     span = None if o.rest is None else tuple(float(v) for v in o.rest)
-    rec = o.read(source)
+    rec = o.read(source, job="gfimu")
     y = rec.data(list(layout.names)) * _si_scales(rec, layout.names, "m/s^2", "accelerometer channel")[:, None]
     est = angular_velocity(y, rec.time, layout, methods=methods, observation=o.observation, initial=w0,
                            noise_std=o.noise_std, lag=o.lag, bias_std=o.bias_std, smooth=o.smooth, plain=o.plain,
@@ -352,10 +368,13 @@ def gfimu(source, options: GfimuOptions = GfimuOptions()) -> GfimuResult:
     extra = _plausibility_warnings(est, rec, y, layout)
     if extra:
         est = replace(est, warnings=tuple(est.warnings) + extra)
-    w_true = q_true = errors = None
+    w_true = q_true = errors = transient = None
+    k_conv = convergence_index(est.u_omega) if est.u_omega is not None else 0
     if o.truth is not None:
         w_true, q_true = _truth_on(rec.time, o.truth, o.attitude)
-        errors = error_statistics(est.omega, w_true)
+        errors = error_statistics(est.omega, w_true, skip=k_conv)
+        if k_conv > 0:
+            transient = error_statistics({m: w[:, :k_conv] for m, w in est.omega.items()}, w_true[:, :k_conv])
     q = src = q0 = ae = None
     if o.attitude:
         src = "kalman" if "kalman" in est.omega else next(iter(est.omega))
@@ -366,6 +385,7 @@ def gfimu(source, options: GfimuOptions = GfimuOptions()) -> GfimuResult:
     bias_std = None if o.rest is not None else DEFAULT_BIAS_STD if o.bias_std is None else o.bias_std
     return GfimuResult(estimate=est, source=source_name(source), t=rec.time, sample_rate=rec.sample_rate,
                        layout=layout, layout_source=layout_source, observation=o.observation, initial_omega=w0,
-                       bias_std=bias_std, differential_max_u=o.differential_max_u, errors=errors, truth_omega=w_true,
+                       bias_std=bias_std, differential_max_u=o.differential_max_u, errors=errors,
+                       errors_transient=transient, converged_from_s=float(rec.time[k_conv]), truth_omega=w_true,
                        quaternion=q, attitude_method=src, initial_quaternion=q0, attitude_error=ae,
                        warnings=tuple(est.warnings))

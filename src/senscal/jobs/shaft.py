@@ -19,6 +19,7 @@ import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
+from senscal.io.plausibility import merge_time_warnings
 from senscal.jobs._base import JobResult, Quantity, ReadOptions, given_or_loaded, source_name
 
 if TYPE_CHECKING:  # the engines load when a job runs, not when the CLI starts
@@ -259,7 +260,7 @@ def shaft_calibrate(source, options: ShaftCalibrateOptions = ShaftCalibrateOptio
     o = options
     if not 0 <= o.max_speed_variation < 1e6:
         raise InputError(f"--max-speed-variation must be a fraction >= 0, got {o.max_speed_variation!r}")
-    rec = o.read(source, channels=[o.angle, o.accel])
+    rec = o.read(source, channels=[o.angle, o.accel], job="shaft")
     unit = angle_unit_of(rec, o.angle, o.angle_unit)
     name = source_name(source)
     model = calibrate_gravity(
@@ -269,7 +270,7 @@ def shaft_calibrate(source, options: ShaftCalibrateOptions = ShaftCalibrateOptio
         max_speed_variation=o.max_speed_variation, u_angle=_u_angle(o.u_angle_deg), source=name)
     return ShaftCalibrateResult(model=model, source=name, angle=angle_to_rad(rec[o.angle], unit),
                                 accel=np.asarray(rec[o.accel], dtype=float), accel_unit=rec.unit(o.accel),
-                                warnings=tuple(model.warnings))
+                                warnings=merge_time_warnings(model.warnings, rec.warnings))
 
 
 # ---------------------------------------------------------------------------
@@ -403,7 +404,7 @@ def shaft_compensate(source, options: ShaftCompensateOptions = ShaftCompensateOp
     if o.radius is None:
         raise InputError("shaft compensation needs the sensor radius: give --radius R (m, distance from the axis)")
     model, model_source = _model_of(o.model)
-    rec = o.read(source, channels=[o.angle, o.accel])
+    rec = o.read(source, channels=[o.angle, o.accel], job="shaft")
     unit = angle_unit_of(rec, o.angle, o.angle_unit)
     from senscal.persist.units import unit_factor
 
@@ -419,4 +420,4 @@ def shaft_compensate(source, options: ShaftCompensateOptions = ShaftCompensateOp
                      remove_centripetal=o.centripetal, accel_unit=accel_unit)
     return ShaftCompensateResult(compensation=res, model=model, source=source_name(source),
                                  model_source=model_source, accel=accel,
-                                 accel_unit=accel_unit, warnings=tuple(res.warnings))
+                                 accel_unit=accel_unit, warnings=merge_time_warnings(res.warnings, rec.warnings))

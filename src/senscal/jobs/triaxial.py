@@ -254,7 +254,7 @@ def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalib
     extra = _three(o.accel_channels, "--accel-channels") if o.accel_channels is not None else None
     outlier = None if o.outlier_sigma == 0 else o.outlier_sigma
     # Only static poses use time: a headerless x,y,z file needs no sample rate otherwise.
-    rec = o.read(source, channels=list(chans) + list(extra or ()), time_required=o.static)
+    rec = o.read(source, channels=list(chans) + list(extra or ()), time_required=o.static, job="triaxial")
     h = rec.data(list(chans))
     unit = rec.units.get(chans[0], "")
     st = None
@@ -279,6 +279,10 @@ def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalib
         ra = calibrate(a, outlier_sigma=outlier, unit=rec.units.get(extra[0], ""), channels=extra)
         tilt = tilt_heading_report(h, res.calibration.apply(h), a, ra.calibration.apply(a))
     warnings = tuple(res.warnings) + (tuple(ra.warnings) if ra is not None else ())
+    if o.static:  # only static poses use time: their windows are in seconds
+        from senscal.io.plausibility import merge_time_warnings
+
+        warnings = merge_time_warnings(warnings, rec.warnings)
     return TriaxialCalibrateResult(calibration=res, source=source_name(source), channels=chans, unit=unit,
                                    readings=np.asarray(h, dtype=float), static=st, accelerometer=ra,
                                    accel_channels=extra, tilt=tilt, warnings=warnings)

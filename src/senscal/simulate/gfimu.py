@@ -100,7 +100,7 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
                    offset_m=None, linear_amplitude: float | None = None, linear_freqs_hz=(5.0, 7.0, 11.0),
                    bias_g: float = 1e-4, noise_g: float = 1e-3,
                    position_error_m: float = 0.0, direction_error_rad: float = 0.0, rest_s: float = 0.0,
-                   seed: int | None = None) -> tuple[Recording, Recording, dict[str, Any]]:
+                   scale_error: float = 0.0, seed: int | None = None) -> tuple[Recording, Recording, dict[str, Any]]:
     """Accelerometer-array readings on a moving rigid body, with the truth.
 
     Parameters
@@ -129,6 +129,10 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
     position_error_m, direction_error_rad : float
         Standard deviation of the actual mounting position (m) and direction
         (rad) about the nominal layout (the solver sees the nominal one).
+    scale_error : float
+        Per-channel scale-factor error (a fraction: 5e-4 is 0.05 %), random
+        sign: channel ``i`` reads ``(1 + e_i)`` times its acceleration, which
+        the solver does not know (the layout assumes unit gains).
     rest_s : float
         The body rests (at its starting attitude, rotation centre still)
         for this long, s, before the motion starts; the record is
@@ -160,8 +164,9 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
         offset_m = offset_m if offset_m is not None else (0.05, -0.03, 0.02)
         linear_amplitude = linear_amplitude if linear_amplitude is not None else 2.0
     if not (fs > 0 and duration > 0 and noise_g >= 0 and bias_g >= 0 and position_error_m >= 0
-            and direction_error_rad >= 0 and rest_s >= 0):
-        raise InputError("fs > 0, duration > 0 and non-negative bias, noise, mounting errors and rest are required")
+            and direction_error_rad >= 0 and rest_s >= 0 and 0 <= scale_error < 1):
+        raise InputError("fs > 0, duration > 0, non-negative bias, noise, mounting errors and rest, and a scale error "
+                         "in [0, 1) are required")
     vals = [float(v) for v in (*amplitudes_deg, *freqs_hz, *offset_m, linear_amplitude)]
     if not (len(amplitudes_deg) == len(freqs_hz) == len(offset_m) == 3) or not all(math.isfinite(v) for v in vals) or any(f < 0 for f in freqs_hz):
         raise InputError("amplitudes (3, deg), frequencies (3, Hz, non-negative), offset (3, m) and the linear "
@@ -194,7 +199,10 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
            + np.cross(w.T[:, None, :], wxr))
     ideal = np.einsum("tmi,mi->mt", acc, dirs)
     bias = bias_g * G0 * rng.choice([-1.0, 1.0], size=layout.n_channels)
-    y = ideal + bias[:, None] + rng.normal(0.0, noise_g * G0, ideal.shape)
+    noise = rng.normal(0.0, noise_g * G0, ideal.shape)
+    # Drawn after the noise, and only when asked for: records without scale errors keep their seeds' values.
+    scale = scale_error * rng.choice([-1.0, 1.0], size=layout.n_channels) if scale_error > 0 else np.zeros(layout.n_channels)
+    y = ideal * (1.0 + scale[:, None]) + bias[:, None] + noise
     rec = Recording(channels=dict(zip(layout.names, y)), fs=fs, units={k: "m/s^2" for k in layout.names},
                     metadata={"simulator": "gfimu", "paper": paper})
     names = ["wx", "wy", "wz", "alpha_x", "alpha_y", "alpha_z", "f_x", "f_y", "f_z", "qw", "qx", "qy", "qz"]
@@ -207,6 +215,7 @@ def simulate_gfimu(*, paper: bool = False, layout: Layout | None = None, distanc
         "bias_g": bias_g, "noise_g": noise_g, "noise_std_m_s2": noise_g * G0,
         "bias_m_s2": dict(zip(layout.names, bias.tolist())),
         "position_error_m": position_error_m, "direction_error_rad": direction_error_rad,
+        "scale_error": float(scale_error), "scale_errors": dict(zip(layout.names, scale.tolist())),
         "actual_positions_m": pos.tolist(), "actual_directions": dirs.tolist(),
     }
     return rec, truth, info

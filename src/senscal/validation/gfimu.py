@@ -29,6 +29,12 @@ paper-mounting, three-axis-mounting
     0.5 mm position and 0.5 deg direction errors per channel (the solver
     sees the nominal layout), 1 kHz, 20 s: expects ``filter-gated`` or
     ``innovations-inconsistent``.
+three-axis-scale-0.05%, three-axis-scale-0.1%, paper-scale-0.05%
+    Every channel's scale factor 0.05 % (0.1 %) off, random sign, which the
+    layout does not know (``simulate_gfimu(scale_error=...)``); the paper's
+    motion at 2 kHz. The rate band covers far less than 95 %: expects
+    ``scale-factor-mismatch`` (the score test of per-channel gains on the
+    filter's innovations, :func:`senscal.gfimu.scale_factor_test`).
 """
 
 from __future__ import annotations
@@ -46,6 +52,7 @@ __all__ = ["SCENARIOS"]
 JOB = "gfimu"
 _AXES = ("wx", "wy", "wz")
 _MISMATCH = ("filter-gated", "innovations-inconsistent")
+_SCALE = ("scale-factor-mismatch",)
 
 
 def _has(warnings, names) -> bool:
@@ -59,12 +66,15 @@ def _offset_truth(layout, bias: np.ndarray) -> np.ndarray:
 
 
 def _bias_white(n_seeds: int, seed0: int, case: str, sim: dict, *, rest=None, plain: bool = False,
-                smooth: bool = False, expect: str = "cover", warn_names=(), note: str = "") -> list[CoverageRow]:
+                smooth: bool = False, expect: str = "cover", warn_names=(), note: str = "",
+                scale_error: float = 0.0) -> list[CoverageRow]:
     """White noise and constant biases on one motion: the ideal readings are simulated once.
 
     Per seed the biases (random sign, ``bias_g``) and the white noise are
     drawn exactly as :func:`simulate_gfimu` draws them; the motion, and so
-    the ideal readings and the truth, are the same for every seed.
+    the ideal readings and the truth, are the same for every seed. With
+    ``scale_error`` every channel's gain is off by that fraction, random sign
+    (drawn per seed after the noise, as the simulator does).
     """
     layout = paper_layout(0.04)
     base, truth, info = simulate_gfimu(bias_g=0.0, noise_g=0.0, seed=0, **sim)
@@ -79,6 +89,8 @@ def _bias_white(n_seeds: int, seed0: int, case: str, sim: dict, *, rest=None, pl
         rng = np.random.default_rng(s)
         bias = bias_g * G0 * rng.choice([-1.0, 1.0], size=layout.n_channels)
         y = y0 + bias[:, None] + rng.normal(0.0, noise_g * G0, y0.shape)
+        if scale_error > 0:
+            y += y0 * (scale_error * rng.choice([-1.0, 1.0], size=layout.n_channels))[:, None]
         est = angular_velocity(y, t, layout, rest=rest, plain=plain, smooth=smooth)
         warned.append(_has(est.warnings, warn_names) if warn_names else False)
         for i in range(3):
@@ -105,6 +117,7 @@ def _bias_white(n_seeds: int, seed0: int, case: str, sim: dict, *, rest=None, pl
                                  note="constant errors of " + ", ".join(UNKNOWNS[3:]) + " on the rest segment"))
     if est_f and not smooth:
         rows.append(coverage_row(JOB, case, "filter offsets at the end (one of 9 per seed)", est_f, u_f, tr_f,
+                                 warned=wflag, expect=expect,
                                  note="constant errors of alpha and W estimated by the filter"))
     return rows
 
@@ -171,8 +184,27 @@ def run_three_axis_mounting(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     return _mounting(n_seeds, seed0, "three-axis-mounting", False)
 
 
+def run_three_axis_scale_05(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Three-axis motion, every channel's gain 0.05 % off (random sign): must name it."""
+    return _bias_white(n_seeds, seed0, "three-axis-scale-0.05%", dict(paper=False), scale_error=5e-4,
+                       expect="warn", warn_names=_SCALE, note="scale factors 0.05 % off, random sign, 1 kHz x 10 s")
+
+
+def run_three_axis_scale_10(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Three-axis motion, every channel's gain 0.1 % off (random sign): must name it."""
+    return _bias_white(n_seeds, seed0, "three-axis-scale-0.1%", dict(paper=False), scale_error=1e-3,
+                       expect="warn", warn_names=_SCALE, note="scale factors 0.1 % off, random sign, 1 kHz x 10 s")
+
+
+def run_paper_scale_05(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """The paper's motion (2 kHz), every channel's gain 0.05 % off: must name it."""
+    return _bias_white(n_seeds, seed0, "paper-scale-0.05%", dict(paper=True, fs=2000.0), scale_error=5e-4,
+                       expect="warn", warn_names=_SCALE, note="paper motion, scale factors 0.05 % off, 2 kHz x 10 s")
+
+
 for _f in (run_paper_white, run_three_axis_white, run_three_axis_smooth, run_paper_rest, run_paper_plain,
-           run_paper_mounting, run_three_axis_mounting):
+           run_paper_mounting, run_three_axis_mounting, run_three_axis_scale_05, run_three_axis_scale_10,
+           run_paper_scale_05):
     _f.full_seeds = 400
 
 SCENARIOS = {
@@ -183,4 +215,7 @@ SCENARIOS = {
     "paper-plain": run_paper_plain,
     "paper-mounting": run_paper_mounting,
     "three-axis-mounting": run_three_axis_mounting,
+    "three-axis-scale-0.05%": run_three_axis_scale_05,
+    "three-axis-scale-0.1%": run_three_axis_scale_10,
+    "paper-scale-0.05%": run_paper_scale_05,
 }
