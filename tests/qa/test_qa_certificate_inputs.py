@@ -79,7 +79,7 @@ def test_cli_bad_profile_writes_nothing(cli, tmp_path):
     hy = sorted((tmp_path / "hy").glob("hydraulic_*.csv"))
     lab = _lab(tmp_path, LAB.replace("u_relative = 0.0005", "u_relative = -0.5"))
     r = cli("velocity", *hy, "--position", "position", "--velocity", "velocity", "--lab", lab,
-            "--report", tmp_path / "out" / "c.html", "--dcc", tmp_path / "out" / "c.xml")
+            "--report", tmp_path / "out" / "c.html", "--dcc", tmp_path / "out" / "c.xml", "--mkdir")
     assert r.code == 2 and "Traceback" not in r.err, r.err
     assert len([ln for ln in r.err.splitlines() if ln.strip()]) == 1 and "u_relative" in r.err, r.err
     assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())

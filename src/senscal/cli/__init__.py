@@ -23,7 +23,7 @@ from senscal.cli._help import plain_help
 from senscal.cli._params import install_tree
 from senscal.cli.app import app, simulate_app
 from senscal.errors import InputError, SenscalError
-from senscal.io.guard import protect_inputs
+from senscal.io.guard import allow_new_folders, protect_inputs
 
 __all__ = ["app", "simulate_app", "main", "load_commands", "debug_enabled"]
 
@@ -57,7 +57,10 @@ def _print_version(value: bool) -> None:
 def _root(debug: bool = typer.Option(False, "--debug", help="Show the Python traceback of an internal error "
                                                              "(also SENSCAL_DEBUG=1)."),
           version: bool = typer.Option(False, "--version", callback=_print_version, is_eager=True,
-                                       help="Print senscal's version and exit.")) -> None:
+                                       help="Print senscal's version and exit."),
+          mkdir: bool = typer.Option(False, "--mkdir", help="Create missing folders of the outputs (without it a "
+                                                            "missing folder is refused: a typo would grow a new "
+                                                            "tree).")) -> None:
     """Calibrate sensors and correct their errors."""
     global _debug_flag
     _debug_flag = _debug_flag or debug
@@ -86,6 +89,7 @@ def check_common_options(command_path: str, kw: dict) -> None:
     seed = kw.get("seed")
     if seed is not None and not isinstance(seed, bool) and isinstance(seed, int) and not 0 <= seed < 2**63:
         raise InputError(f"--seed must be a whole number from 0 to 2^63-1, got {seed}")
+    check_counts(command_path, kw)
     if " simulate " not in f" {command_path} ":
         return
     for name in ("fs", *(k for k in kw if k == "duration" or k.endswith("_duration"))):
@@ -105,6 +109,46 @@ def check_common_options(command_path: str, kw: dict) -> None:
                              f"({MAX_SIMULATED_SAMPLES:.0e}); ask for fewer")
 
 
+def check_counts(command_path: str, kw: dict) -> None:
+    """Bound every whole-number option by what this machine can hold (see :mod:`senscal.cli._limits`).
+
+    ``--workers`` is bounded by cores and memory; every other count (channels,
+    samples, harmonics, chunk sizes, ...) by the float64 values memory holds,
+    and for a simulator the channels times the samples of each.
+
+    Raises
+    ------
+    InputError
+        Naming the option, the machine and the largest value accepted.
+    """
+    from senscal.cli import _limits
+
+    counts = {k: v for k, v in kw.items()
+              if isinstance(v, int) and not isinstance(v, bool) and k != "seed"}
+    if not counts:
+        return
+    workers = counts.pop("workers", None)
+    if workers is not None and workers > _limits.max_workers():
+        raise InputError(f"--workers {workers} is more than this machine runs ({_limits.describe()}: at most "
+                         f"{_limits.max_workers()} worker processes); ask for fewer")
+    for name, v in counts.items():
+        if v > _limits.max_values():
+            raise InputError(f"--{name.replace('_', '-')} {v} is more than fits in this machine's memory "
+                             f"({_limits.describe()}); ask for fewer")
+    if " simulate " in f" {command_path} ":
+        per_channel = next((kw[k] for k in ("samples", "n") if isinstance(kw.get(k), int)), None)
+        fs, duration = kw.get("fs"), kw.get("duration")
+        if per_channel is None and isinstance(fs, (int, float)) and isinstance(duration, (int, float)) \
+                and math.isfinite(fs * duration):
+            per_channel = int(fs * duration)
+        chans = kw.get("channels")
+        if isinstance(chans, int) and not isinstance(chans, bool) and per_channel is not None \
+                and chans * per_channel > _limits.max_values():
+            raise InputError(f"--channels {chans} of {per_channel} samples each is more than fits in this "
+                             f"machine's memory ({_limits.describe()}: at most {_limits.max_values():.3g} values); "
+                             "ask for fewer channels or samples")
+
+
 def _with_common_checks(group, path: str = "senscal"):
     """Wrap every command's callback in :func:`check_common_options` (once, when the tree is built)."""
     for name, cmd in getattr(group, "commands", {}).items():
@@ -113,7 +157,10 @@ def _with_common_checks(group, path: str = "senscal"):
             _with_common_checks(cmd, sub)
         elif cmd.callback is not None and not getattr(cmd.callback, "_senscal_checked", False):
             def checked(*args, __f=cmd.callback, __p=sub, **kw):
+                from senscal.cli.common import check_command_outputs
+
                 check_common_options(__p, kw)
+                check_command_outputs(__p, kw)  # every output, before any work (see senscal.io.guard)
                 return __f(*args, **kw)
 
             functools.update_wrapper(checked, cmd.callback)
@@ -236,10 +283,14 @@ def main(argv: Sequence[str] | None = None) -> None:
         # Accepted after the command too ("senscal fit x.csv --debug"), where users type it on a rerun.
         args.remove("--debug")
         _debug_flag = True
+    mkdir = "--mkdir" in args[:args.index("--") if "--" in args else len(args)]
+    if mkdir:
+        args.remove("--mkdir")  # accepted anywhere, like --debug
     saved_showwarning = warnings.showwarning
     warnings.showwarning = _show_warning
     try:
         with protect_inputs():
+            allow_new_folders(mkdir)
             rv = command.main(args=args, prog_name="senscal",
                               standalone_mode=False)
     except SenscalError as exc:

@@ -13,7 +13,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (JsonOpt, StrictOpt, console, emit_warnings, err_console, parse_relative, print_json,
                                 table, write_json)
-from senscal.cli.registry_opts import CreateSensorOpt, DbOpt, OperatorOpt, open_named_registry
+from senscal.cli.registry_opts import CreateSensorOpt, DbOpt, OperatorOpt, open_named_registry, print_head
 from senscal.errors import FileFormatError, InputError
 
 registry_app = typer.Typer(
@@ -28,9 +28,14 @@ CreateOpt = Annotated[bool, typer.Option(
                      "a typo must not open an empty registry).")]
 
 
-def _open(db: str | None, create: bool = False):
-    """Open the registry; a ``--db`` SQLite file that does not exist needs ``create`` (see docs/registry.md)."""
-    return open_named_registry(db, create=create, remedy="--create to make a new registry there")
+def _open(db: str | None, create: bool = False, *, read_only: bool = False):
+    """Open the registry; a ``--db`` SQLite file that does not exist needs ``create`` (see docs/registry.md).
+
+    ``read_only`` commands also refuse an existing file without a registry in it (an empty file, a stray
+    byte) instead of creating the schema there, unless ``create``.
+    """
+    return open_named_registry(db, create=create, remedy="--create to make a new registry there",
+                               read_only=read_only)
 
 
 def _tamper_warning(rep, url: str) -> str:
@@ -71,7 +76,7 @@ def _parse_nominal(items: list[str] | None) -> dict:
 @registry_app.command("sensors")
 def sensors_cmd(db: DbOpt = None, create: CreateOpt = False, json_out: JsonOpt = False) -> None:
     """List the registered sensors and their number of calibration records."""
-    with _open(db, create) as reg:
+    with _open(db, create, read_only=True) as reg:
         sens = reg.sensors()
         counts = reg.counts()
         url = reg.url
@@ -148,6 +153,7 @@ def record_cmd(
                          certificate=certificate, note=note, supersedes=supersedes, operator=operator,
                          create_kind=create_sensor)
         url = reg.url
+        print_head(reg)
     if json_out:
         print_json(rec.to_dict())
     elif rec.already_recorded:
@@ -176,7 +182,7 @@ def history_cmd(
     strict: StrictOpt = False,
 ) -> None:
     """A sensor's calibration history (table, JSON, plot)."""
-    with _open(db, create) as reg:
+    with _open(db, create, read_only=True) as reg:
         points = reg.history(serial, quantity, include_superseded=all_records)
         report = None
         if plot is not None and quantity is not None and sum(p.superseded_by is None for p in points) >= 2:
@@ -228,7 +234,7 @@ def due_cmd(
     from senscal.registry import parse_date
 
     when = parse_date(as_of, what="--as-of")  # checked before opening the database
-    with _open(db, create) as reg:
+    with _open(db, create, read_only=True) as reg:
         rep = reg.drift(serial, quantity, tolerance=tol, nominal=nominal, k=k, as_of=when)
         points = reg.history(serial, quantity) if plot is not None else []
         warns = _chain_warnings(reg)
@@ -282,7 +288,11 @@ def due_document(rep, tol: float) -> dict:
 
 
 @registry_app.command("verify")
-def verify_cmd(db: DbOpt = None, create: CreateOpt = False, json_out: JsonOpt = False) -> None:
+def verify_cmd(db: DbOpt = None, create: CreateOpt = False, json_out: JsonOpt = False,
+               expect_head: Annotated[Optional[str], typer.Option(
+                   "--expect-head", metavar="HASH",
+                   help="A head printed by an earlier write and kept elsewhere: exit 3 if the chain no longer "
+                        "holds it (newest records deleted, history wiped or rebuilt).")] = None) -> None:
     """Recompute the hash chain over every record; exit 3 naming the first broken record.
 
     Detects records changed, deleted or inserted with direct database access
@@ -292,8 +302,8 @@ def verify_cmd(db: DbOpt = None, create: CreateOpt = False, json_out: JsonOpt = 
     """
     from senscal.errors import DiagnosticError
 
-    with _open(db, create) as reg:
-        rep = reg.verify()
+    with _open(db, create, read_only=True) as reg:
+        rep = reg.verify(expect_head)
         url = reg.url
     if json_out:
         print_json({"database": url, "intact": rep.intact, "n_records": rep.n_records, "head": rep.head,
@@ -311,7 +321,7 @@ def export_cmd(
     create: CreateOpt = False,
 ) -> None:
     """Write every sensor and record to a JSON file (import reads it back exactly)."""
-    with _open(db, create) as reg:
+    with _open(db, create, read_only=True) as reg:
         doc = reg.export()
         url = reg.url
     write_json(doc, file)
@@ -333,6 +343,7 @@ def import_cmd(
     with _open(db, create=True) as reg:
         added = reg.import_(doc)
         url = reg.url
+        print_head(reg)
     if json_out:
         print_json(added)
     else:

@@ -119,6 +119,87 @@ StopOpt = Annotated[Optional[float], typer.Option(
     "--stop", help="Drop the samples after this many seconds after the recording's first sample.")]
 
 
+# --- outputs: one check for every command, before it runs --------------------------------------------------
+
+#: Options that name what a command writes: ``{parameter: (what, kind)}`` (kinds as in
+#: :func:`senscal.io.guard.declare_outputs`).  A new command using these names is covered automatically.
+OUTPUT_PARAMS: dict[str, tuple[str, str]] = {
+    "out": ("--out", "file"), "plot": ("--plot", "file"), "report": ("--report", "file"),
+    "dcc": ("--dcc", "file"), "save_response_to": ("--save-response", "file"), "state": ("--state", "update"),
+}
+#: Commands whose output options name a folder or differ from the table above.
+OUTPUT_EXCEPTIONS: dict[str, dict[str, tuple[str, str]]] = {
+    "demo": {"out": ("--out", "folder")},
+    "drift-fleet": {"out": ("--out", "folder"), "state": ("--state", "update-folder")},
+    "simulate": {"out": ("--out", "folder")},  # every simulator writes a folder of files
+    "registry export": {"file": ("FILE", "file")},
+}
+# Extensions an output must have, checked before the work (the writers check them again).
+_REPORT_SUFFIXES = (".html", ".htm", ".pdf")
+
+
+def _output_params(command_path: str) -> dict[str, tuple[str, str]]:
+    words = command_path.split()[1:]  # without "senscal"
+    table = dict(OUTPUT_PARAMS)
+    for n in range(1, len(words) + 1):
+        table.update(OUTPUT_EXCEPTIONS.get(" ".join(words[:n]), {}))
+    return table
+
+
+def _path_values(value: Any) -> list[str]:
+    if isinstance(value, (str, Path)) and str(value):
+        return [str(value)]
+    if isinstance(value, (list, tuple)):
+        return [str(v) for v in value if isinstance(v, (str, Path)) and str(v)]
+    return []
+
+
+def _plot_suffixes() -> tuple[str, ...]:
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return tuple("." + k for k in FigureCanvasBase.get_supported_filetypes())
+
+
+def check_command_outputs(command_path: str, kw: dict) -> None:
+    """Check every output a command line names before the command runs (see :func:`senscal.io.guard.declare_outputs`).
+
+    Outputs are the options in :data:`OUTPUT_PARAMS` (and the exceptions per
+    command); inputs are every other parameter that names an existing file.
+    Extensions of plots, reports and DCCs are checked here too, so a bad
+    ``--plot`` fails before a long run, not after ``--out`` was written.
+
+    Raises
+    ------
+    InputError
+        One line naming the option and the fix.
+    """
+    from senscal.io.guard import declare_outputs
+
+    table = _output_params(command_path)
+    outputs: dict[str, tuple[str, str]] = {}
+    for name, (what, kind) in table.items():
+        value = kw.get(name)
+        if not isinstance(value, (str, Path)) or not str(value):
+            continue
+        outputs[str(value)] = (what, kind)
+        if kind == "file" and str(value) != "-":
+            suffix = Path(value).suffix.lower()
+            allowed = {"plot": _plot_suffixes, "report": lambda: _REPORT_SUFFIXES,
+                       "dcc": lambda: (".xml",)}.get(name)
+            if allowed is not None and suffix not in allowed():
+                raise InputError(f"{what} {value} has an unsupported extension {suffix or '(none)'!r}; use one of "
+                                 f"{', '.join(sorted(allowed()))}")
+    inputs: dict[str, str] = {}
+    for name, value in kw.items():
+        if name in table and table[name][1] != "update":
+            continue  # an output; an in-out one (--state) is compared with the other inputs, not itself
+        for v in _path_values(value):
+            if v != "-" and Path(v).is_file():
+                inputs.setdefault(v, table[name][0] if name in table else "input")
+    if outputs:
+        declare_outputs(outputs, inputs)
+
+
 def split_names(text: str | None) -> list[str] | None:
     """Split ``"a,b,c"`` into names (None stays None)."""
     if text is None:

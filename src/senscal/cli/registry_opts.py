@@ -32,7 +32,7 @@ from typing_extensions import Annotated
 from senscal.cli.common import err_console
 from senscal.errors import InputError
 
-__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "open_named_registry",
+__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "open_named_registry", "print_head",
            "save_if_requested"]
 
 _PANEL = "Sensor registry"
@@ -54,11 +54,13 @@ OperatorOpt = Annotated[Optional[str], typer.Option("--operator", help="Who cali
                                                     rich_help_panel=_PANEL)]
 
 
-def open_named_registry(db: str | None, *, create: bool, remedy: str):
+def open_named_registry(db: str | None, *, create: bool, remedy: str, read_only: bool = False):
     """Open the registry at ``db``; a named SQLite file that does not exist needs ``create``.
 
     A typo in ``--db`` must not open (and record into) a new, empty registry;
-    the error ends with ``remedy``, the option that creates one.
+    the error ends with ``remedy``, the option that creates one.  With
+    ``read_only`` (a command that only reads) an existing database without a
+    registry schema (an empty or 1-byte file) is refused too, unless ``create``.
     """
     from senscal.registry import open_registry
     from senscal.registry.db import missing_registry_file
@@ -66,7 +68,20 @@ def open_named_registry(db: str | None, *, create: bool, remedy: str):
     missing = missing_registry_file(db)
     if missing is not None and not create:
         raise InputError(f"registry file {missing} does not exist; check the --db path, or add {remedy}")
-    return open_registry(db)
+    return open_registry(db, read_only=read_only and not create and db is not None, remedy=remedy)
+
+
+def print_head(reg) -> None:
+    """One stderr line with the registry's chain head after a write, to keep outside the database.
+
+    The head row lives in the same file as the records, so deleting the newest
+    records and rewriting it passes ``verify``; a head kept elsewhere
+    (``registry verify --expect-head HASH``) catches that.
+    """
+    n, head = reg.chain_head()
+    if head is not None:
+        err_console.print(f"registry head after {n} records: {head} (keep it elsewhere; "
+                          "'senscal registry verify --expect-head HASH' checks it)")
 
 
 def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | None = None,
@@ -121,10 +136,19 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
         rec = reg.record(sensor, qs, performed_at=when, job=job, method=method, conditions=conditions,
                          result=doc, certificate=certificate, input_files=input_files, operator=operator,
                          note=note, create_kind=create_sensor)
-        if rec.already_recorded:
+        if rec.already_recorded and date is not None and rec.performed_at != when:
+            # The same evidence is one calibration whatever date it is given (a second record would count
+            # twice in the drift fit), so the new date is not recorded: say so instead of keeping it silently.
+            err_console.print(f"already saved as calibration {rec.uid[:8]} of sensor {sensor} in {reg.url} "
+                              f"(same input files and result) dated {rec.performed_at.isoformat()}; the --date "
+                              f"{when.isoformat()} given now differs and was NOT recorded; nothing added (to "
+                              f"correct the date, enter a correcting record with 'senscal registry record {sensor} ... "
+                              f"--supersedes {rec.uid[:8]}')")
+        elif rec.already_recorded:
             err_console.print(f"already saved as calibration {rec.uid[:8]} of sensor {sensor} in {reg.url} "
                               "(same input files and result); nothing added")
         else:
             err_console.print(f"saved calibration {rec.uid[:8]} of sensor {sensor} ({len(qs)} quantities) "
                               f"to {reg.url}")
+        print_head(reg)
     return rec

@@ -232,8 +232,8 @@ def due_time(fit: DriftFit, *, t_last: float, reference: float, tolerance: float
 
     if not (tolerance > 0 and math.isfinite(tolerance)):
         raise InputError(f"tolerance must be a positive finite number, got {tolerance}")
-    if k <= 0:
-        raise InputError(f"coverage factor k must be positive, got {k}")
+    if not (math.isfinite(k) and k > 0):  # NaN passed "k <= 0" and stalled the root search
+        raise InputError(f"coverage factor --k must be a positive, finite number, got {k}")
 
     def bound(t: float) -> float:
         value, u = fit.predict(t)

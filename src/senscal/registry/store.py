@@ -318,10 +318,18 @@ class Registry:
     ...            performed_at="2024-03-01")                       # doctest: +SKIP
     """
 
-    def __init__(self, url: str | Path | None = None):
+    def __init__(self, url: str | Path | None = None, *, read_only: bool = False, remedy: str = "--create"):
         self._url = db.parse_url(url)
+        if read_only:
+            _refuse_short_file(self._url, remedy)  # before SQLite opens it: opening would write a header
         self.engine = db.create_registry_engine(self._url)
         try:
+            if read_only and db.current_revision(self.engine) is None:
+                # Only reading: an empty file (or one stray byte, which SQLite takes as empty) is not a
+                # registry with no records; creating the schema there would report "0 records, intact".
+                self.engine.dispose()
+                raise InputError(f"{self.url} holds no senscal registry (an empty file or another database); "
+                                 f"check the --db path, or add {remedy}")
             db.upgrade(self.engine)
         except DBAPIError as exc:
             self.engine.dispose()
@@ -690,6 +698,8 @@ class Registry:
         epoch = min(dates)
         t = np.array([(d - epoch).total_seconds() / 86400.0 / DAYS_PER_YEAR for d in dates])
         fit = fit_drift(t, [p.value for p in pts], [p.uncertainty for p in pts], alpha=alpha)
+        if nominal is not None and not math.isfinite(nominal):
+            raise InputError(f"--nominal must be a finite number, got {nominal}")
         reference = float(nominal) if nominal is not None else pts[0].value
         due = None
         due_date = None
@@ -711,7 +721,20 @@ class Registry:
     # integrity -----------------------------------------------------------------
 
     @_db_errors
-    def verify(self) -> ChainReport:
+    def chain_head(self) -> tuple[int, str | None]:
+        """``(number of records, head hash)`` as the registry stores them (``(0, None)`` when empty).
+
+        Printed after every write: kept outside the database (lab book,
+        certificate), it lets :meth:`verify` detect a truncated or wiped history,
+        which the database alone cannot (its head row can be rewritten too).
+        """
+        with db.read_connection(self.engine) as conn:
+            row = conn.execute(sa.select(registry_chain.c.n_records, registry_chain.c.head)
+                               .where(registry_chain.c.id == 1)).first()
+        return (0, None) if row is None or not row.n_records else (int(row.n_records), str(row.head))
+
+    @_db_errors
+    def verify(self, expect_head: str | None = None) -> ChainReport:
         """Recompute the hash chain over every record (see :mod:`senscal.registry.chain`).
 
         Detects records changed, deleted or inserted behind senscal's back
@@ -719,10 +742,20 @@ class Registry:
         sensors deleted or renamed, and the newest records deleted without the
         head row being rewritten. Reads every record once.
 
+        Parameters
+        ----------
+        expect_head : str, optional
+            A head printed by an earlier write or verify and kept elsewhere
+            (at least 12 hex digits).  It must be the hash of a record of the
+            recomputed chain (the newest, or an older one when records were
+            added since); otherwise the history was truncated, wiped or rebuilt.
+
         Returns
         -------
         ChainReport
         """
+        if expect_head is not None:
+            expect_head = _check_head(expect_head)
         c = calibrations.c
         with db.read_connection(self.engine) as conn:
             rows = conn.execute(sa.select(calibrations, sensors.c.serial, sensors.c.kind)
@@ -757,6 +790,12 @@ class Registry:
             problems.append(f"the chain head says {n_head} records ending in {h_head[:12]}, the table holds "
                             f"{len(rows)} ending in {(rows[-1]['chain_hash'] or '-')[:12] if rows else '-'}: "
                             "records were deleted or added behind senscal's back")
+        if expect_head is not None:
+            at = next((i for i, r in enumerate(rows) if (r["chain_hash"] or "").startswith(expect_head)), None)
+            if at is None:
+                problems.append(f"the head kept elsewhere ({expect_head[:16]}) is not in the chain, which holds "
+                                f"{len(rows)} records ending in {(prev[:16] if rows else '-')}: records were deleted "
+                                "(the newest ones or all of them) or the history was rebuilt")
         return ChainReport(intact=not problems, n_records=len(rows), head=prev if rows else None,
                            first_broken=first, problems=tuple(problems))
 
@@ -881,14 +920,53 @@ def _check_free(**fields: str | None) -> None:
             _check_text(str(text), what, free=True)
 
 
+def _refuse_short_file(url, remedy: str) -> None:
+    """Refuse an SQLite file too short to hold a database (its header is 100 bytes) without touching it."""
+    if url.get_backend_name() != "sqlite" or not url.database or url.database == ":memory:" \
+            or url.database.startswith("file:"):
+        return
+    try:
+        size = Path(url.database).stat().st_size
+    except OSError:
+        return
+    if size < 100:
+        raise InputError(f"registry file {url.database} holds no senscal registry ({size} bytes: an empty or "
+                         f"truncated file); check the --db path, restore it from a backup, or add {remedy}")
+
+
+def _check_head(text: str) -> str:
+    """A chain head given by the user: 12 to 64 hex digits, lower case."""
+    h = str(text).strip().lower()
+    if not 12 <= len(h) <= 64 or any(ch not in "0123456789abcdef" for ch in h):
+        raise InputError(f"--expect-head must be the registry head as printed (12 to 64 hex digits), got {text!r}")
+    return h
+
+
 def _clean(text: str, what: str) -> str:
     s = str(text).strip() if text is not None else ""
     if not s:
         raise InputError(f"sensor {what} must not be empty")
     _check_text(s, f"sensor {what}")
+    hidden = [ch for ch in s if _invisible(ch)]
+    if hidden:
+        # U+202E (right-to-left override) and its kin make a serial display as another one; zero-width
+        # characters make two serials that look the same.  An identifier is printed, compared and typed.
+        names = ", ".join(f"U+{ord(ch):04X}" for ch in dict.fromkeys(hidden))
+        raise InputError(f"sensor {what} {s.encode('unicode_escape').decode('ascii')!r} holds invisible or "
+                         f"direction-changing characters ({names}); type it with visible characters only")
     return s
 
 
-def open_registry(url: str | Path | None = None) -> Registry:
-    """Open (creating or upgrading if needed) the registry at ``url``; see :class:`Registry`."""
-    return Registry(url)
+def _invisible(ch: str) -> bool:
+    """A format (bidi override, zero-width), control or line/paragraph separator character."""
+    import unicodedata
+
+    return unicodedata.category(ch) in ("Cf", "Cc", "Zl", "Zp", "Co", "Cn") and ch not in " "
+
+
+def open_registry(url: str | Path | None = None, *, read_only: bool = False, remedy: str = "--create") -> Registry:
+    """Open (creating or upgrading if needed) the registry at ``url``; see :class:`Registry`.
+
+    ``read_only=True`` refuses a database without a registry schema instead of creating one.
+    """
+    return Registry(url, read_only=read_only, remedy=remedy)
