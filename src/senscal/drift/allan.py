@@ -211,6 +211,12 @@ def allan_deviation(y: Sequence[float] | np.ndarray, fs: float, taus: Sequence[f
     if not np.isfinite(y).all():
         i = int(np.flatnonzero(~np.isfinite(y))[0])
         raise InputError(f"the signal has a non-finite value in data row {i + 1}; remove or interpolate it first")
+    peak = float(np.max(np.abs(y))) if y.size else 0.0
+    if peak > MAX_ABS_VALUE:
+        # The variance squares differences of cluster means: beyond ~1e150 they overflow to inf and the
+        # curve (and the noise fit on it) is empty.
+        raise InputError(f"the signal reaches {peak:.3g}; the Allan variance squares it and overflows beyond "
+                         f"{MAX_ABS_VALUE:.0e}: rescale the channel (another unit prefix) or check the file")
     n = y.size
     warnings: list[str] = []
     if taus is None:
@@ -277,6 +283,10 @@ def _local_slopes(taus: np.ndarray, dev: np.ndarray) -> np.ndarray:
 def _noise_from_slope(taus: np.ndarray, dev: np.ndarray) -> tuple:
     s = _local_slopes(taus, dev)
     return tuple("white" if v < -0.25 else ("rw" if v > 0.25 else "flicker") for v in s)
+
+
+#: Largest magnitude of a sample the Allan variance can square without overflow (with margin for sums).
+MAX_ABS_VALUE = 1e150
 
 
 def _half_width(res: AllanResult, i: int) -> float:

@@ -395,6 +395,16 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
     # another dimension is refused; a channel of unknown unit passes.
     scales = cal.unit_factors({c: rec.units.get(c, "") for c in chans}, source=source_name(source))
     corr = cal.apply(rec.data(list(chans)) * np.array([scales[c] for c in chans])[:, None])
+    with np.errstate(over="ignore", invalid="ignore"):
+        norm = np.linalg.norm(corr, axis=0)
+    bad = ~(np.isfinite(corr).all(axis=0) & np.isfinite(norm))
+    if bad.any():
+        # Readings near the float limit (1e308) overflow in the correction or its norm: a damaged file, not a field.
+        from senscal.errors import DataError
+
+        i = int(np.flatnonzero(bad)[0])
+        raise DataError(f"{source_name(source)}: the corrected field overflows in data row {i + 1} (readings up to "
+                        f"{float(np.max(np.abs(rec.data(list(chans))))):.3g}); check the file and --channels")
     new = dict(rec.channels)
     units = dict(rec.units)
     for k, c in enumerate(chans):
@@ -405,7 +415,7 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
                     metadata={**rec.metadata, "triaxial_calibration": f"{cal.model}/{cal.method} from {params_source}"})
     return TriaxialApplyResult(calibration=cal, recording=out, source=source_name(source),
                                params_source=params_source, channels=chans,
-                               corrected_norm=np.linalg.norm(corr, axis=0))
+                               corrected_norm=norm)
 
 
 
