@@ -176,7 +176,12 @@ def _print_tables(file: Path, res, doc: dict) -> None:
                       f"p = {check.whiteness_p:.2g} ({check.lags} lags): "
                       + ("adequate" if check.adequate else "model rejected"))
     for c in comparison[1:]:
-        console.print(f"alternative {c['model']}: AIC {c['aic'] - comparison[0]['aic']:+.1f} against the model used")
+        console.print(f"alternative {c['model']}: AIC {c['aic'] - comparison[0]['aic']:+.1f} against the model "
+                      "asked for")
+    if res.result.selected:
+        console.print(f"model used: {res.result.selected} (lowest AIC"
+                      + ("" if res.result.selected in ("--noise ar1", "--covariate-lag") else
+                         "; the innovations rejected the model asked for") + ")")
 
 
 def _stdin_chunks(chunk_size: int, opts):

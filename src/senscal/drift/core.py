@@ -874,12 +874,11 @@ def _correct_drift(setup, y, t, covariates, *, window, smooth, false_alarm_rate,
         comparison, alt_setups = _compare_models(setup, y_raw, tt, covariates, float(res.loglik), len(missing))
         asked = comparison[0]["aic"]
         better = [c for c in comparison[1:] if c["aic"] < asked - _AIC_MARGIN]
-        # A nested extension (coloured noise, a covariate lag) is taken when
-        # AIC prefers it; a different model only when the one asked for is
-        # rejected by its own innovations too.
-        nested = [c for c in better if c["nested"]]
-        pick = (min(nested, key=lambda c: c["aic"]) if nested else
-                min(better, key=lambda c: c["aic"]) if better and not check.adequate else None)
+        # A nested extension (coloured noise, a covariate lag) may be taken
+        # whenever AIC prefers it; a different model only when the one asked
+        # for is rejected by its own innovations too.  Of those, the lowest AIC.
+        eligible = [c for c in better if c["nested"] or not check.adequate]
+        pick = min(eligible, key=lambda c: c["aic"]) if eligible else None
         if pick is not None and select:
             res2 = correct_drift(alt_setups[pick["model"]], y_raw, tt, covariates, window=window, smooth=smooth,
                                  false_alarm_rate=false_alarm_rate, detect_shift=detect_shift, compare=False,
