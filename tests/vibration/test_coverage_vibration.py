@@ -20,6 +20,10 @@ CI_SEEDS = {name: (60 if name.startswith("velocity") else 100) for name in SCENA
 # Quantised encoders: every point also refits 32 grid positions of the encoder (and the reference-run case a start-up
 # run); 40 seeds pool 120 points, enough to fail the 44-86 % coverage of issue 25 item 7.
 CI_SEEDS.update({name: 40 for name in SCENARIOS if name.startswith("response-encoder-") and "-lines" in name})
+# Reference channels that cannot be what they claim (issue 32): the warning fires on every point by
+# construction (phase ~180 deg at u ~0.01 deg; 20 m of displacement), so 20 seeds already fail a rate below 95 %
+# (a true rate of 0.9 passes 20 of 20 with probability 0.12).
+CI_SEEDS.update({"velocity-swapped-channels": 20, "velocity-position-mm-as-m": 20})
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))

@@ -53,7 +53,8 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
                        min_duration: float = 4.0, position_amplitude: float = 0.02, sensitivity: float = 0.1368,
                        delay: float = 5e-4, position_noise: float = 2e-6, velocity_noise: float = 3e-4,
                        offset: float = 0.01, drift: float = 1e-3, distortion: float = 0.0,
-                       sensitivity_scatter: float = 0.0, seed: int | None = None,
+                       sensitivity_scatter: float = 0.0, position_scale: float = 1.0, swap_channels: bool = False,
+                       seed: int | None = None,
                        ) -> tuple[list[Recording], dict[str, Any]]:
     """Servo cylinder moving sinusoidally; position sensor and velocity sensor.
 
@@ -91,6 +92,13 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
         sensor's sensitivity from record to record (remounting, temperature),
         which no single record can show.  ``truth["sensitivity"]`` stays the
         mean; each point's truth is its own record's sensitivity.
+    position_scale : float
+        Departure (1 = off): the position channel holds the displacement
+        times this factor while its unit still says m (a reference recorded
+        in mm, 1000, or um, 1e6, under a bare header).
+    swap_channels : bool
+        Departure (off by default): the ``position`` and ``velocity`` columns
+        hold each other's data (a wiring or export mix-up); units stay as named.
     seed : int, optional
 
     Returns
@@ -107,6 +115,8 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
         raise InputError("noise levels must be non-negative")
     if not 0 <= sensitivity_scatter < 0.5:
         raise InputError(f"sensitivity scatter must be a relative standard deviation in [0, 0.5), got {sensitivity_scatter!r}")
+    if not (math.isfinite(position_scale) and position_scale > 0):
+        raise InputError(f"position scale must be a positive factor, got {position_scale!r}")
     recs, points = [], []
     for f in freqs:
         n = int(round(max(periods / f, min_duration) * fs))
@@ -123,13 +133,16 @@ def simulate_hydraulic(*, frequencies: Sequence[float] | None = None, fs: float 
         # Drawn only when asked, so the default simulation keeps its random stream.
         s_rec = sensitivity * (1.0 + sensitivity_scatter * rng.standard_normal()) if sensitivity_scatter else sensitivity
         vel = s_rec * vel_true_delayed + off + drift * t + rng.normal(0.0, velocity_noise, n)
-        recs.append(Recording(channels={"position": pos, "velocity": vel}, t=t,
+        if swap_channels:
+            pos, vel = vel, pos
+        recs.append(Recording(channels={"position": pos * position_scale, "velocity": vel}, t=t,
                               units={"position": "m", "velocity": "V"},
                               metadata={"simulator": "hydraulic", "frequency_hz": f}))
         points.append({"frequency_hz": f, "sensitivity": s_rec, "phase_deg": -360.0 * f * delay})
     truth = {"sensitivity": sensitivity, "unit": "V/(m/s)", "delay_s": delay, "position_amplitude_m": position_amplitude,
              "position_noise_m": position_noise, "velocity_noise_v": velocity_noise, "distortion": distortion,
-             "sensitivity_scatter": sensitivity_scatter, "points": points}
+             "sensitivity_scatter": sensitivity_scatter, "position_scale": position_scale,
+             "swap_channels": swap_channels, "points": points}
     return recs, truth
 
 

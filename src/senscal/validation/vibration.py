@@ -99,6 +99,38 @@ run_velocity_white.full_seeds = 400
 run_velocity_scatter.full_seeds = 400
 
 
+def _velocity_reference(case: str, name: str, n_seeds: int, seed0: int, **departure) -> list[CoverageRow]:
+    """A reference channel that cannot be what it claims: the point S misses its truth, and ``name`` must
+    be named in >= 95 % of seeds (a record counts as named when any of its points is)."""
+    est, u, tr, warned = [], [], [], []
+    for seed in range(seed0, seed0 + n_seeds):
+        recs, truth = simulate_hydraulic(frequencies=_HYD_FREQS, periods=4.3, min_duration=2.0, seed=seed,
+                                         **departure)
+        pts = [velocity_point(r["position"], r["velocity"], r.time) for r in recs]
+        est += [p.sensitivity for p in pts]
+        u += [p.u_sensitivity for p in pts]
+        tr += [t["sensitivity"] for t in truth["points"]]
+        warned.append(all(has_warning(p.warnings, name) for p in pts))
+    note = ", ".join(f"{k}={v}" for k, v in departure.items())
+    return [coverage_row(JOB, case, "velocity S (point)", est, u, tr, warned=warned, expect="warn", note=note)]
+
+
+def run_velocity_swapped(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Position and velocity columns swapped: every point must name velocity-not-derivative."""
+    return _velocity_reference("velocity-swapped-channels", "velocity-not-derivative", n_seeds, seed0,
+                               swap_channels=True)
+
+
+def run_velocity_position_mm(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Position in mm under a bare header (read as m): every point must name position-amplitude-implausible."""
+    return _velocity_reference("velocity-position-mm-as-m", "position-amplitude-implausible", n_seeds, seed0,
+                               position_scale=1e3)
+
+
+run_velocity_swapped.full_seeds = 200
+run_velocity_position_mm.full_seeds = 200
+
+
 def _response(case: str, n_seeds: int, seed0: int, *, encoder_zero: float, phase: str,
               encoder_lines: int = 0) -> list[CoverageRow]:
     """phase: 'entered' (phi_0 known to u = 0.001 deg), 'none' (nothing) or 'run' (a start-up run).
@@ -296,6 +328,8 @@ for _f in (run_linearity_white, run_linearity_cubic, run_linearity_scatter_decla
 SCENARIOS = {
     "velocity-white": run_velocity_white,
     "velocity-remount-0.1%": run_velocity_scatter,
+    "velocity-swapped-channels": run_velocity_swapped,
+    "velocity-position-mm-as-m": run_velocity_position_mm,
     "response-white": run_response_white,
     "response-encoder-zero-5deg": run_response_encoder_unknown,
     "response-encoder-zero-5deg+entered": run_response_encoder_entered,
