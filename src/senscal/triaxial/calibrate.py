@@ -15,6 +15,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from senscal._result import ResultMixin
+from senscal.consistency import block_consistency
 from senscal.diagnostics import named
 from senscal.errors import (
     ConvergenceError, DegenerateGeometryError, DiagnosticError, InputError, SenscalError, TooFewSamplesError,
@@ -26,7 +27,6 @@ from senscal.triaxial.estimators import (
 )
 from senscal.triaxial.heading import heading_report
 from senscal.triaxial.models import MODELS, TriaxialCalibration
-from senscal.triaxial.consistency import inconsistent_blocks
 from senscal.triaxial.timeterms import BIAS_LIMIT_U, DRIFT_NAMES, fit_with_terms, session_time, term_evidence
 from senscal.triaxial.selection import (
     N_BLOCKS, Z_SIGNIFICANT, Candidate, choose, held_out_norm_error, held_out_residuals, paired_z, safe,
@@ -319,8 +319,10 @@ def _time_analysis(chosen: str, fit: ModelFit, h: np.ndarray, tau: np.ndarray, f
     cut = min(max(cut, 1), n - 1)
     parts = [np.arange(cut), np.arange(cut, n)]
     comp = [nm for nm in fit.names if nm in report and not (ev["step"]["adopted"] and nm == "field")]
-    ests, covs, err = [], [], None
-    for part in parts:
+
+    def block_fit(part: np.ndarray) -> dict[str, tuple[float, float]]:
+        if len(part) <= 2 * p:
+            raise TooFewSamplesError(f"{len(part)} readings in a block")
         try:
             if ev["drift"]["adopted"]:
                 f_ = fit_with_terms(chosen, h[:, part], tau[part], field, fit.names, fit.values, True, None, prior)
@@ -328,26 +330,26 @@ def _time_analysis(chosen: str, fit: ModelFit, h: np.ndarray, tau: np.ndarray, f
             else:
                 f_ = refit_static(h[:, part])
                 v_, c_ = f_.values, f_.covariance
-        except (SenscalError, np.linalg.LinAlgError, ValueError) as exc:
-            err = str(exc)
-            break
-        k_ = [fit.names.index(nm) for nm in comp]
-        ests.append(np.asarray(v_)[k_])
-        covs.append(np.asarray(c_)[np.ix_(k_, k_)])
-    if err is None and len(ests) == 2 and min(len(parts[0]), len(parts[1])) > 2 * p:
-        bc = inconsistent_blocks(ests, covs, comp)
-        rep["consistency"] = {"split": "before / after the step" if ev["step"]["adopted"] else "halves",
-                              **bc.to_dict()}
-        if bc.inconsistent:
-            parts_txt = ("the readings before and after the field step" if ev["step"]["adopted"] else
-                         "the first and the second half of the session")
-            warns.append(named("inconsistent-blocks", (
-                f"{parts_txt} give different calibrations (chi-square "
-                f"{bc.chi2:.3g} on {bc.dof} dof, p = {bc.p_value:.2g}; {bc.worst} differs by {bc.worst_z:.3g} u): "
-                "the sensor or the field changed during the session in a way the model does not follow, so the "
-                "quoted u understate the error; keep the sensor's temperature and surroundings steady")))
-    else:
-        rep["consistency"] = {"error": err or "too few readings in a half"}
+        except (np.linalg.LinAlgError, ValueError) as exc:
+            raise ConvergenceError(str(exc)) from None
+        return {nm: (float(v_[k]), float(math.sqrt(max(c_[k, k], 0.0))))
+                for k, nm in enumerate(fit.names) if nm in comp}
+
+    # senscal.consistency: each quantity's block estimates against their own u (chi-square, Bonferroni over
+    # the quantities, 1 % false alarms in all).
+    bc = block_consistency(block_fit, parts)
+    split = "before / after the step" if ev["step"]["adopted"] else "halves"
+    rep["consistency"] = {"split": split, **bc.to_dict()}
+    if bc.n_blocks < 2:
+        rep["consistency"]["error"] = "a block could not be fitted on its own"
+    elif not bc.consistent:
+        parts_txt = ("the readings before and after the field step" if ev["step"]["adopted"] else
+                     "the first and the second half of the session")
+        bad = ", ".join(f"{q.name} (Birge ratio {q.birge_ratio:.2g}, p = {q.p_value:.1g})" for q in bc.failing)
+        warns.append(named("inconsistent-blocks", (
+            f"{parts_txt} fitted apart give different {bad} than their own u allow: the sensor or the field "
+            "changed during the session in a way the model does not follow, so the quoted u understate the error; "
+            "keep the sensor's temperature and surroundings steady")))
     if tf is not None:
         terms = ", ".join(f"{k} = {v['value']:.4g} +/- {2 * v['u']:.2g}" for k, v in rep["terms"].items())
         rep["note"] = (f"slow changes during the session modelled ({terms}{us}, k=2): offsets are mid-session "
