@@ -1,6 +1,7 @@
 """Drift correction speed against a plain CSV read and filterpy, same data, one run.
 
-    python benchmarks/bench_drift.py [--days 70] [--dt 60]
+    python benchmarks/bench_drift.py [--days 70] [--dt 60] [--ml-only] [--samples 1e4,1e5,1e6]
+                                     [--channels 1,10,100] [--budget 2e6]
 
 Simulates three drifting sensors (default 70 days at 1-min samples,
 ~1e5 samples), then times: reading the CSV (the floor any tool pays),
@@ -8,6 +9,18 @@ the augmented filter with given noise levels (redundant preset with the
 temperature covariate: 5 states, time-varying H), the same with a 60-sample
 window, the RTS smoother, the maximum-likelihood noise estimation, and
 filterpy's loop on the same augmented model.
+
+Then (``--ml-only``: only) the noise-level maximum likelihood against one
+filter pass, per channel and model (issue 30): gyros at rest (preset
+``known``: a random-walk bias and white noise per channel, 100 Hz), for each
+record length and channel count, with and without the model comparison, the
+CPU time of the estimation per channel and model, the CPU time of one
+filter pass over the same channel with the estimated levels, and their
+ratio.  The channels of a known quantity are independent blocks, so the
+estimation per channel does not depend on how many there are; above
+``--budget`` samples x channels the per-channel time is measured on a sample
+of the channels (the ``timed`` column).  CPU time (``time.process_time``),
+not wall time: the machine this runs on is shared.
 """
 
 from __future__ import annotations
@@ -24,7 +37,17 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--days", type=float, default=70.0)
     ap.add_argument("--dt", type=float, default=60.0)
+    ap.add_argument("--ml-only", action="store_true", help="only the ML-per-channel table")
+    ap.add_argument("--samples", default="1e4,1e5,1e6")
+    ap.add_argument("--channels", default="1,10,100")
+    ap.add_argument("--budget", type=float, default=2e6, help="samples x channels timed per row")
     args = ap.parse_args()
+    if not args.ml_only:
+        speed(args)
+    ml_table(args)
+
+
+def speed(args) -> None:
 
     from senscal.drift import DriftSetup, augmented_model, correct_drift, redundant_setup
     from senscal.drift.core import _starting_levels
@@ -96,6 +119,52 @@ def main() -> None:
     print(f"  senscal engine, filter only:         {t_engine:8.3f} s")
     print(f"  filterpy loop, filter only:          {t_fp:8.3f} s   {t_fp / t_engine:.1f}x the engine's time, "
           f"{t_fp / t_filter:.1f}x senscal's filter + detection")
+
+
+def ml_table(args) -> None:
+    """Noise-level ML per channel and model against one filter pass (issue 30); see the module doc."""
+
+    from senscal.drift import augmented_model, correct_drift, known_setup
+    from senscal.drift.core import _alternatives, drift_prior
+    from senscal.kalman import kalman_filter
+    from senscal.simulate.drift import simulate_drift_batch
+
+    Ts = [int(float(x)) for x in args.samples.split(",")]
+    Cs = [int(float(x)) for x in args.channels.split(",")]
+    # Warm-up: load every compiled kernel once.
+    w = simulate_drift_batch(1, n=500, dt=0.01, channels=("g",), trusted=(), signal="known", seed=0)
+    correct_drift(known_setup(["g"]), w["y"][0], w["t"], compare=True)
+
+    print("Noise-level ML vs one filter pass (preset known, random-walk bias + white noise, CPU seconds)")
+    head = f"{'samples':>9} {'channels':>8} {'timed':>5} {'compare':>7} {'models':>6} {'ML/ch/model':>12} " \
+           f"{'filter/ch':>10} {'ratio':>7}"
+    print(head)
+    for T in Ts:
+        for C in Cs:
+            k = int(max(1, min(C, args.budget // T)))
+            d = simulate_drift_batch(1, n=T, dt=0.01, channels=tuple(f"g{i}" for i in range(k)), trusted=(),
+                                     signal="known", bias="random_walk", bias_rate=0.01, noise=0.1, seed=T + C)
+            chans = [f"g{i}" for i in range(k)]
+            y, t = d["y"][0], d["t"]
+            setup = known_setup(chans)
+            for compare in (False, True):
+                models = [setup] + ([a for _, a, _ in _alternatives(setup)] if compare else [])
+                c0 = time.process_time()
+                fits = [correct_drift(s, y, t, compare=False, _fit_only=True) for s in models]
+                t_ml = (time.process_time() - c0) / (k * len(models))
+                # One filter pass over one channel with its estimated levels.
+                one = known_setup([chans[0]])
+                lv = {p.name: p.value for p in fits[0][0] if p.name.startswith(chans[0] + "_")}
+                x0, P0 = drift_prior(one, y[:1], {}, float(t[-1] - t[0]))
+                model = augmented_model(one, np.diff(t, prepend=t[0] - 0.01), lv, x0=x0, P0=P0)
+                kalman_filter(model, y[:1, :10])
+                reps = max(1, int(2e5 // T))
+                c0 = time.process_time()
+                for _ in range(reps):
+                    kalman_filter(model, y[:1])
+                t_f = (time.process_time() - c0) / reps
+                print(f"{T:>9,} {C:>8} {k:>5} {'yes' if compare else 'no':>7} {len(models):>6} {t_ml:>12.4f} "
+                      f"{t_f:>10.5f} {t_ml / t_f:>6.1f}x", flush=True)
 
 
 if __name__ == "__main__":

@@ -110,14 +110,16 @@ def run_gm_ramp(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 
 def run_ramp_rw(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
-    """The same ramp with the default random-walk bias model: the
-    likelihood comparison must name the ramp model."""
+    """The same ramp with the default random-walk bias model: the job uses
+    the ramp model when the random walk's innovations are rejected and the
+    ramp wins on AIC (and says so), and names it (``better-model``) when only
+    AIC prefers it; the band must cover (the warning rate is reported)."""
     sim = dict(n=_N, noise=0.1, signal="gauss_markov", signal_level=1.0, signal_tau=200.0, bias="ramp",
                ramp_start=300.0, ramp_slope=4e-3)
     return _run("gm-signal+ramp, rw model", n_seeds, seed0, sim,
                 lambda d: redundant_setup(["s1", "s2"], trusted=["s1"]),
-                "ramp bias fitted with a random-walk bias", warn=("better-model", "model-inadequate"),
-                expect="warn", compare=True)
+                "ramp bias fitted with a random-walk bias (model chosen by the job)",
+                warn=("better-model", "model-inadequate"), expect="cover", compare=True)
 
 
 def run_known(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
@@ -158,8 +160,40 @@ def run_wrong_tau(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     return _run("covariate, wrong signal tau", n_seeds, seed0, sim,
                 lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=20.0,
                                           covariate_reference=20.0),
-                "quantity tau 200 s, model tau 20 s", warn=("model-inadequate", "better-model"), expect="warn",
-                compare=True)
+                "quantity tau 200 s, model tau 20 s (model chosen by the job)",
+                warn=("model-inadequate", "better-model"), expect="cover", compare=True,
+                terms={"x_c_coefficient": 0.2})
+
+
+def run_ar1_noise(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Issue 26 item 4: the drifting channel's noise is AR(1) with rho 0.8
+    (same std); the job offers coloured noise as a model option chosen by
+    AIC.  Before it, the bias band covered 74 % and ``model-inadequate``
+    fired in 3 % of records."""
+    sim = dict(n=_N, noise=0.1, signal="random_walk", signal_level=0.1, bias="random_walk", bias_rate=0.01,
+               noise_rho=0.8)
+    return _run("coloured noise AR(1) 0.8", n_seeds, seed0, sim,
+                lambda d: redundant_setup(["s1", "s2"], trusted=["s1"]),
+                "redundant pair, s2's noise AR(1) rho 0.8 (model chosen by the job)",
+                warn=("better-model", "model-inadequate"), expect="cover", compare=True)
+
+
+def _run_lag(lag: float):
+    def run(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+        sim = dict(_COVARIATE_SIM, covariate_lag=lag)
+        return _run(f"covariate lag {lag:g} s", n_seeds, seed0, sim,
+                    lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0,
+                                              covariate_reference=20.0),
+                    f"the bias follows the covariate through a first-order lag of {lag:g} s (model chosen by the job)",
+                    warn=("model-inadequate", "better-model"), expect="cover", compare=True,
+                    terms={"x_c_coefficient": 0.2})
+    run.__doc__ = (f"Issue 26 item 5: the sensor's temperature lags the recorded probe by a first-order lag of "
+                   f"{lag:g} s; the job offers the lag as a model option chosen by AIC.  Before it the "
+                   "coefficient covered 15-62 % for lags of 3-60 s.")
+    return run
+
+
+run_lag3, run_lag20, run_lag60 = _run_lag(3.0), _run_lag(20.0), _run_lag(60.0)
 
 
 for _f in (run_white, run_gm_ramp, run_known, run_covariate, run_reference_defaulted):
@@ -169,7 +203,11 @@ for _f in (run_white, run_gm_ramp, run_known, run_covariate, run_reference_defau
 # within +/- 5 % (99.9 % Wilson) at a third of the cost.
 run_ramp_rw.full_seeds = 100
 run_wrong_tau.full_seeds = 100
+# The issue-26 departures: the rule asks for >= 200 seeds.
+for _f in (run_ar1_noise, run_lag3, run_lag20, run_lag60):
+    _f.full_seeds = FULL
 
 SCENARIOS = {"white": run_white, "gm-signal+ramp": run_gm_ramp, "ramp-rw-model": run_ramp_rw, "known": run_known,
              "covariate": run_covariate, "reference-defaulted": run_reference_defaulted,
-             "wrong-tau": run_wrong_tau}
+             "wrong-tau": run_wrong_tau, "ar1-noise": run_ar1_noise, "covariate-lag-3": run_lag3,
+             "covariate-lag-20": run_lag20, "covariate-lag-60": run_lag60}
