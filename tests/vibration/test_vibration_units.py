@@ -172,3 +172,14 @@ def test_reference_sanity_limits():
     # Quadrature: 100 deg with u = 1 deg is beyond 90 + 3.29 u; with u = 5 deg it is not.
     assert reference_sanity(5.0, 0.02, np.radians(100), np.radians(1))[0].startswith("velocity-not-derivative")
     assert reference_sanity(5.0, 0.02, np.radians(100), np.radians(5)) == ()
+
+
+def test_velocity_with_a_frequency_the_data_do_not_have_is_named(cli, hydraulic):
+    """``--freq`` 30 % off the excitation: frequency-mismatch, --strict exits 3; the right one raises none."""
+    folder, recs, _ = hydraulic
+    files = _rescaled(recs[:1], folder / "freq", {})
+    r = _velocity(cli, files, "--freq", "1.3", "--strict")
+    assert r.code == 3
+    assert any(w.startswith("frequency-mismatch: channel 'position'") for w in json.loads(r.out)["warnings"])
+    ok = json.loads(_velocity(cli, files, "--freq", "1").out)
+    assert not [w for w in ok["warnings"] if w.startswith("frequency-mismatch")]

@@ -128,6 +128,18 @@ class _Units:
         return self.work.get(role, "V")
 
 
+def _given_frequency_fits(point, y, t, freq, harmonics: int, name: str):
+    """The point with ``frequency-mismatch`` added when a --freq is given that the channel ``y`` does not have."""
+    if freq is None:
+        return point
+    import dataclasses
+
+    from senscal.sinefit.freqcheck import frequency_mismatch
+
+    w = frequency_mismatch(y, t, freq, harmonics=harmonics, name=name)
+    return dataclasses.replace(point, warnings=tuple(point.warnings) + (w,)) if w else point
+
+
 def _not_a_length(unit: str, name: str, label: str) -> None:
     """Refuse a velocity-sensor output in a length unit: that channel is a displacement (swapped channels)."""
     from senscal.units import compatible
@@ -315,10 +327,10 @@ def velocity(sources: Sources, options: VelocityOptions = VelocityOptions(), *,
         output = rec[o.velocity] * units.scale(rec, o.velocity, "output", label)
         _not_a_length(units.unit("output"), o.velocity, label)
         unit = units.unit("output") + "/(m/s)"
-        points.append(with_time_warnings(velocity_point(
+        points.append(_given_frequency_fits(with_time_warnings(velocity_point(
             position, output, rec.time, freq=f, drift=o.drift, harmonics=o.harmonics,
             u_position=o.u_position, source=label, unit=unit), rec.time, "velocity",
-            y=position if f is not None else None, known_hz=f))
+            y=position if f is not None else None, known_hz=f), position, rec.time, f, o.harmonics, o.position))
     cal = velocity_calibration(points, u_position=o.u_position, unit=unit)
     return VelocityResult(calibration=cal, unit=unit, warnings=tuple(cal.warnings))
 
