@@ -137,3 +137,24 @@ def test_cli_encoder_lines(cli, tmp_path):
         assert p["angle_step_deg"] == pytest.approx(360 / 1024) and p["angle_model"] == "straight line"
     r = cli("response", *files, "--output", "output", "--input-amplitude", "100", "--encoder-lines", "1024")
     assert r.code == 2 and "--angle" in r.err and "Traceback" not in r.err
+
+
+def test_whole_counts_per_sample_is_named_or_declared():
+    # 360 counts at 10 Hz and 100 Hz sampling: 36 counts a sample, the readings lie on a line one constant error
+    # behind the angle; nothing in the record shows the step, so the point names it, and a declared encoder is used
+    p, tp = _point(360, seed=146)
+    assert p.angle_step_deg is None and "encoder-step-unknown" in " ".join(p.warnings)
+    q, tq = _point(360, seed=146, encoder_lines=360)
+    assert q.angle_step_deg == pytest.approx(1.0) and not any(w.startswith("encoder-step-unknown") for w in q.warnings)
+    assert abs(math.degrees(q.phase_delay) - tq["phase_delay_deg"]) <= 2 * math.degrees(q.u_phase_delay)
+
+
+def test_frequency_u_not_zero_for_a_nearly_exact_angle():
+    # linregress's (1 - r^2) form rounds to u = 0 when the angle noise is 1e-4 deg over thousands of degrees
+    from senscal.vibration.fits import cut_whole_revolutions
+
+    rng = np.random.default_rng(314)
+    t = np.arange(2000) / 100.0
+    sync = cut_whole_revolutions(np.mod(33.0 + 1800.0 * t + rng.normal(0, 2e-4, t.size), 360.0), t)
+    assert sync.u_frequency > 0
+    assert abs(sync.frequency - 5.0) <= 4 * sync.u_frequency

@@ -215,7 +215,12 @@ def cut_whole_revolutions(angle_deg, t) -> AngleSync:
     if tt.size < 3:
         raise TooFewSamplesError("fewer than 3 samples in the whole revolutions; sample faster")
     lr = linregress(tt, pp)
-    return AngleSync(start, stop, revs, direction, float(lr.slope), float(lr.stderr))
+    # The slope's standard error from the residuals directly: linregress's (1 - r^2) form rounds to 0 when
+    # the angle is nearly exact (r = 1 to double precision), which would state u = 0.
+    res = pp - (lr.intercept + lr.slope * tt)
+    sxx = float(np.sum((tt - tt.mean()) ** 2))
+    u_f = math.sqrt(float(np.sum(res * res)) / max(tt.size - 2, 1) / sxx) if sxx > 0 else math.inf
+    return AngleSync(start, stop, revs, direction, float(lr.slope), u_f)
 
 
 def fit_against_angle(y, angle_deg, *, harmonics: int = 1, drift: bool = False) -> SineFit:
@@ -266,21 +271,76 @@ def _float_gcd(a: float, b: float, tol: float) -> float:
     return a
 
 
+def _grid(values: np.ndarray) -> float | None:
+    """Greatest common divisor (1e-6 deg round-off) of positive numbers, when all are whole multiples of it."""
+    v = values[values > _STEP_TOL_DEG]
+    if v.size < 2:
+        return None
+    g = float(v.min())
+    for x in v:
+        g = _float_gcd(float(x), g, _STEP_TOL_DEG)
+        if g < 100 * _STEP_TOL_DEG:
+            return None
+    k = v / g
+    return g if np.max(np.abs(k - np.round(k))) <= 0.01 else None
+
+
+def angle_grid(angle_deg, t) -> tuple[float | None, bool, bool]:
+    """The grid a quantised angle channel's readings lie on, and whether they lie on a constant-speed line.
+
+    Parameters
+    ----------
+    angle_deg : array_like, shape (N,)
+        Angle readings in degrees (wrapped or cumulative).
+    t : array_like, shape (N,)
+        Time stamps in s.
+
+    Returns
+    -------
+    grid_deg : float or None
+        The grid spacing in degrees: the greatest common divisor of the
+        readings themselves (with 360: a counter reads whole counts from its
+        zero) or, failing that, of the gaps between distinct readings; None
+        when the readings lie on no grid.
+    through_zero : bool
+        The readings are whole multiples of the grid (a counter's readings).
+    on_line : bool
+        The readings depart from a constant-speed line by less than 1 % of
+        the grid: the angle advances a whole number of grid steps per sample,
+        so nothing in the record shows how fine the encoder really is.
+    """
+    a = np.asarray(angle_deg, dtype=float)
+    if a.size < 3 or not np.all(np.isfinite(a)):
+        return None, False, False
+    v = np.unique(np.mod(a, 360.0))
+    if v.size < 3:
+        return None, False, False
+    g_vals = _grid(np.append(v, 360.0))
+    g_gaps = _grid(np.diff(v))
+    g = g_vals if g_vals is not None else g_gaps
+    if g is None:
+        return None, False, False
+    tc = np.asarray(t, dtype=float) - float(np.mean(t))
+    u = np.unwrap(a, period=360.0)
+    dev = u - np.polyval(np.polyfit(tc, u, 1), tc)
+    return g, g_vals is not None, bool(np.ptp(dev) <= 0.01 * g)
+
+
 def angle_step(angle_deg, t) -> float | None:
     """Step size of a quantised angle channel (an incremental encoder's count), degrees.
 
     The readings of an encoder with ``L`` counts per revolution are multiples
-    of ``360 / L`` (plus a constant).  The step is the greatest common divisor
-    of the gaps between the distinct readings (Euclid's algorithm with a
-    round-off tolerance of 1e-6 deg), accepted when every gap is a whole number
-    of steps to 1 % of a step and the readings depart from a constant-speed
-    line by more than 1 % of a step.  The last condition tells a quantised
-    angle from an exact one sampled at a rational fraction of a revolution
-    (10 samples a turn repeat 10 angles, 36 deg apart, without any
-    quantisation); it also means that a quantised angle whose increment per
-    sample is a whole number of steps cannot be detected (its readings lie
-    on a line, one constant error below the true angle): declare the
-    encoder then (``encoder_lines``).
+    of ``360 / L``.  The step is the greatest common divisor of the readings
+    (with 360), or of the gaps between the distinct readings (Euclid's
+    algorithm with a round-off tolerance of 1e-6 deg), accepted when every one
+    is a whole number of steps to 1 % of a step and the readings depart from a
+    constant-speed line by more than 1 % of a step (:func:`angle_grid`).  The
+    last condition tells a quantised angle from an exact one sampled at a
+    rational fraction of a revolution (10 samples a turn repeat 10 angles, 36
+    deg apart, without any quantisation); it also means that a quantised angle
+    whose increment per sample is a whole number of steps cannot be measured
+    (its readings lie on a line, one constant error below the true angle):
+    declare the encoder then (``encoder_lines``).
 
     Parameters
     ----------
@@ -295,30 +355,8 @@ def angle_step(angle_deg, t) -> float | None:
         The step in degrees, or None for a channel that is not quantised
         (a float angle, an interpolated encoder) or where it cannot be told.
     """
-    a = np.asarray(angle_deg, dtype=float)
-    if a.size < 3 or not np.all(np.isfinite(a)):
-        return None
-    v = np.unique(np.mod(a, 360.0))
-    if v.size < 3:
-        return None
-    gaps = np.diff(v)
-    gaps = gaps[gaps > _STEP_TOL_DEG]
-    if gaps.size < 2:
-        return None
-    g = float(gaps.min())
-    for x in gaps:
-        g = _float_gcd(float(x), g, _STEP_TOL_DEG)
-        if g < 100 * _STEP_TOL_DEG:
-            return None
-    k = gaps / g
-    if np.max(np.abs(k - np.round(k))) > 0.01:
-        return None
-    tc = np.asarray(t, dtype=float) - float(np.mean(t))
-    u = np.unwrap(a, period=360.0)
-    dev = u - np.polyval(np.polyfit(tc, u, 1), tc)
-    if np.ptp(dev) <= 0.01 * g:
-        return None
-    return g
+    g, _, on_line = angle_grid(angle_deg, t)
+    return None if g is None or on_line else g
 
 
 @dataclass(frozen=True)
@@ -339,12 +377,19 @@ class EncoderAngle(ResultMixin):
         averaged over the record instead of entering every sample).
     angle_deg : ndarray
         The angle the output is fitted against, degrees (unwrapped).
+    unresolved_grid_deg : float or None
+        Set when the readings are whole multiples of this grid and advance a
+        whole number of it per sample, no step being declared: the
+        encoder's own step cannot be told from the record (it may be the
+        grid or any divisor of it), and every reading may be off by up to
+        one count, the same for all.
     """
 
     step_deg: float | None
     detected: bool
     model: str
     angle_deg: np.ndarray
+    unresolved_grid_deg: float | None = None
 
 
 def encoder_angle(angle_deg, t, *, step_deg: float | None = None) -> EncoderAngle:
@@ -373,12 +418,13 @@ def encoder_angle(angle_deg, t, *, step_deg: float | None = None) -> EncoderAngl
     EncoderAngle
     """
     a = np.unwrap(np.asarray(angle_deg, dtype=float), period=360.0)
-    found = angle_step(angle_deg, t)
+    grid, through_zero, on_line = angle_grid(angle_deg, t)
+    found = None if on_line else grid
     step, detected = step_deg, False
     if found is not None and (step is None or found > step * (1 + 1e-6)):
         step, detected = found, True
     if step is None:
-        return EncoderAngle(None, False, "readings", a)
+        return EncoderAngle(None, False, "readings", a, grid if (on_line and through_zero) else None)
     t = np.asarray(t, dtype=float)
     line = np.polyval(np.polyfit(t - t.mean(), a, 1), t - t.mean())
     dev = a - line

@@ -307,6 +307,13 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
                                              harmonics=harmonics, drift=drift)
             f, u_f = sync.frequency, sync.u_frequency
             warns = _angle_fit_warnings(fit, enc)
+            if enc.unresolved_grid_deg is not None:
+                warns += (named("encoder-step-unknown", (
+                    f"the angle readings are whole multiples of {enc.unresolved_grid_deg:.4g} deg and advance a whole "
+                    "number of them per sample, so the encoder's count step cannot be told from this record: every "
+                    "reading may lie up to one count behind the angle, the same for all, which moves the phase "
+                    "(delay) by up to that and is not in its U; give --encoder-lines N (counts per revolution) or "
+                    "sample at a rate that is not a whole number of counts per sample")),)
             if initial_phase is None:
                 # The axis sees a0 cos(angle) = a0 sin(angle + pi/2) only if
                 # encoder zero lies along the field: an assumption, said aloud.
