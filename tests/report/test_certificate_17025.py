@@ -92,17 +92,17 @@ def _expected_fields(info: CertificateInfo) -> list[str]:
             run.item, run.manufacturer, run.model, run.serial,                          # g) item
             run.calibration_date, run.issue_date,                                       # i), j) dates
             "relate only to the item calibrated",                                       # l)
-            resp_unit_label, "S_i / S_0", "phase delay (deg)",                         # m) results with units
+            resp_unit_label, "S_i / S_0", "phase delay (°)",                           # m) results with units
             run.deviations,                                                             # n) deviations
             *(a.name for a in lab.approvers), *(a.role for a in lab.approvers),        # o) who authorises
-            *(c.name for c in run.conditions), "degC", "1 degC", "6 %",                 # 7.8.4.1 a) conditions, U=2u
+            *(c.name for c in run.conditions), "°C", "1 °C", "6 %",                     # 7.8.4.1 a) conditions, U=2u
             "expanded uncertainty with coverage factor k = 2",                          # 7.8.4.1 b) uncertainty
             *(s.name for s in lab.standards), *(s.certificate for s in lab.standards),  # 7.8.4.1 c) traceability
             *(s.traceability for s in lab.standards),
             run.conformity, run.decision_rule]                                          # 7.8.6 conformity
 
 
-resp_unit_label = "V/(m/s^2)"
+resp_unit_label = "V/(m/s²)"
 
 
 @needs_poppler
@@ -237,3 +237,74 @@ def test_logo_is_embedded_and_a_missing_one_is_named(resp, no_plots, tmp_path):
     assert '<img alt="logo" src="data:image/png;base64,' in html and str(tmp_path) not in html
     with pytest.raises(InputError, match="cannot read the lab logo"):
         certificate_html("response", resp, info=CertificateInfo(replace(LAB, logo=str(tmp_path / "no.png")), RUN))
+
+
+# ---------------------------------------------------------------------------
+# presentation (issue 31): rounding, typography, traceability that follows from the standards, due dates
+
+
+@pytest.mark.parametrize("value, U, want", [
+    (0.0499999, 0.0002, ("0.05000", "0.00020")),     # GUM 7.2.6: the value to the last digit of U
+    (0.0499999, 0.000996, ("0.0500", "0.0010")),     # U rounds up a decade: one digit fewer
+    (-12.3456, 0.25, ("-12.35", "0.25")),
+    (123456.7, 35.0, ("123457", "35")),
+    (1.23e-9, 4.5e-12, ("1.2300e-09", "4.5e-12")),
+])
+def test_value_rounded_to_its_uncertainty(value, U, want):
+    from senscal.report.certificate import value_and_u
+
+    assert value_and_u(value, U) == want
+    v, u = value_and_u(value, U)
+    # the rounding changes the value by at most half a unit of U's last digit
+    assert abs(float(v) - value) <= 0.5 * 10 ** -(len(u.split("e")[0].split(".")[-1]) if "." in u else 0) * \
+        (10 ** int(u.split("e")[1]) if "e" in u else 1) + 1e-15
+
+
+def test_pretty_units():
+    from senscal.report.certificate import pretty_unit
+
+    assert pretty_unit("V/(m/s^2)") == "V/(m/s²)" and pretty_unit("degC") == "°C"
+    assert pretty_unit("rad/s^(-2)") == "rad/s⁻²" and pretty_unit("pC/(m/s^2)") == "pC/(m/s²)"
+
+
+def test_certificate_rounds_values_and_prints_units_as_symbols(resp, no_plots):
+    html = certificate_html("response", resp, info=FULL, unit="V/(m/s^2)")
+    assert "m/s^2" not in html.replace("(m/s^2)</td>", "") or "m/s²" in html
+    assert "V/(m/s²)" in html and "°C" in html and "degC" not in html
+    # no value printed with more digits than its U: every (value, U) cell pair of the results table
+    table = html.split("<h2>Results</h2>")[1].split("</table>")[0]
+    cells = re.findall(r"<td>([^<]*)</td>", table)
+    p = resp.points[0]
+    assert f"{p.sensitivity:.6g}" not in cells or len(f"{p.sensitivity:.6g}") <= 7
+    decimals = lambda t: len(t.split(".")[1]) if "." in t else 0   # noqa: E731
+    assert decimals(cells[1]) == decimals(cells[2])           # sensitivity and its U
+    # one spelling, and the approver's line carries a date
+    assert "Normalised" not in html or "normalized" not in html.lower().replace("normalised", "")
+    assert "Date: 2026-01-07" in html
+
+
+def test_traceability_claim_follows_from_the_standards(resp, no_plots):
+    from senscal.report.dcc import dcc_xml
+    from senscal.report.lab import traceability_claim
+
+    sim = replace(LAB.standards[0], traceability="none: simulated data")
+    assert traceability_claim(LAB.standards)[0] is True
+    claimed, text = traceability_claim((sim,))
+    assert claimed is False and "No metrological traceability" in text
+    html = certificate_html("response", resp, info=CertificateInfo(replace(LAB, standards=(sim,)), RUN))
+    assert "metrologically traceable to the International System" not in html and "No metrological" in html
+    lab = replace(LAB, country="DE")
+    run = replace(RUN, certificate_id="C-1", customer_email="qa@example.org")
+    xml = dcc_xml("response", resp, CertificateInfo(replace(lab, standards=(sim,)), run))
+    assert b"<dcc:traceable>false</dcc:traceable>" in xml
+    assert b"<dcc:traceable>true</dcc:traceable>" in dcc_xml("response", resp, CertificateInfo(lab, run))
+
+
+def test_reference_standard_due_date_is_flagged(resp, no_plots):
+    assert "reference-standard-due" not in warning_names(certificate_warnings("response", resp, FULL))
+    for due, word in (("", "MISSING"), ("2025-12-31", "OVERDUE")):
+        info = CertificateInfo(replace(LAB, standards=(replace(LAB.standards[0], due=due),)), RUN)
+        assert "reference-standard-due" in warning_names(certificate_warnings("response", resp, info))
+        html = certificate_html("response", resp, info=info)
+        std_table = html.split("Reference standards and traceability")[1].split("</table>")[0]
+        assert word in std_table

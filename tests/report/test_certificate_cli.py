@@ -23,6 +23,7 @@ name = "Double centrifuge DC-2"
 serial = "DC2-0042"
 certificate = "PTB-1.21-4711"
 traceability = "PTB"
+due = "2099-12-31"
 u_relative = %(u_rel)s
 
 [run]

@@ -43,7 +43,7 @@ import numpy as np
 
 from senscal._result import to_jsonable
 from senscal.errors import InputError
-from senscal.report.lab import CertificateInfo, missing_fields, signing_approvers
+from senscal.report.lab import CertificateInfo, missing_fields, signing_approvers, traceability_claim
 from senscal.report.plots import new_figure, svg_inline
 
 __all__ = ["write_certificate", "certificate_bytes", "certificate_html", "certificate_id", "certificate_warnings", "budget_warnings",
@@ -99,14 +99,13 @@ table.small{font-size:8pt;break-inside:avoid}table.small td,table.small th{paddi
 {% endfor %}</table>
 <h2>Reference standards and traceability</h2>
 {% if lab.standards %}<table class="small"><thead><tr><th>standard</th><th>serial</th><th>its certificate</th><th>traceable to</th><th>calibration due</th><th>u (rel., k=1)</th></tr></thead>
-{% for s in lab.standards %}<tr><td>{{ s.name }}</td><td>{{ s.serial or "-" }}</td><td>{{ s.certificate or "-" }}</td><td>{{ s.traceability or "-" }}</td><td>{{ s.due or "-" }}</td><td>{{ pct(s.u_relative) }}</td></tr>
+{% for s in lab.standards %}{% set st = s.due_status(run.calibration_date) %}<tr><td>{{ s.name }}</td><td>{{ s.serial or "-" }}</td><td>{{ s.certificate or "-" }}</td><td>{{ s.traceability or "-" }}</td><td>{% if st == "missing" %}<span class="missing">MISSING</span>{% elif st == "overdue" %}{{ s.due }} <span class="missing">OVERDUE</span>{% else %}{{ s.due }}{% endif %}</td><td>{{ pct(s.u_relative) }}</td></tr>
 {% endfor %}</table>
-<p>The measurements are metrologically traceable to the International System of Units (SI) through the reference
-standards above, whose own calibration certificates are listed.</p>
+<p>{{ trace_text }}</p>
 {% else %}<p class="missing">MISSING (required): the reference standards and their traceability.</p>{% endif %}
 <h2>Environmental conditions</h2>
 {% if env %}<table><thead><tr><th>quantity</th><th>value</th><th>U (k=2)</th><th>unit</th></tr></thead>
-{% for c in env %}<tr><td>{{ c.name }}</td><td>{{ g(c.value) }}</td><td>{{ "-" if c.uncertainty is none else u(2 * c.uncertainty) }}</td><td>{{ c.unit }}</td></tr>
+{% for c in env %}<tr><td>{{ c.name }}</td><td>{{ g(c.value) }}</td><td>{{ "-" if c.uncertainty is none else u(2 * c.uncertainty) }}</td><td>{{ punit(c.unit) }}</td></tr>
 {% endfor %}</table>{% else %}<p class="missing">MISSING (required): the environmental conditions of the calibration.</p>{% endif %}
 <h2>Calibration settings</h2>
 <table class="kv">{% for k, v in conditions %}<tr><td>{{ k }}</td><td>{{ v }}</td></tr>{% endfor %}</table>
@@ -135,7 +134,7 @@ where the effective degrees of freedom are few, k is Student's t for the same 95
 This certificate shall not be reproduced except in full without the written approval of the laboratory.</p>
 <p>Records: {{ files }}. Software: senscal {{ version }}.</p>
 <table class="sign"><tr><td><b>Authorised by</b></td>
-{% for a in approvers %}<td>{{ a.name }}{% if a.role %}<br>{{ a.role }}{% endif %}</td>{% else %}<td><span class="missing">MISSING (required): the person who authorises the certificate</span></td>{% endfor %}</tr></table>
+{% for a in approvers %}<td>{{ a.name }}{% if a.role %}<br>{{ a.role }}{% endif %}<br>Date: {{ issued }}</td>{% else %}<td><span class="missing">MISSING (required): the person who authorises the certificate</span></td>{% endfor %}</tr></table>
 <p class="end">End of certificate {{ cert_id }}</p>
 </div>
 </body></html>
@@ -157,6 +156,74 @@ def _g(v: Any, digits: int = 6) -> str:
 def _u(v: Any) -> str:
     """Uncertainties with 2 significant digits (GUM 7.2.6)."""
     return _g(v, 2)
+
+
+def _decimals_of(U: float) -> int:
+    """The decimal position of the second significant digit of ``U`` (negative: tens, hundreds...)."""
+    return 1 - math.floor(math.log10(abs(U)))
+
+
+def value_and_u(value: Any, U: Any) -> tuple[str, str]:
+    """A value rounded to the last digit of its uncertainty, and that uncertainty (GUM 7.2.6).
+
+    ``U`` keeps two significant digits and ``value`` is rounded at the
+    same decimal position, so ``0.0499999 +- 0.0002`` reads
+    ``0.050000``/``0.00020``.  Plain decimal notation is used between
+    1e-5 and 1e7, scientific notation outside (with the same number of
+    digits after the uncertainty's leading ones).
+
+    Parameters
+    ----------
+    value, U : float
+        The value and its (expanded or standard) uncertainty, same unit.
+
+    Returns
+    -------
+    tuple of str
+        ``(value_text, U_text)``; a missing or non-finite ``U`` gives
+        the value with 6 significant digits and ``"-"``.
+    """
+    try:
+        v, u = float(value), float(U)
+    except (TypeError, ValueError):
+        return _g(value), _u(U)
+    if not math.isfinite(v):
+        return "-", _u(u)
+    if not (math.isfinite(u) and u > 0):
+        return _g(v), "-" if not math.isfinite(u) else _g(u, 2)
+    # Round U first: 0.00996 -> 0.010 moves its second digit one place left.
+    d = _decimals_of(u)
+    u_r = round(u, d)
+    if u_r > 0:
+        d = _decimals_of(u_r)
+        u_r = round(u, d)
+    big = max(abs(v), u_r)
+    if 1e-5 <= big < 1e7:
+        dd = max(d, 0)
+        return f"{round(v, d):.{dd}f}", f"{u_r:.{dd}f}"
+    # scientific: the value's exponent sets the mantissa, digits down to U's second significant one
+    e = math.floor(math.log10(big))
+    digits = max(e + d, 1)
+    return f"{v:.{digits}e}", f"{u_r:.{max(digits - (e - math.floor(math.log10(u_r))), 1)}e}"
+
+
+_SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
+
+
+def pretty_unit(unit: str) -> str:
+    """A unit as a certificate prints it: ``m/s^2`` -> ``m/s²``, ``degC`` -> ``°C``, ``deg`` -> ``°``.
+
+    Only the typography changes (the DCC keeps the D-SI form); ``1`` and
+    an empty unit stay as they are.
+    """
+    import re
+
+    if not unit:
+        return unit
+    out = re.sub(r"\^(?:\((-?\d+)\)|(-?\d+))", lambda m: (m.group(1) or m.group(2)).translate(_SUPERSCRIPT), unit)
+    out = re.sub(r"\bdegC\b", "°C", out)
+    out = re.sub(r"\bdeg\b", "°", out)
+    return out.replace("*", "·")
 
 
 def _plain_log_ticks(ax) -> None:
@@ -240,14 +307,34 @@ def velocity_figure(cal):
 
 
 def _budget_table(budgets: Sequence[Any], labels: Sequence[str]) -> tuple[list[str], list[list[str]]]:
-    budgets = [b for b in budgets if b is not None]
-    if not budgets:
+    """One budget table per quantity, GUM-style: a row per component, a column per point.
+
+    Points as columns keep the table narrow on an A4 page (the wide form, a
+    column per component, was cramped with five components); the value is
+    rounded to the last digit of its U.
+    """
+    pairs = [(lab, b) for lab, b in zip(labels, budgets) if b is not None]
+    if not pairs:
         return [], []
-    sources = [f"{c.source} [{c.kind}]" for c in budgets[0].components]
-    # k per row: 2 for many degrees of freedom, Student's t where they are few
-    cols = ["point", "quantity", "value"] + sources + ["u_c", "k", "U", "unit"]
-    rows = [[lab, b.quantity, _g(b.value)] + [_u(c.standard_uncertainty) for c in b.components]
-            + [_u(b.combined), _g(b.coverage_factor, 3), _u(b.expanded), b.unit] for lab, b in zip(labels, budgets)]
+    sources: list[tuple[str, str]] = []
+    for _, b in pairs:
+        for c in b.components:
+            if (c.source, c.kind) not in sources:
+                sources.append((c.source, c.kind))
+    b0 = pairs[0][1]
+    cols = [f"{b0.quantity} ({pretty_unit(b0.unit)})" if b0.unit and b0.unit != "1" else b0.quantity]
+    cols += [lab for lab, _ in pairs]
+    rows = [["value"] + [value_and_u(b.value, b.expanded)[0] for _, b in pairs]]
+    for src, kind in sources:
+        cells = []
+        for _, b in pairs:
+            comp = next((c for c in b.components if (c.source, c.kind) == (src, kind)), None)
+            cells.append("-" if comp is None else _u(comp.standard_uncertainty))
+        # sources that already say their type ("output fit (type A)") are not labelled twice
+        rows.append([src if f"type {kind}" in src else f"{src} (type {kind})"] + cells)
+    rows.append(["combined standard uncertainty u_c"] + [_u(b.combined) for _, b in pairs])
+    rows.append(["coverage factor k"] + [_g(b.coverage_factor, 3) for _, b in pairs])
+    rows.append(["expanded uncertainty U = k u_c"] + [_u(b.expanded) for _, b in pairs])
     return cols, rows
 
 
@@ -264,16 +351,16 @@ def _tables(kind: str, result: Any, unit: str):
         pts = result.points
         norm = all(p.normalized_sensitivity is not None for p in pts)
         has_ph = all(p.phase_delay is not None for p in pts)
-        cols = ["frequency (Hz)", f"sensitivity ({unit})", "U"]
+        cols = ["frequency (Hz)", f"sensitivity ({pretty_unit(unit)})", "U"]
         cols += ["S_i / S_0", "U"] if norm else []
-        cols += ["phase delay (deg)", "U (deg)"] if has_ph else []
+        cols += ["phase delay (°)", "U (°)"] if has_ph else []
         rows = []
         for p in pts:
-            r = [_g(p.frequency), _g(p.sensitivity), _u(2 * p.u_sensitivity)]
+            r = [_g(p.frequency), *value_and_u(p.sensitivity, 2 * p.u_sensitivity)]
             if norm:
-                r += [_g(p.normalized_sensitivity), _u(2 * p.u_normalized_sensitivity)]
+                r += [*value_and_u(p.normalized_sensitivity, 2 * p.u_normalized_sensitivity)]
             if has_ph:
-                r += [_g(math.degrees(p.phase_delay), 5), _u(2 * math.degrees(p.u_phase_delay))]
+                r += [*value_and_u(math.degrees(p.phase_delay), 2 * math.degrees(p.u_phase_delay))]
             rows.append(r)
         labels = [f"{p.frequency:g} Hz" for p in pts]
         bud = [p.normalized_budget if norm else p.sensitivity_budget for p in pts]
@@ -284,21 +371,23 @@ def _tables(kind: str, result: Any, unit: str):
                    and has_ph else [])
         figs = [response_figure(result)]
     elif kind == "velocity":
-        cols = ["frequency (Hz)", f"sensitivity ({unit})", "U", "phase vs velocity (deg)", "U (deg)"]
-        rows = [[_g(p.frequency), _g(p.sensitivity), _u(2 * p.u_sensitivity), _g(math.degrees(p.phase), 4),
-                 _u(2 * math.degrees(p.u_phase))] for p in result.points]
+        cols = ["frequency (Hz)", f"sensitivity ({pretty_unit(unit)})", "U", "phase vs velocity (°)", "U (°)"]
+        rows = [[_g(p.frequency), *value_and_u(p.sensitivity, 2 * p.u_sensitivity),
+                 *value_and_u(math.degrees(p.phase), 2 * math.degrees(p.u_phase))] for p in result.points]
         budgets = [_budget_table([p.budget for p in result.points], [f"{p.frequency:g} Hz" for p in result.points]),
                    _budget_table([result.budget], ["mean"])]
-        summary = [("Mean sensitivity", f"{_g(result.sensitivity)} {unit}, U = {_u(result.budget.expanded)} {unit} "
-                    f"(k={_g(result.budget.coverage_factor, 3)}); standard deviation over {len(result.points)} points "
-                    f"{_u(result.sensitivity_std)} {unit}")]
+        sv, sU = value_and_u(result.sensitivity, result.budget.expanded)
+        pu = pretty_unit(unit)
+        summary = [("Mean sensitivity", f"{sv} {pu}, U = {sU} {pu} "
+                    f"(k = {_g(result.budget.coverage_factor, 3)}); standard deviation over {len(result.points)} "
+                    f"points {_u(result.sensitivity_std)} {pu}")]
         figs = [velocity_figure(result)]
     elif kind == "linearity":
         out_unit = unit.split("/(m/s^2)")[0] if unit else ""
-        cols = ["input amplitude (m/s^2)", f"output amplitude ({out_unit})" if out_unit else "output amplitude", "U",
-                "deviation", "deviation (% FS)"]
-        rows = [[_g(p.input_amplitude), _g(p.output_amplitude), _u(2 * p.u_output_amplitude), _g(p.deviation, 3),
-                 _g(p.deviation_percent, 3)] for p in result.points]
+        cols = ["input amplitude (m/s²)", f"output amplitude ({pretty_unit(out_unit)})" if out_unit
+                else "output amplitude", "U", "deviation", "deviation (% FS)"]
+        rows = [[_g(p.input_amplitude), *value_and_u(p.output_amplitude, 2 * p.u_output_amplitude),
+                 _g(p.deviation, 3), _g(p.deviation_percent, 3)] for p in result.points]
         budgets = []
         k = getattr(result, "coverage_factor", 2.0)
         if getattr(result, "linearity_resolved", None) is False:
@@ -308,9 +397,11 @@ def _tables(kind: str, result: Any, unit: str):
         else:
             lin_text = (f"{_g(result.linearity_percent, 3)} % of full-scale output ({_g(result.full_scale_output)}), "
                         f"U = {_u(2 * result.u_linearity_percent)} % (k=2, Monte Carlo, JCGM 101)")
+        slope_v, slope_U = value_and_u(result.slope, k * result.u_slope)
+        icpt_v, icpt_U = value_and_u(result.intercept, k * result.u_intercept)
         summary = [("Amplitude linearity", lin_text),
-                   ("Sensitivity (slope)", f"{_g(result.slope)} {unit}, U = {_u(k * result.u_slope)} (k={_g(k, 3)})"),
-                   ("Intercept", f"{_g(result.intercept)}, U = {_u(k * result.u_intercept)} (k={_g(k, 3)})")]
+                   ("Sensitivity (slope)", f"{slope_v} {pretty_unit(unit)}, U = {slope_U} (k = {_g(k, 3)})"),
+                   ("Intercept", f"{icpt_v}, U = {icpt_U} (k = {_g(k, 3)})")]
         figs = [linearity_figure(result, f"({out_unit})" if out_unit else "")]
     else:
         raise InputError(f"unknown certificate kind {kind!r}; use response, velocity or linearity")
@@ -409,6 +500,15 @@ def certificate_warnings(kind: str, result: Any, info: CertificateInfo) -> tuple
     out = [named("certificate-draft", (
         f"the certificate is marked DRAFT: required field(s) missing: {', '.join(miss)}; give them in the lab "
         "profile (--lab FILE or $SENSCAL_LAB), a run file (--run FILE) or the certificate options"))] if miss else []
+    for st in info.lab.standards:
+        status = st.due_status(info.run.calibration_date)
+        if status:
+            out.append(named("reference-standard-due", (
+                f"reference standard '{st.name}': " + ("no calibration due date is stated; give 'due' in the lab "
+                                                       "profile's [[standards]]" if status == "missing" else
+                                                       f"its calibration was due {st.due}, before the calibration "
+                                                       f"date {info.run.calibration_date}: recalibrate it or use "
+                                                       "another standard"))))
     return tuple(out) + budget_warnings(kind, result, info.lab.standards)
 
 
@@ -513,6 +613,7 @@ def certificate_html(kind: str, result: Any, *, info: CertificateInfo | None = N
     return _utf8_checked(_TEMPLATE.render(
         title=_TITLES.get(kind, kind), cert_id=cert_id, lab=info.lab, run=info.run, logo=_logo_uri(info.lab.logo),
         admin=_admin_rows(info, method, date.strftime("%Y-%m-%d")), draft=bool(miss), missing=miss,
+        issued=date.strftime("%Y-%m-%d"), trace_text=traceability_claim(info.lab.standards)[1], punit=pretty_unit,
         env=info.run.conditions, approvers=signing_approvers(info), version=__version__, g=_g, u=_u,
         pct=lambda v: "-" if v is None else f"{100 * v:.2g} %",
         conditions=[(k, v if isinstance(v, str) else _g(v)) for k, v in (conditions or {}).items()],

@@ -39,7 +39,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 from senscal.errors import InputError
-from senscal.report.lab import CertificateInfo, missing_fields, signing_approvers
+from senscal.report.lab import CertificateInfo, missing_fields, signing_approvers, traceability_claim
 
 __all__ = ["DccError", "write_dcc", "dcc_xml", "validate_dcc", "dcc_schema", "dsi_unit", "dcc_missing_fields",
            "read_dcc_quantities", "DCC_NS", "SI_NS", "SCHEMA_VERSION", "COVERAGE_PROBABILITY"]
@@ -338,7 +338,10 @@ class _Builder:
         loc = self.el(parent, "location")
         if country:
             self.el(loc, "countryCode", country, field="lab.country")
-        self.text(loc, "further", address, field)
+        # one element per address line: a newline inside one text is not how a reader (or the DCC GUI) shows it
+        lines = [ln.strip() for ln in re.split(r"[\r\n]+", address) if ln.strip()] or [address]
+        for line in lines:
+            self.text(loc, "further", line, field)
         return loc
 
     def contact(self, parent: ET.Element, tag: str, name: str, email: str, address: str, where: str,
@@ -427,10 +430,13 @@ def _administrative(b: _Builder, root: ET.Element, info: CertificateInfo, today:
                      "coverage factor k: 2 for many degrees of freedom, Student's t for the same coverage probability "
                      f"{COVERAGE_PROBABILITY} where they are few.", "", ref="senscal_uncertainty")
     if lab.standards:
+        # the claim follows from the standards (the same rule as the HTML/PDF certificate)
+        claimed, sentence = traceability_claim(lab.standards)
         trace = "; ".join(f"{s.name}: {s.traceability}" for s in lab.standards if s.traceability)
-        b.statement(sts, "The measurements are traceable to national standards through the reference standards "
-                         "listed with the results" + (f" ({trace})." if trace else "."),
-                    "lab.standards.traceability", ref="senscal_traceability", traceable=True)
+        if claimed:
+            sentence = ("The measurements are traceable to national standards through the reference standards "
+                        "listed with the results" + (f" ({trace})." if trace else "."))
+        b.statement(sts, sentence, "lab.standards.traceability", ref="senscal_traceability", traceable=claimed)
     if run.conformity:
         rule = f" Decision rule: {run.decision_rule}" if run.decision_rule else ""
         enum = {v.lower(): v for v in ("pass", "fail", "conditionalPass", "conditionalFail", "noPass", "noFail")}
@@ -447,20 +453,22 @@ def _administrative(b: _Builder, root: ET.Element, info: CertificateInfo, today:
 
 
 def _num(x: float, what: str) -> str:
-    """Shortest decimal that reads back as the same double (round trip exact)."""
+    """The value to 12 significant digits, as the shortest decimal of that (no float noise such as
+    ``0.10000000000000003``; 12 digits are far below any uncertainty a calibration states)."""
     v = float(x)
     if not math.isfinite(v):
         raise DccError(f"{what} is {v}; a certificate cannot state a non-finite value, check the result")
-    return repr(v)
+    return repr(float(f"{v:.12g}"))
 
 
 def _k(x: float, what: str) -> str:
+    """The coverage factor to 3 significant digits, as the certificate prints it (2, 2.03, 2.87)."""
     v = float(x)
     if not math.isfinite(v) or v < 1:
         raise DccError(f"coverage factor of {what} is {v}; it must be a finite number >= 1")
-    s = repr(v)
+    s = f"{v:.3g}"
     # D-SI's kValueType allows no exponent
-    return s if "e" not in s else f"{v:.12f}".rstrip("0")
+    return s if "e" not in s else f"{v:.0f}"
 
 
 def _real_list(b: _Builder, parent: ET.Element, label: str, values: Sequence[float], unit: str,
@@ -561,8 +569,8 @@ def _response_points(b: _Builder, results: ET.Element, pts: Sequence[Any], unit:
     _list_quantity(b, lst, "Sensitivity", f"senscal_sensitivity{tag}", [p.sensitivity for p in pts], unit, U, k)
     if all(p.normalized_sensitivity is not None for p in pts):
         U, k = _budget_U([p.normalized_budget for p in pts], [p.u_normalized_sensitivity for p in pts],
-                         "normalised sensitivity")
-        _list_quantity(b, lst, "Normalised sensitivity S_i/S_0", f"senscal_normalizedSensitivity{tag}",
+                         "normalized sensitivity")
+        _list_quantity(b, lst, "Normalized sensitivity S_i/S_0", f"senscal_normalizedSensitivity{tag}",
                        [p.normalized_sensitivity for p in pts], "1", U, k)
     if all(p.phase_delay is not None for p in pts):
         U, k = _budget_U([p.phase_delay_budget for p in pts], [p.u_phase_delay for p in pts], "phase delay")

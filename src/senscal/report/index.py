@@ -22,6 +22,7 @@ table{border-collapse:collapse;margin:.8em 0}td,th{border:1px solid #ccc;padding
 th{background:#f4f4f4}td:first-child,th:first-child{text-align:left}
 img{max-width:100%;border:1px solid #eee}
 nav a{margin-right:1em}
+td.note{text-align:left;font-size:.85em;color:#555;max-width:22em}
 </style></head><body>
 <h1>senscal demo</h1>
 <p class="sub">Every job run on simulated data with known truth &middot; {{ when }} &middot; seed {{ seed }}</p>
@@ -29,8 +30,8 @@ nav a{margin-right:1em}
 {% for s in sections %}
 <section id="{{ s.key }}"><h2>{{ s.title }}</h2>
 <p>{{ s.summary }}</p>
-{% if s.rows %}<table><tr><th>quantity</th><th>truth</th><th>estimate</th><th>u (k=1)</th><th>U (k=2)</th><th>unit</th></tr>
-{% for r in s.rows %}<tr><td>{{ r.quantity }}</td><td>{{ fmt(r.truth) }}</td><td>{{ fmt(r.estimate) }}</td><td>{{ fmtu(r.uncertainty) }}</td><td>{{ fmt2(r.uncertainty) }}</td><td>{{ r.unit or "" }}</td></tr>
+{% if s.rows %}{% set notes = s.rows | selectattr("note", "defined") | list %}<table><tr><th>quantity</th><th>truth</th><th>estimate</th><th>u (k=1)</th><th>U (k=2)</th><th>unit</th>{% if notes %}<th>note</th>{% endif %}</tr>
+{% for r in s.rows %}<tr><td>{{ r.quantity }}</td><td>{{ fmt(r.truth) }}</td><td>{{ fmt(r.estimate) }}</td><td>{{ fmtu(r.uncertainty) }}</td><td>{{ fmt2(r.uncertainty) }}</td><td>{{ r.unit or "" }}</td>{% if notes %}<td class="note">{{ r.note or "" }}</td>{% endif %}</tr>
 {% endfor %}</table>{% endif %}
 {% for t in s.tables %}<h3>{{ t.title }}</h3><table><tr>{% for c in t.columns %}<th>{{ c }}</th>{% endfor %}</tr>
 {% for row in t.rows %}<tr>{% for v in row %}<td>{{ fmt(v) }}</td>{% endfor %}</tr>{% endfor %}</table>{% endfor %}

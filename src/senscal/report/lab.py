@@ -23,7 +23,7 @@ import math
 import os
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Sequence, Any, Mapping
 
 from senscal._result import ResultMixin
 from senscal.errors import InputError
@@ -67,6 +67,37 @@ class Standard(ResultMixin):
     traceability: str = ""
     due: str = ""
     u_relative: float | None = None
+
+    @property
+    def traceable(self) -> bool:
+        """Whether this standard carries a traceability statement (not empty, not "none..." / "not ...")."""
+        text = self.traceability.strip().lower()
+        return bool(text) and not (text.startswith("none") or text.startswith("not ") or text.startswith("no "))
+
+    def due_status(self, on: str) -> str:
+        """``""`` when in date on ``on`` (ISO date), ``"missing"`` without a due date, ``"overdue"`` past it."""
+        if not self.due:
+            return "missing"
+        first = (on or "").split("/")[-1][:10]
+        return "overdue" if first and self.due[:10] < first else ""
+
+
+def traceability_claim(standards: Sequence["Standard"]) -> tuple[bool, str]:
+    """Whether the standards support an SI traceability claim, and the sentence a certificate prints.
+
+    The claim follows from the standards: it is made only when at least
+    one standard is listed and every one of them carries a traceability
+    statement; otherwise the sentence names the standards without one.
+    """
+    if not standards:
+        return False, ""
+    lacking = [s for s in standards if not s.traceable]
+    if not lacking:
+        return True, ("The measurements are metrologically traceable to the International System of Units (SI) "
+                      "through the reference standards above, whose own calibration certificates are listed.")
+    names = ", ".join(f"'{s.name}'" + (f" ({s.traceability})" if s.traceability else "") for s in lacking)
+    return False, (f"No metrological traceability to the SI is claimed: no traceability is stated for the "
+                   f"reference standard(s) {names}.")
 
 
 @dataclass(frozen=True)
@@ -397,19 +428,25 @@ def signing_approvers(info: CertificateInfo) -> tuple[Person, ...]:
     return chosen
 
 
-def example_info(*, item: str, model: str, serial: str, certificate_id: str) -> CertificateInfo:
+def example_info(*, item: str, model: str, serial: str, certificate_id: str,
+                 standards: Sequence[Standard] | None = None) -> CertificateInfo:
     """A filled-in, fictitious lab and run for one item: what ``senscal demo`` certifies its simulated sensors with.
 
     Every required field is given (no DRAFT mark) and every value says it
     is fictitious or simulated, so a demo certificate cannot pass for a real one.
+    Its standards are in date (due a year from today) and state that they
+    are simulated, so the certificate claims no traceability to the SI.
     """
     import datetime as _dt
 
+    due = (_dt.date.today() + _dt.timedelta(days=365)).isoformat()
+    if standards is None:
+        standards = (Standard("Double centrifuge (simulated)", "SIM-001", "SIM-CERT-0001", "none: simulated data",
+                              due, 0.0005),)
     lab = LabProfile(name="senscal demo laboratory (fictitious)", address="1 Example Street\n12345 Example Town",
                      accreditation="none: demonstration only", procedure="DEMO-VIB-01", email="lab@example.org",
                      country="DE", approvers=(Person("A. Example", "Head of laboratory (fictitious)"),),
-                     standards=(Standard("Double centrifuge and position reference (simulated)", "SIM-001",
-                                         "SIM-CERT-0001", "none: simulated data", "", 0.0005),))
+                     standards=tuple(standards))
     run = RunInfo(certificate_id=certificate_id, customer="Demo customer (fictitious)",
                   customer_address="2 Example Road, 12345 Example Town", customer_email="customer@example.org",
                   item=item, manufacturer="senscal simulator", model=model, serial=serial,
