@@ -22,7 +22,7 @@ from senscal.errors import DataError, TooFewSamplesError
 from senscal.sinefit import SineFit, fit_sine, wrap_phase
 
 __all__ = ["PairFit", "fit_pair", "AngleSync", "cut_whole_revolutions", "fit_against_angle", "angle_step",
-           "EncoderAngle", "encoder_angle", "encoder_effect"]
+           "angle_grid", "EncoderAngle", "encoder_angle", "EncoderEffect", "encoder_effect"]
 
 TWO_PI = 2.0 * math.pi
 
@@ -451,8 +451,30 @@ def _quantile_with_noise(delta: np.ndarray, u_fit: float, level: float = 0.95) -
     return 0.5 * (lo + hi)
 
 
+@dataclass(frozen=True)
+class EncoderEffect(ResultMixin):
+    """What a quantised encoder leaves in a fit against the angle (:func:`encoder_effect`).
+
+    Attributes
+    ----------
+    u_amplitude, u_phase : float
+        The component for the record's own budget: combined with the fit's
+        u by root sum of squares it gives the 95 % half-width ``U / 2`` of the
+        bounded-plus-normal sum (output unit, rad).
+    sd_amplitude, sd_phase : float
+        The standard deviations of the effect over the grid positions: the
+        standard uncertainty to propagate when the record's phase is combined
+        with other records' (their bounded errors add up to a nearly normal sum).
+    """
+
+    u_amplitude: float
+    u_phase: float
+    sd_amplitude: float
+    sd_phase: float
+
+
 def encoder_effect(enc: EncoderAngle, t, amplitude: float, phase: float, *, u_amplitude: float, u_phase: float,
-                   harmonics: int = 1, drift: bool = False) -> tuple[float, float]:
+                   harmonics: int = 1, drift: bool = False) -> EncoderEffect:
     """Type B standard uncertainties the encoder step leaves in a fit against the angle.
 
     The error of a quantised angle depends on where the count grid lies
@@ -485,11 +507,10 @@ def encoder_effect(enc: EncoderAngle, t, amplitude: float, phase: float, *, u_am
 
     Returns
     -------
-    u_amplitude_b, u_phase_b : float
-        Standard uncertainties of the amplitude (output unit) and the phase (rad).
+    EncoderEffect
     """
     if enc.step_deg is None or not amplitude > 0:
-        return 0.0, 0.0
+        return EncoderEffect(0.0, 0.0, 0.0, 0.0)
     t = np.asarray(t, dtype=float)
     a = np.asarray(enc.angle_deg, dtype=float)
     sign = 1.0 if a[-1] >= a[0] else -1.0
@@ -523,4 +544,4 @@ def encoder_effect(enc: EncoderAngle, t, amplitude: float, phase: float, *, u_am
     for d, u in ((d_amp, float(u_amplitude)), (d_ph, float(u_phase))):
         half = _quantile_with_noise(d, u)
         out.append(math.sqrt(max((0.5 * half) ** 2 - u * u, 0.0)))
-    return out[0], out[1]
+    return EncoderEffect(out[0], out[1], float(np.sqrt(np.mean(d_amp**2))), float(np.sqrt(np.mean(d_ph**2))))

@@ -268,7 +268,7 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         raise InputError("encoder lines and the angle's u describe a turntable angle channel: give the angle too")
     y = np.asarray(output, dtype=float)
     enc = None
-    u_amp_q = u_ph_q = 0.0
+    u_amp_q = u_ph_q = sd_ph_q = 0.0
     t = np.asarray(t, dtype=float)
     sync = None
     if reference is not None:
@@ -302,9 +302,10 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
             enc = encoder_angle(np.asarray(angle_deg, dtype=float)[sl], t[sl],
                                 step_deg=None if encoder_lines is None else 360.0 / encoder_lines)
             fit = fit_against_angle(y[sl], enc.angle_deg, harmonics=harmonics, drift=drift)
-            u_amp_q, u_ph_q = encoder_effect(enc, t[sl], float(fit.amplitude), float(fit.phase),
-                                             u_amplitude=float(fit.u_amplitude), u_phase=float(fit.u_phase),
-                                             harmonics=harmonics, drift=drift)
+            eff = encoder_effect(enc, t[sl], float(fit.amplitude), float(fit.phase),
+                                 u_amplitude=float(fit.u_amplitude), u_phase=float(fit.u_phase),
+                                 harmonics=harmonics, drift=drift)
+            u_amp_q, u_ph_q, sd_ph_q = eff.u_amplitude, eff.u_phase, eff.sd_phase
             f, u_f = sync.frequency, sync.u_frequency
             warns = _angle_fit_warnings(fit, enc)
             if enc.unresolved_grid_deg is not None:
@@ -342,8 +343,10 @@ def response_point(output, t, *, input_amplitude: float | None = None, reference
         comps_b = [("input amplitude", "B", u_input * s)]
         if enc is not None and enc.step_deg is not None:
             comps_b.append(("encoder step", "B", u_amp_q / a_in))
-        # the output phase at angle 0 carries the encoder's steps too (apply_phase_reference uses it)
-        phase, u_phase = float(fit.phase), math.hypot(float(fit.u_phase), u_ph_q)
+        # The output phase at angle 0 carries the encoder's steps too.  apply_phase_reference combines it with other
+        # records' phases, whose bounded errors add up to a nearly normal sum: their standard deviation, not the
+        # single record's 95 % equivalent, is the u to combine.
+        phase, u_phase = float(fit.phase), math.hypot(float(fit.u_phase), sd_ph_q)
         n, snr = fit.n_samples, float(fit.snr_db)
         dof = _fit_dof(fit)
     if not a_out > 0:
@@ -440,8 +443,8 @@ def phase_reference_run(output, t, angle_deg, *, harmonics: int = 1, drift: bool
     fit = fit_against_angle(y[sl], enc.angle_deg, harmonics=harmonics, drift=drift)
     if not float(fit.amplitude) > 0:
         raise DataError(f"the phase-reference run {source} carries no sinusoid; check the file and --output")
-    _, u_q = encoder_effect(enc, t[sl], float(fit.amplitude), float(fit.phase), u_amplitude=float(fit.u_amplitude),
-                            u_phase=float(fit.u_phase), harmonics=harmonics, drift=drift)
+    u_q = encoder_effect(enc, t[sl], float(fit.amplitude), float(fit.phase), u_amplitude=float(fit.u_amplitude),
+                         u_phase=float(fit.u_phase), harmonics=harmonics, drift=drift).sd_phase
     return PhaseReference(source, float(sync.frequency), float(fit.phase), math.hypot(float(fit.u_phase), u_q),
                           _fit_dof(fit))
 
