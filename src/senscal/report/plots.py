@@ -30,9 +30,44 @@ def literal_text(fig: Figure) -> Figure:
     """
     from matplotlib.text import Text
 
+    _plain_tick_labels(fig)
     for t in fig.findobj(Text):
         t.set_parse_math(False)
     return fig
+
+
+_SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
+
+
+def _pow10(v: float, _pos=None) -> str:
+    """``10⁻⁴`` for a power of ten, else the plain number (a log axis' tick label without TeX)."""
+    import math
+
+    if v <= 0 or not math.isfinite(v):
+        return ""
+    e = math.log10(v)
+    if abs(e - round(e)) < 1e-9:
+        n = int(round(e))
+        return f"{v:g}" if -2 <= n <= 3 else "10" + str(n).translate(_SUPERSCRIPT)
+    return ""
+
+
+def _plain_tick_labels(fig: Figure) -> None:
+    """Tick labels that need no TeX: log axes as ``10⁻⁴`` (their default is mathtext, which literal text
+    prints raw as ``$\\mathdefault{10^{-4}}$``) and plain axes without an offset label (``1e-6+5e-2``
+    above an axis reads as a typo: the ticks carry the full values instead)."""
+    from matplotlib.ticker import FuncFormatter, LogFormatterMathtext, NullFormatter, ScalarFormatter
+
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            major = axis.get_major_formatter()
+            if isinstance(major, LogFormatterMathtext):
+                axis.set_major_formatter(FuncFormatter(_pow10))
+                if isinstance(axis.get_minor_formatter(), LogFormatterMathtext):
+                    axis.set_minor_formatter(NullFormatter())
+            elif isinstance(major, ScalarFormatter):
+                major.set_useOffset(False)
+                major.set_useMathText(False)
 
 
 def save_figure(fig: Figure, path: str | Path, *, dpi: int = 110) -> Path:
