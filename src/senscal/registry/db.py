@@ -309,6 +309,10 @@ def current_revision(engine: Engine) -> str | None:
             return None
         rows = sorted(r[0] for r in conn.execute(sa.text("SELECT version_num FROM alembic_version")))
         conn.rollback()
+    if any(not isinstance(r, str) or not r.strip() or not r.isprintable() for r in rows):
+        # alembic asserts on an empty revision; senscal never writes one.
+        raise InputError(f"the registry {mask_url(engine.url)} has a damaged schema revision {rows!r} (table "
+                         "alembic_version); restore the database from a backup or an export")
     return "+".join(rows) if rows else None
 
 

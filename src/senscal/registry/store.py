@@ -16,7 +16,7 @@ import sqlalchemy as sa
 from sqlalchemy.exc import DBAPIError, IntegrityError, InterfaceError, OperationalError
 
 from senscal._result import ResultMixin, to_jsonable
-from senscal.errors import DataError, FileFormatError, InputError, TooFewSamplesError
+from senscal.errors import DataError, FileFormatError, InputError, SenscalError, TooFewSamplesError
 from senscal.registry import db
 from senscal.registry.chain import GENESIS, ChainReport, canonical_content, link
 from senscal.registry.db import UTC, calibrations, quantities, registry_chain, sensors
@@ -287,15 +287,43 @@ _INSERT_CALIBRATION = calibrations.insert()
 _INSERT_QUANTITY = quantities.insert()
 
 
+class TamperedRegistryError(SenscalError):
+    """The database holds a value senscal never writes (edited behind its back): exit 3, like a broken chain."""
+
+    exit_code = 3
+
+
+def _tampered(url: str, what: str) -> TamperedRegistryError:
+    from senscal.diagnostics import named
+
+    return TamperedRegistryError(named("registry-tampered", (
+        f"{url}: {what}; it was edited behind senscal's back (the database's own checks bypassed); restore the "
+        "database from a backup or an export and compare")))
+
+
 def _db_errors(method):
-    """Turn a lost server, a locked or read-only database into a one-line error (password masked)."""
+    """Turn a lost server, a locked or read-only database into a one-line error (password masked).
+
+    A stored value that does not decode (a date that is no date, JSON that is
+    no JSON, bytes that are no UTF-8 text) was not written by senscal: it is
+    reported as tampering (exit 3), not as an internal error.
+    """
 
     @functools.wraps(method)
     def wrapper(self, *args, **kwargs):
         try:
             return method(self, *args, **kwargs)
         except (OperationalError, InterfaceError) as exc:
+            if "could not decode" in str(exc.orig).lower():
+                raise _tampered(self.url, f"a stored text is not UTF-8 ({db._scrub(exc.orig, self._url)})") from None
             raise InputError(f"registry database {self.url} failed: {db._scrub(exc.orig, self._url)}") from None
+        except SenscalError:
+            raise
+        except (ValueError, TypeError, KeyError, AttributeError) as exc:
+            # Raised while the driver's rows are turned into datetimes / JSON (senscal's own checks raise
+            # SenscalErrors): a value no senscal wrote.
+            raise _tampered(self.url, f"a stored value does not decode ({type(exc).__name__}: "
+                                      f"{' '.join(str(exc).split())[:160]})") from None
 
     return wrapper
 
