@@ -204,7 +204,13 @@ def _stdin_chunks(chunk_size: int, opts):
 
     def readline() -> str:
         try:
-            return stream.readline()
+            line = stream.readline()
+            line.encode("utf-8")  # stdin decodes bad bytes to surrogates (surrogateescape): not UTF-8 text either
+            return line
+        except UnicodeEncodeError as exc:
+            raise InputError(f"standard input is not UTF-8 text (bad bytes "
+                             f"{exc.object[exc.start:exc.end].encode('utf-8', 'surrogateescape')!r}); "
+                             "pipe CSV text, or give a binary recording as a file name") from None
         except UnicodeDecodeError as exc:
             raise InputError(f"standard input is not UTF-8 text (bad byte {exc.object[exc.start:exc.start + 1]!r}); "
                              "pipe CSV text, or give a binary recording as a file name") from None

@@ -784,6 +784,11 @@ def _correct_drift(setup, y, t, covariates, *, window, smooth, false_alarm_rate,
             raise InputError(f"covariate {name} is given different reference values {sorted(refs)}; use one")
         ref = refs.pop() if refs else float(np.mean(c))
         cov[name] = c - ref
+        if not (math.isfinite(ref) and np.all(np.abs(cov[name]) < 1e154)):
+            # The filter squares the referenced covariate (1e308 made the eigenvalue solver fail).
+            raise InputError(f"covariate {name} minus its reference {ref:g} reaches "
+                             f"{float(np.max(np.abs(cov[name]))):.3g}; give a reference within the covariate's "
+                             "range (--covariate-reference, e.g. the value at the last calibration)")
     dt = np.empty(T)
     dt[1:] = np.diff(tt)
     dt[0] = dt[1]

@@ -461,17 +461,41 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
         sig = doc.get("signal") or {}
         if not isinstance(sig, dict):
             raise TypeError("signal must be a mapping")
-        signal = SignalModel(**sig)
+        signal = SignalModel(**_numbers(sig, ("level", "tau", "mean"), "signal", path, arrays=("F", "Q", "H")))
         biases = []
         for b in doc.get("biases") or []:
             if not isinstance(b, dict):
                 raise TypeError("each bias must be a mapping")
-            biases.append(Bias(**b))
+            biases.append(Bias(**_numbers(b, ("reference", "level", "tau", "lag"), "bias", path)))
+        noise = doc.get("noise_std") or {}
+        if not isinstance(noise, dict):
+            raise TypeError("noise_std must be a mapping channel: standard deviation")
+        noise = _numbers(noise, tuple(noise), "noise_std", path)
         return DriftSetup(channels=tuple(doc["channels"]), signal=signal, biases=tuple(biases),
-                          noise_std=doc.get("noise_std") or {}, trusted=tuple(doc.get("trusted") or ()),
+                          noise_std=noise, trusted=tuple(doc.get("trusted") or ()),
                           ar_noise=tuple(doc.get("ar_noise") or ()))
     except TypeError as exc:
         raise FileFormatError(f"model file {path}: {exc}") from None
+
+
+def _numbers(d: dict, keys: tuple, where: str, path, arrays: tuple = ()) -> dict:
+    """``d`` with the numbers at ``keys`` (and number arrays at ``arrays``) checked: a string there is one line."""
+    out = dict(d)
+    for k in keys:
+        v = out.get(k)
+        if v is None:
+            continue
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            raise FileFormatError(f"model file {path}: {where} {k} must be a number, got {v!r}")
+        out[k] = float(v)
+    for k in arrays:
+        if out.get(k) is not None:
+            try:
+                np.asarray(out[k], dtype=float)
+            except (TypeError, ValueError):
+                raise FileFormatError(f"model file {path}: {where} {k} must be a matrix of numbers, "
+                                      f"got {out[k]!r}") from None
+    return out
 
 
 def _signal_blocks(sig: SignalModel, dt: np.ndarray, level: float | None) -> tuple[np.ndarray, np.ndarray]:
