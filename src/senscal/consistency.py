@@ -63,7 +63,9 @@ class QuantityConsistency(ResultMixin):
     birge_ratio : float
         ``sqrt(chi2 / dof)`` (1 when the u are right).
     limit : float
-        Chi-square quantile the statistic was compared with (level ``alpha / Q``).
+        Quantile the statistic was compared with (level ``alpha / Q``):
+        chi-square with ``dof``, or ``dof`` times F(dof, nu) when the blocks'
+        u have ``nu`` degrees of freedom.
     p_value : float
         Upper-tail probability of ``chi2``.
     consistent : bool
@@ -152,8 +154,11 @@ def block_consistency(fit: Callable[[np.ndarray], Mapping[str, tuple[float, floa
     Parameters
     ----------
     fit : callable
-        ``fit(indices) -> {name: (value, standard_u)}`` for the samples at
-        ``indices``.  It may raise :class:`senscal.errors.SenscalError` for
+        ``fit(indices) -> {name: (value, standard_u)}`` or ``{name: (value,
+        standard_u, dof)}`` for the samples at ``indices``; ``dof`` is the
+        degrees of freedom of ``u`` (u estimated from few residuals scatters:
+        the test then compares ``chi2 / (K - 1)`` with an F quantile with the
+        smallest ``dof``, not with a chi-square one).  It may raise :class:`senscal.errors.SenscalError` for
         a block it cannot fit; that block is left out.  Values must be
         comparable between blocks (the same reference time for a phase).
     blocks : sequence of ndarray
@@ -172,7 +177,9 @@ def block_consistency(fit: Callable[[np.ndarray], Mapping[str, tuple[float, floa
 
     from senscal.errors import SenscalError
 
-    per: dict[str, list[tuple[float, float]]] = {}
+    from scipy.stats import f as f_dist
+
+    per: dict[str, list[tuple[float, float, float]]] = {}
     n_ok = 0
     for idx in blocks:
         try:
@@ -180,16 +187,18 @@ def block_consistency(fit: Callable[[np.ndarray], Mapping[str, tuple[float, floa
         except SenscalError:
             continue
         n_ok += 1
-        for name, (v, u) in out.items():
-            per.setdefault(name, []).append((float(v), float(u)))
+        for name, vu in out.items():
+            dof = float(vu[2]) if len(vu) > 2 and vu[2] is not None else math.inf
+            per.setdefault(name, []).append((float(vu[0]), float(vu[1]), dof))
     names = [nm for nm, vals in per.items() if len(vals) >= 2]
     q = max(len(names), 1)
     res = []
     for nm in names:
-        v = np.array([a for a, _ in per[nm]])
-        u = np.array([b for _, b in per[nm]])
+        v = np.array([a for a, _, _ in per[nm]])
+        u = np.array([b for _, b, _ in per[nm]])
+        nu = np.array([c for _, _, c in per[nm]])
         good = np.isfinite(v) & np.isfinite(u) & (u > 0)
-        v, u = v[good], u[good]
+        v, u, nu = v[good], u[good], nu[good]
         if v.size < 2:
             continue
         if nm in circular:
@@ -199,8 +208,14 @@ def block_consistency(fit: Callable[[np.ndarray], Mapping[str, tuple[float, floa
         mean = float(np.sum(w * v) / np.sum(w))
         c2 = float(np.sum(w * (v - mean) ** 2))
         dof = int(v.size - 1)
-        lim = float(chi2_dist.isf(alpha / q, dof))
-        pv = float(chi2_dist.sf(c2, dof))
+        nu_min = float(np.min(nu))
+        if math.isfinite(nu_min) and nu_min > 0:
+            # u^2 from nu dof is chi2_nu / nu: the ratio of the scatter to it is F(K-1, nu).
+            lim = float(dof * f_dist.isf(alpha / q, dof, nu_min))
+            pv = float(f_dist.sf(c2 / dof, dof, nu_min))
+        else:
+            lim = float(chi2_dist.isf(alpha / q, dof))
+            pv = float(chi2_dist.sf(c2, dof))
         res.append(QuantityConsistency(nm, tuple(v.tolist()), tuple(u.tolist()), mean, c2, dof,
                                        math.sqrt(c2 / dof), lim, pv, c2 <= lim))
     return BlockConsistency(n_ok, tuple(res), alpha)

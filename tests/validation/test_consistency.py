@@ -61,3 +61,15 @@ def test_phases_are_compared_on_the_circle_and_failed_blocks_left_out():
 
     res = block_consistency(fit, split_blocks(40, 4), circular=("phase",))
     assert res.n_blocks == 3 and res.consistent
+
+
+def test_u_from_few_degrees_of_freedom_widens_the_limit():
+    from scipy.stats import chi2
+
+    vals = [(0.0, 1.0), (1.0, 1.0), (-1.0, 1.0), (0.5, 1.0)]
+    known = block_consistency(lambda idx: {"x": vals[int(idx[0]) // 10]}, split_blocks(40, 4))
+    few = block_consistency(lambda idx: {"x": (*vals[int(idx[0]) // 10], 10.0)}, split_blocks(40, 4))
+    assert known.quantities[0].limit == pytest.approx(chi2.isf(ALPHA, 3))
+    # u^2 from 10 dof: the scatter ratio is F(3, 10), whose 1 % point is 6.55 (x 3 = 19.7 > 11.3).
+    assert few.quantities[0].limit == pytest.approx(3 * 6.552, rel=1e-3)
+    assert few.quantities[0].chi2 == known.quantities[0].chi2

@@ -509,7 +509,8 @@ def block_check(y, t, fit: SineFit, *, harmonics: int = 1, noise_model: str = "a
 
     def one(idx):
         b = fit_sine(y[idx], t[idx], freq=f0, harmonics=harmonics, noise_model=noise_model)
-        return {"amplitude": (b.amplitude, b.u_amplitude), "phase": (b.phase, b.u_phase),
-                "offset": (b.offset, b.u_offset)}
+        nu = float(b.dof_effective)
+        return {"amplitude": (b.amplitude, b.u_amplitude, nu), "phase": (b.phase, b.u_phase, nu),
+                "offset": (b.offset, b.u_offset, nu)}
 
     return block_consistency(one, [idx_all[ix] for ix in split_blocks(idx_all.size, blocks)], circular=("phase",))
