@@ -288,6 +288,13 @@ def main(argv: Sequence[str] | None = None) -> None:
         args.remove("--mkdir")  # accepted anywhere, like --debug
     saved_showwarning = warnings.showwarning
     warnings.showwarning = _show_warning
+    # Library log records (nptdms prints "[nptdms.reader WARNING] ..." with its own handler for a damaged
+    # file) would break the one-line promise like library warnings do; --debug lets them through.
+    import logging
+
+    saved_disable = logging.root.manager.disable
+    if not debug_enabled():
+        logging.disable(logging.CRITICAL)
     try:
         with protect_inputs():
             allow_new_folders(mkdir)
@@ -348,4 +355,5 @@ def main(argv: Sequence[str] | None = None) -> None:
               "traceback", 1)
     finally:
         warnings.showwarning = saved_showwarning
+        logging.disable(saved_disable)
     sys.exit(rv if isinstance(rv, int) else 0)
