@@ -72,3 +72,15 @@ def test_amplitude_step_mid_record_is_inconsistent_blocks():
     assert "inconsistent-blocks" in warning_names(res.warnings)
     q = {x.name: x for x in res.consistency["ch1"].quantities}
     assert not q["amplitude"].consistent and q["amplitude"].birge_ratio > 3
+
+
+def test_simulate_sine_instrument_options(cli, tmp_path):
+    r = cli("simulate", "sine", "--out", tmp_path, "--seed", "1", "--channels", "1", "--full-scale", "2.5",
+            "--adc-bits", "10", "--jitter", "1e-5", "--flicker", "0.001")
+    assert r.code == 0, r.err
+    truth = json.loads((tmp_path / "sine_truth.json").read_text())
+    assert truth["clip"] == 2.5 and truth["lsb"] == 5.0 / 1024 and truth["jitter_s"] == 1e-5
+    y = np.loadtxt(tmp_path / "sine.csv", delimiter=",", skiprows=1)[:, 1]
+    assert np.all(np.abs(y) <= 2.5) and np.allclose(y / (5.0 / 1024), np.round(y / (5.0 / 1024)))
+    bad = cli("simulate", "sine", "--out", tmp_path / "x", "--adc-bits", "8")
+    assert bad.code == 2 and "--full-scale" in bad.err
