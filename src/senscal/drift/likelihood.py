@@ -154,16 +154,15 @@ class LevelLikelihood:
                 dn = dict(levels)
                 up[k] = v * np.exp(_H_LOG)
                 dn[k] = v * np.exp(-_H_LOG)
-                Fu, Hu, Qu, _, _, Pu, _ = self._assemble(up)
-                Fd, Hd, Qd, _, _, Pd, _ = self._assemble(dn)
+                # Whole models at the two time constants (two builds, the linear parts stay cached).
+                Fu, Hu, Qu, _, _, Pu = self._raw(up)
+                Fd, Hd, Qd, _, _, Pd = self._raw(dn)
                 dQ[i] = (Qu - Qd) / (2 * _H_LOG)
                 dP0[i] = (Pu - Pd) / (2 * _H_LOG)
                 if useF[i]:
                     dF[i] = (Fu - Fd) / (2 * _H_LOG)
                 if useH[i]:
                     dH[i] = (Hu - Hd) / (2 * _H_LOG)
-            # Back to the parts at these levels (the differences moved the cache).
-            self._linear(levels)
         # The frozen gain needs every matrix and derivative constant in time.
         allow = self.allow_ss and max(F.shape[0], H.shape[0], Q.shape[0], dF.shape[1], dH.shape[1], dQ.shape[1]) == 1
         ll, g, _ = score_series(F, H, Q, R, x0, P0, self.y, dF, dH, dQ, dR, dP0, useF, useH, bool(allow), grad)
