@@ -84,6 +84,9 @@ def _parse(text: str):
         unit = reg.parse_units(_pint_text(t))
     except Exception:  # pint raises UndefinedUnitError, DefinitionSyntaxError, TypeError, AssertionError ...
         return None
+    # No unit has a power beyond a few; 'V^999999' would overflow every conversion.
+    if any(not (abs(float(p)) <= 16) for p in dict(unit._units).values()):
+        return None
     return unit
 
 

@@ -6,6 +6,8 @@ import re
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from senscal.errors import InputError
 from senscal.persist.units import check_unit, numerator, same_unit, unit_factor
@@ -124,3 +126,19 @@ def test_option_quantities_refuse_in_one_line(text, fragment):
     assert fragment in str(exc.value) and "\n" not in str(exc.value)
     with pytest.raises(InputError, match="finite"):
         parse_quantity(float("inf"), "m/s^2", option="--a")
+
+
+_TOKENS = ["m", "s", "V", "mV", "g", "deg", "^", "-2", "2", "**", "/", "(", ")", " ", "1e308", "999999", "nan",
+           "degC", "%", "kg", "e", "0.5", "-", "rad", "Hz", "rpm", "\u202e", "\x00", "\u00b2", "\u00b5"]
+
+
+@given(st.one_of(st.text(max_size=14), st.lists(st.sampled_from(_TOKENS), max_size=8).map("".join)))
+def test_any_text_is_a_unit_or_a_one_line_refusal(text):
+    """Header and option text is hostile: pint's own exceptions (overflow, syntax) never escape."""
+    for call in (lambda: factor(text, "V"), lambda: factor("m/s^2", text), lambda: factor(text, text),
+                 lambda: unit_factor(text, "nT", what="x", fix="y"), lambda: parse_quantity(f"1 {text}", "m", option="--o")):
+        try:
+            call()
+        except InputError as exc:
+            assert "\n" not in str(exc).replace(text, "")
+    assert isinstance(same_unit(text, "m"), bool) and isinstance(compatible(text, "V"), bool)
