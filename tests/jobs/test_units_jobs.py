@@ -47,3 +47,22 @@ def test_gfimu_refuses_volts(arrays):
 
     with pytest.raises(InputError, match=r"accelerometer channel .* is in 'V' \(a voltage\).*'m/s\^2'"):
         gfimu(arrays / "v.csv", GfimuOptions(layout=arrays / "layout.csv"))
+
+
+def test_triaxial_calibrate_puts_three_axes_in_one_unit(tmp_path):
+    """x in uT with y, z in nT: the axes are put in the first axis's unit (uT); V among them is refused."""
+    from senscal.jobs.triaxial import TriaxialCalibrateOptions, triaxial_calibrate
+    from senscal.simulate.triaxial import simulate_magnetometer
+
+    rec, _ = simulate_magnetometer(motion="sphere", field=50000.0, seed=5)
+    nt = Recording(dict(rec.channels), t=rec.time, units={c: "nT" for c in "xyz"})
+    mixed = Recording({"x": rec["x"] / 1000.0, "y": rec["y"], "z": rec["z"]}, t=rec.time,
+                      units={"x": "uT", "y": "nT", "z": "nT"})
+    a = triaxial_calibrate(nt, TriaxialCalibrateOptions(field=50000.0))
+    b = triaxial_calibrate(mixed, TriaxialCalibrateOptions(field=50.0))
+    assert b.unit == "uT"
+    np.testing.assert_allclose(np.asarray(b.calibration.calibration.offsets) * 1000.0,
+                               a.calibration.calibration.offsets, rtol=1e-6, atol=1e-6)
+    volts = Recording(dict(rec.channels), t=rec.time, units={"x": "nT", "y": "V", "z": "nT"})
+    with pytest.raises(InputError, match=r"channel 'y' .* is in 'V' \(a voltage\)"):
+        triaxial_calibrate(volts, TriaxialCalibrateOptions(field=50000.0))

@@ -227,6 +227,20 @@ class TriaxialCalibrateResult(JobResult):
         return self.calibration.calibration.apply(self.readings)
 
 
+def _one_unit(rec, chans, source) -> tuple[np.ndarray, str]:
+    """The three axes in one unit (the first axis that names one): ``x [uT], y [nT]`` would fit a wrong ellipsoid."""
+    from senscal.units import factor
+
+    units = [rec.units.get(c, "") for c in chans]
+    unit = next((u for u in units if u.strip()), "")
+    data = rec.data(list(chans))
+    if not unit:
+        return data, unit
+    scale = [factor(u or unit, unit, what=f"channel '{c}' of {source_name(source)}",
+                    fix="give the three axes of one sensor in one kind of unit") for c, u in zip(chans, units)]
+    return data * np.asarray(scale)[:, None], unit
+
+
 def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalibrateOptions()
                        ) -> TriaxialCalibrateResult:
     """Calibrate a three-axis magnetometer or accelerometer from readings in a constant field.
@@ -255,8 +269,7 @@ def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalib
     outlier = None if o.outlier_sigma == 0 else o.outlier_sigma
     # Only static poses use time: a headerless x,y,z file needs no sample rate otherwise.
     rec = o.read(source, channels=list(chans) + list(extra or ()), time_required=o.static, job="triaxial")
-    h = rec.data(list(chans))
-    unit = rec.units.get(chans[0], "")
+    h, unit = _one_unit(rec, chans, source)
     st = None
     if o.static:
         st = detect_static(h, rec.sample_rate, window_s=o.static_window, min_duration_s=o.min_pose)
@@ -275,8 +288,8 @@ def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalib
             raise InputError("--accel-channels needs the readings themselves, not --static pose means; drop --static")
         if set(extra) & set(chans):
             raise InputError("--accel-channels must name the accelerometer's channels, not the calibrated ones")
-        a = rec.data(list(extra))
-        ra = calibrate(a, outlier_sigma=outlier, unit=rec.units.get(extra[0], ""), channels=extra)
+        a, a_unit = _one_unit(rec, extra, source)
+        ra = calibrate(a, outlier_sigma=outlier, unit=a_unit, channels=extra)
         tilt = tilt_heading_report(h, res.calibration.apply(h), a, ra.calibration.apply(a))
     warnings = tuple(res.warnings) + (tuple(ra.warnings) if ra is not None else ())
     if o.static:  # only static poses use time: their windows are in seconds
