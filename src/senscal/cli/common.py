@@ -179,25 +179,26 @@ def check_command_outputs(command_path: str, kw: dict) -> None:
     outputs: dict[str, tuple[str, str]] = {}
     for name, (what, kind) in table.items():
         value = kw.get(name)
-        if not isinstance(value, (str, Path)) or not str(value):
-            continue
-        outputs[str(value)] = (what, kind)
-        if kind == "file" and str(value) != "-":
-            suffix = Path(value).suffix.lower()
-            allowed = {"plot": _plot_suffixes, "report": lambda: _REPORT_SUFFIXES,
-                       "dcc": lambda: (".xml",)}.get(name)
-            if allowed is not None and suffix not in allowed():
-                raise InputError(f"{what} {value} has an unsupported extension {suffix or '(none)'!r}; use one of "
-                                 f"{', '.join(sorted(allowed()))}")
+        if isinstance(value, (str, Path)) and str(value):
+            outputs[str(value)] = (what, kind)
     inputs: dict[str, str] = {}
     for name, value in kw.items():
-        if name in table and table[name][1] != "update":
-            continue  # an output; an in-out one (--state) is compared with the other inputs, not itself
+        if name in table:
+            continue  # an output (an in-out one, --state, is compared with the other inputs, not with itself)
         for v in _path_values(value):
             if v != "-" and Path(v).is_file():
-                inputs.setdefault(v, table[name][0] if name in table else "input")
+                inputs.setdefault(v, "input")
     if outputs:
-        declare_outputs(outputs, inputs)
+        declare_outputs(outputs, inputs)  # an input named as an output is the first thing to say
+    for name, (what, kind) in table.items():
+        value = kw.get(name)
+        if kind != "file" or not isinstance(value, (str, Path)) or str(value) in ("", "-"):
+            continue
+        allowed = {"plot": _plot_suffixes, "report": lambda: _REPORT_SUFFIXES, "dcc": lambda: (".xml",)}.get(name)
+        suffix = Path(value).suffix.lower()
+        if allowed is not None and suffix not in allowed():
+            raise InputError(f"{what} {value} has an unsupported extension {suffix or '(none)'!r}; use one of "
+                             f"{', '.join(sorted(allowed()))}")
 
 
 def split_names(text: str | None) -> list[str] | None:

@@ -202,11 +202,7 @@ def declare_outputs(outputs: dict[str, tuple[str, str]], inputs: dict[str, str] 
             raise InputError(f"{what} and {seen[key]} name the same file {raw}; give each its own name")
         seen[key] = what
         for other, owhat in inputs.items():
-            if other == raw and kind == "update":
-                continue
             if not is_stdio(other) and _same_file(path, Path(other)):
-                if kind == "update" and owhat == what:
-                    continue
                 raise InputError(f"{what} {raw} is also an input of this command"
                                  f"{'' if owhat == 'input' else f' ({owhat})'}; refusing to overwrite it, choose "
                                  "another name")
