@@ -66,3 +66,28 @@ def test_triaxial_calibrate_puts_three_axes_in_one_unit(tmp_path):
     volts = Recording(dict(rec.channels), t=rec.time, units={"x": "nT", "y": "V", "z": "nT"})
     with pytest.raises(InputError, match=r"channel 'y' .* is in 'V' \(a voltage\)"):
         triaxial_calibrate(volts, TriaxialCalibrateOptions(field=50000.0))
+
+
+def test_shaft_accelerometer_in_g_is_in_m_per_s2():
+    """A tangential accelerometer channel in g: calibrate and compensate work in m/s^2 (sensitivity 1)."""
+    from senscal.jobs.shaft import ShaftCalibrateOptions, ShaftCompensateOptions, shaft_calibrate, shaft_compensate
+    from senscal.simulate.shaft import simulate_shaft
+
+    cal, test, _ = simulate_shaft(seed=3, cal_duration=8.0, test_duration=4.0)
+
+    def tagged(rec, unit, scale):
+        return Recording({"angle": rec["angle"], "accel": rec["accel"] * scale}, t=rec.time,
+                         units={"angle": "deg", "accel": unit})
+
+    opts = ShaftCalibrateOptions(angle="angle", accel="accel")
+    si = shaft_calibrate(tagged(cal, "m/s^2", 1.0), opts)
+    g = shaft_calibrate(tagged(cal, "g", 1 / 9.80665), opts)
+    assert g.model.output_unit == "m/s^2"
+    assert g.model.amplitude == pytest.approx(si.model.amplitude, rel=1e-9)
+    assert g.model.tilt == pytest.approx(si.model.tilt, rel=1e-9)
+    comp = dict(angle="angle", accel="accel", model=si.model, radius=0.1)
+    a = shaft_compensate(tagged(test, "m/s^2", 1.0), ShaftCompensateOptions(**comp))
+    b = shaft_compensate(tagged(test, "g", 1 / 9.80665), ShaftCompensateOptions(**comp))
+    np.testing.assert_allclose(b.accel, a.accel, rtol=1e-12)
+    with pytest.raises(InputError, match=r"'V' \(a voltage\) but the sensor was calibrated in 'm/s\^2'"):
+        shaft_compensate(tagged(test, "V", 1.0), ShaftCompensateOptions(**comp))

@@ -45,6 +45,17 @@ def _angle_word(unit: str, name: str) -> str | None:
     raise InputError(f"the angle channel '{name}' is in {unit!r}, {kind}; give it in deg or rad")
 
 
+def _accel_in_si(rec, name: str) -> tuple[np.ndarray, str]:
+    """The accelerometer channel and its unit: an acceleration (``g``, ``mg``) in m/s^2, which
+    ``--sensitivity 1`` means; a sensor output (V, mV) as it is, ``--sensitivity`` being per m/s^2."""
+    from senscal.units import compatible, factor
+
+    data, unit = np.asarray(rec[name], dtype=float), rec.unit(name)
+    if unit.strip() and compatible(unit, "m/s^2"):
+        return data * factor(unit, "m/s^2", what=f"the accelerometer channel '{name}'"), "m/s^2"
+    return data, unit
+
+
 def angle_unit_of(rec, name: str, given: str | None) -> str:
     """The unit of the encoder angle channel: as given, else from the file, else rad.
 
@@ -263,13 +274,14 @@ def shaft_calibrate(source, options: ShaftCalibrateOptions = ShaftCalibrateOptio
     rec = o.read(source, channels=[o.angle, o.accel], job="shaft")
     unit = angle_unit_of(rec, o.angle, o.angle_unit)
     name = source_name(source)
+    accel, accel_unit = _accel_in_si(rec, o.accel)
     model = calibrate_gravity(
-        rec[o.accel], rec[o.angle], rec.time, angle_unit=unit, sensitivity=o.sensitivity,
-        u_sensitivity=o.u_sensitivity, output_unit=rec.unit(o.accel), radius=o.radius,
+        accel, rec[o.angle], rec.time, angle_unit=unit, sensitivity=o.sensitivity,
+        u_sensitivity=o.u_sensitivity, output_unit=accel_unit, radius=o.radius,
         ripple_correction=o.ripple_correction, g=o.g, window=0.1 if o.window is None else o.window,
         max_speed_variation=o.max_speed_variation, u_angle=_u_angle(o.u_angle_deg), source=name)
     return ShaftCalibrateResult(model=model, source=name, angle=angle_to_rad(rec[o.angle], unit),
-                                accel=np.asarray(rec[o.accel], dtype=float), accel_unit=rec.unit(o.accel),
+                                accel=accel, accel_unit=accel_unit,
                                 warnings=merge_time_warnings(model.warnings, rec.warnings))
 
 
