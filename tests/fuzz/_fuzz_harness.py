@@ -261,6 +261,7 @@ def build_corpus(d: Path) -> list[Target]:
 def check_seeds(targets: Sequence[Target], o: Path) -> list[str]:
     """The unmutated seeds must run cleanly (else the fuzz would only exercise the first error)."""
     bad = []
+    o.mkdir(parents=True, exist_ok=True)  # outputs go into an existing folder (a missing one is refused)
     for tg in targets:
         code, _, err = quiet_main(tg.args(tg.seed_file, o))
         if code != 0:
@@ -278,6 +279,7 @@ def fuzz_target(run: Callable[..., object], tg: Target, n_cases: int, seed: int,
         f = work / f"case{i}{tg.suffix}"
         f.write_bytes(mutate(data, rng))
         o = work / f"out{i}"
+        o.mkdir(exist_ok=True)
         kind, detail = run_case(run, tg.args(f, o), [f, *other_inputs], timeout_s)
         tally.add(tg.command, kind, detail)
         with contextlib.suppress(OSError):
