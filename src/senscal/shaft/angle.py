@@ -120,6 +120,10 @@ def savgol_window(window: float, dt: float, n: int) -> int:
     """Odd Savitzky-Golay window length in samples for ``window`` seconds."""
     if not (math.isfinite(window) and window > 0):
         raise InputError(f"smoothing window must be a positive number of seconds, got {window!r}")
+    if not window / dt <= n:
+        # Checked before the conversion to samples: 1e308 s over a short step is infinity, not an integer.
+        raise InputError(f"the smoothing window ({window:g} s) is longer than the record ({n} samples of {dt:g} s); "
+                         "use a shorter --window or a longer record")
     m = int(round(window / dt)) | 1
     m = max(m, POLYORDER + 2)  # the smallest odd window a cubic can be fitted in
     if m > n:
