@@ -819,7 +819,10 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
 
     from senscal.sinefit.noise import coloured_covariance, lag1_significant
 
-    from senscal.sinefit.variance import low_frequency_test, phase_variance, sandwich_covariance
+    from scipy.stats import chi2 as chi2_dist
+
+    from senscal.sinefit.variance import (LOWFREQ_BINS, VARIANCE_ALPHA, low_frequency_power, phase_variance_batch,
+                                          sandwich_covariance)
 
     lag1s = np.full(nch, np.nan)
     models = np.array(["white"] * nch, dtype=object)
@@ -828,17 +831,43 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
     test = noise_model == "auto"
     # The variance-against-phase test (jitter) and the low-frequency test (noise below 1/T).
     het_stat = np.full(nch, np.nan)
-    het_sig = np.zeros(nch, dtype=bool)
     het_c = np.full(nch, np.nan)
     het_uc = np.full(nch, np.nan)
-    lf_stat = np.full(nch, np.nan)
-    lf_sig = np.zeros(nch, dtype=bool)
-    lf_dof = 0
-    ioff = 2 * harmonics
+    lf_dof = 2 * LOWFREQ_BINS
+    het_lim = float(chi2_dist.isf(VARIANCE_ALPHA, 2))
+    pre: dict[str, Any] = {}
+
+    lows = np.full(nch, np.nan)
+
+    def residual_tests(rows, resid2, design, coefs):
+        """Both tests' sums for channels ``rows`` (residuals ``resid2`` sharing ``design``), vectorised."""
+        sn, cs = design[:, 0], design[:, 1]
+        c2, s2 = cs * cs - sn * sn, 2.0 * sn * cs
+        stat, coef, xinv, s2e = phase_variance_batch(resid2, c2, s2)
+        amp2 = coefs[:, 0] ** 2 + coefs[:, 1] ** 2
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # Coefficient of cos 2 theta, theta the fitted phase: the (cos, sin)(2 w tau) ones rotated by 2 phi.
+            c2p, s2p = (coefs[:, 0] ** 2 - coefs[:, 1] ** 2) / amp2, 2.0 * coefs[:, 0] * coefs[:, 1] / amp2
+        het_stat[rows] = np.where(amp2 > 0, stat, np.nan)
+        het_c[rows] = coef[:, 1] * c2p - coef[:, 2] * s2p
+        vg = c2p**2 * xinv[1, 1] - 2.0 * c2p * s2p * xinv[1, 2] + s2p**2 * xinv[2, 2]
+        het_uc[rows] = np.sqrt(np.maximum(vg * s2e, 0.0))
+        if n >= 8 * LOWFREQ_BINS:
+            lows[rows] = low_frequency_power(resid2)
+        pre["mean"] = pre.get("mean", np.full(nch, np.nan))
+        pre["pq"] = pre.get("pq", np.full((nch, 2), np.nan))
+        pre["mean"][rows], pre["pq"][rows] = coef[:, 0], coef[:, 1:]
+        pre["c2"], pre["s2"] = c2, s2
+
+    def bulk_tests(resid_of, design):
+        """``residual_tests`` for every channel, 256 channels at a time (bounded memory)."""
+        for c0 in range(0, nch, 256):
+            c1 = min(c0 + 256, nch)
+            residual_tests(slice(c0, c1), resid_of(c0, c1), design, coef_all[c0:c1])
+        pre["bulk"] = True
 
     def noise_cov(i, resid_w, design_w, ginv, rss_i, omegas, coef_i):
         """White, phase-dependent or coloured covariance of the linear parameters of channel i."""
-        nonlocal lf_dof
         if resid_w is not None and rss_i > 0:
             lag1s[i] = float(resid_w[1:] @ resid_w[:-1]) / rss_i
         switch = noise_model == "coloured" or (test and bool(lag1_significant(lag1s[i], n)))
@@ -852,25 +881,23 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         else:
             cov_lin = ginv * (rss_i / (n - p))
         if sw is not None or not rss_i > 0:
+            het_stat[i] = lows[i] = np.nan
             return cov_lin
-        if resid_w is None or design_w is None:
-            resid_w, design_w = explicit(i)
+        if "bulk" not in pre:
+            if resid_w is None or design_w is None:
+                resid_w, design_w = explicit(i)
+            residual_tests(slice(i, i + 1), resid_w[None, :], design_w, np.asarray(coef_i)[None, :])
         # The variance test's null is independent residuals: a correlated one (coloured, or a non-uniform
         # time base that kept the white formula) is named by the whiteness test instead.
-        if models[i] == "white" and noise_model != "coloured" and not bool(lag1_significant(lag1s[i], n)):
-            amp = math.hypot(coef_i[0], coef_i[1])
-            if amp > 0:
-                sn, cs = design_w[:, 0], design_w[:, 1]
-                pv = phase_variance(resid_w, (coef_i[0] * sn + coef_i[1] * cs) / amp,
-                                    (coef_i[0] * cs - coef_i[1] * sn) / amp)
-                het_stat[i], het_c[i], het_uc[i] = pv.statistic, pv.cos2, pv.u_cos2
-                if pv.significant:
-                    het_sig[i] = True
-                    if test:
-                        models[i] = "phase-dependent"
-                        cov_lin = sandwich_covariance(design_w, ginv, pv.variance, p)
-        lf_stat[i], lf_dof, lf_sig[i] = low_frequency_test(resid_w, math.sqrt(max(cov_lin[ioff, ioff], 0.0)),
-                                                           1 + int(drift))
+        if models[i] != "white" or noise_model == "coloured" or bool(lag1_significant(lag1s[i], n)):
+            het_stat[i] = np.nan
+        elif test and het_stat[i] > het_lim:
+            if design_w is None:
+                resid_w, design_w = explicit(i)
+            a0 = pre["mean"][i]
+            var = np.maximum(a0 + pre["pq"][i, 0] * pre["c2"] + pre["pq"][i, 1] * pre["s2"], 0.01 * max(a0, 0.0))
+            models[i] = "phase-dependent"
+            cov_lin = sandwich_covariance(design_w, ginv, var, p)
         return cov_lin
 
     def col_omegas(wv, with_freq):
@@ -927,6 +954,13 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         rsss[:] = rss
         freqs[:] = freq
         dof = n - p
+        if sw is None and nch > 1:
+            # Both residual tests for all channels at once (one pass of matrix products, not one per channel).
+            if resid_all is None:
+                a_bulk = explicit(0)[1]
+                bulk_tests(lambda c0, c1: y2[c0:c1] - coef_all[c0:c1] @ a_bulk.T, a_bulk)
+            else:
+                bulk_tests(lambda c0, c1: resid_all[c0:c1], explicit(0)[1])
         for i in range(nch):
             if resid_all is None:
                 cov_lin = noise_cov(i, None, None, ginv_all[i], rss[i], omegas, coef_all[i])
@@ -979,6 +1013,12 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
     cov_a = np.array(covs)
     names = q_names
     idx = {nm: j for j, nm in enumerate(names)}
+    # The low-frequency test: the lowest bins' power against the level u(offset) implies (N u^2).
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u_off2 = cov_a[:, idx["offset"], idx["offset"]]
+        lf_stat = np.where(u_off2 > 0, 2.0 * lows / (n * u_off2), np.nan)
+    if not np.any(np.isfinite(lf_stat)):
+        lf_dof = 0
     amp_idx = [idx["amplitude"]] + [idx[f"amplitude_{k}"] for k in range(2, harmonics + 1)]
     # Jitter shrinks harmonic k by exp(-k^2 w^2 delta^2 / 2); the cos(2 theta) coefficient of the
     # residual variance, c = A^2 w^2 delta^2 / 2, measures it (with its u) where the test found it.

@@ -32,13 +32,14 @@ References
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PhaseVariance", "phase_variance", "sandwich_covariance", "low_frequency_test", "VARIANCE_ALPHA",
-           "LOWFREQ_BINS"]
+__all__ = ["PhaseVariance", "phase_variance", "phase_variance_batch", "sandwich_covariance", "low_frequency_test",
+           "low_frequency_power", "VARIANCE_ALPHA", "LOWFREQ_BINS"]
 
 #: False-alarm probability of each test on white, homoscedastic noise (as the whiteness test).
 VARIANCE_ALPHA = 0.01
@@ -92,25 +93,49 @@ def phase_variance(resid: np.ndarray, sin_theta: np.ndarray, cos_theta: np.ndarr
     """
     from scipy.stats import chi2
 
-    r2 = np.asarray(resid, dtype=float) ** 2
-    n = r2.size
     c2 = cos_theta * cos_theta - sin_theta * sin_theta
     s2 = 2.0 * sin_theta * cos_theta
-    x = np.column_stack([np.ones(n), c2, s2])
-    coef, *_ = np.linalg.lstsq(x, r2, rcond=None)
-    fit = x @ coef
-    dev = r2 - fit
-    tss = float(np.sum((r2 - r2.mean()) ** 2))
-    stat = float(n * (1.0 - float(dev @ dev) / tss)) if tss > 0 else 0.0
-    s2e = float(dev @ dev) / max(n - 3, 1)
-    try:
-        cxx = np.linalg.inv(x.T @ x) * s2e
-        u_c = math.sqrt(max(float(cxx[1, 1]), 0.0))
-    except np.linalg.LinAlgError:
-        u_c = math.nan
+    stat, coef, xinv, s2e = phase_variance_batch(np.asarray(resid, dtype=float)[None, :], c2, s2)
+    u_c = math.sqrt(max(float(xinv[1, 1] * s2e[0]), 0.0)) if np.all(np.isfinite(xinv)) else math.nan
     lim = float(chi2.isf(VARIANCE_ALPHA, 2))
-    var = np.maximum(fit, 0.01 * max(float(coef[0]), 0.0))
-    return PhaseVariance(stat, lim, bool(stat > lim), float(coef[0]), float(coef[1]), float(coef[2]), u_c, var)
+    a, c, d = (float(v) for v in coef[0])
+    var = np.maximum(a + c * c2 + d * s2, 0.01 * max(a, 0.0))
+    return PhaseVariance(float(stat[0]), lim, bool(stat[0] > lim), a, c, d, u_c, var)
+
+
+def phase_variance_batch(resid: np.ndarray, cos2: np.ndarray, sin2: np.ndarray):
+    """Koenker's test for many channels that share the regressors ``cos 2 theta``, ``sin 2 theta``.
+
+    Parameters
+    ----------
+    resid : ndarray, shape (C, N)
+        Residuals of C channels.
+    cos2, sin2 : ndarray, shape (N,)
+        The regressors (any common phase reference: the statistic does not
+        depend on it, the coefficients rotate with it).
+
+    Returns
+    -------
+    (statistic, coef, xtx_inv, s2e)
+        ``N R^2`` per channel (C,); coefficients (C, 3) of ``1, cos2, sin2``;
+        ``(X^T X)^-1`` (3, 3); residual variance of the regression per channel
+        (C,): the coefficients' covariance is ``s2e xtx_inv``.
+    """
+    r2 = np.asarray(resid, dtype=float) ** 2
+    n = r2.shape[-1]
+    x = np.column_stack([np.ones(n), cos2, sin2])
+    xtx = x.T @ x
+    try:
+        xinv = np.linalg.inv(xtx)
+    except np.linalg.LinAlgError:
+        xinv = np.full((3, 3), np.nan)
+    coef = (r2 @ x) @ xinv
+    # Residual sum of squares without forming the (C, N) fit: |r2|^2 - b' X'X b.
+    rss = np.einsum("ij,ij->i", r2, r2) - np.einsum("ij,jk,ik->i", coef, xtx, coef)
+    tss = np.einsum("ij,ij->i", r2, r2) - n * r2.mean(axis=1) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stat = np.where(tss > 0, n * (1.0 - rss / tss), 0.0)
+    return stat, coef, xinv, np.maximum(rss, 0.0) / max(n - 3, 1)
 
 
 def sandwich_covariance(design: np.ndarray, ginv: np.ndarray, variance: np.ndarray, n_params: int) -> np.ndarray:
@@ -130,6 +155,24 @@ def sandwich_covariance(design: np.ndarray, ginv: np.ndarray, variance: np.ndarr
     meat = (design * variance[:, None]).T @ design
     cov = ginv @ meat @ ginv * (n / max(n - n_params, 1))
     return 0.5 * (cov + cov.T)
+
+
+def low_frequency_power(resid: np.ndarray, bins: int = LOWFREQ_BINS) -> np.ndarray:
+    """``sum_{k=1..K} I_k`` of the residual periodogram, per channel (rows of ``resid``), unit^2."""
+    r = np.atleast_2d(np.asarray(resid, dtype=float))
+    n = r.shape[-1]
+    # K bins by direct projection: cheaper than a full FFT per channel for K << N.
+    proj = r @ _dft_table(n, bins)
+    return np.sum(proj * proj, axis=-1) / n
+
+
+@functools.lru_cache(maxsize=8)
+def _dft_table(n: int, bins: int) -> np.ndarray:
+    """Columns cos and sin of ``2 pi k i / N`` for k = 1..K, shape (N, 2K) (read-only, cached per N)."""
+    ph = 2.0 * np.pi * np.outer(np.arange(n), np.arange(1, bins + 1)) / n
+    tab = np.concatenate([np.cos(ph), np.sin(ph)], axis=1)
+    tab.flags.writeable = False
+    return tab
 
 
 def low_frequency_test(resid: np.ndarray, u_offset: float, n_fixed: int = 1,
@@ -174,8 +217,6 @@ def low_frequency_test(resid: np.ndarray, u_offset: float, n_fixed: int = 1,
     n = r.size
     if n < 8 * bins or not (u_offset > 0 and math.isfinite(u_offset)):
         return math.nan, 0, False
-    spec = np.fft.rfft(r)[1:bins + 1]
-    per = (spec.real**2 + spec.imag**2) / n
-    stat = float(2.0 * np.sum(per) / (n * u_offset**2))
+    stat = float(2.0 * low_frequency_power(r, bins)[0] / (n * u_offset**2))
     dof = 2 * bins
     return stat, dof, bool(stat > chi2.isf(VARIANCE_ALPHA, dof))

@@ -32,9 +32,10 @@ Instrument departures (issue 25), each an option of the simulator
   2 noise sigmas; the phase-dependent (sandwich) covariance and the
   amplitude's jitter correction must cover; ``warned`` =
   ``heteroscedastic-noise`` fired.
-* ``flicker-10hz``: 1/f noise crossing the white level at 10 Hz (u(offset)
-  5x too small): the offset must be named (``low-frequency-noise``), the
-  others must cover.
+* ``flicker-10hz``, ``flicker-5hz``: 1/f noise crossing the white level at
+  10 Hz (u(offset) 6x too small) or 5 Hz: the offset must be named
+  (``low-frequency-noise`` from the fit, or ``inconsistent-blocks`` from the
+  job's block refit), the others must cover.
 """
 
 from __future__ import annotations
@@ -164,23 +165,29 @@ def _fit3(y):
     return out
 
 
-def _job_rows(case: str, y, t, phase, note: str, *, warning: str | None, expect: dict[str, str],
-              detected=None) -> list[CoverageRow]:
+def _job_rows(case: str, y, t, phase, note: str, *, warning, expect: dict[str, str],
+              detected=None, blocks: bool = False) -> list[CoverageRow]:
     """Fit every seed as ``senscal fit`` does (engine + instrument check), 3p and 4p; one row per quantity.
 
-    ``warning``: the named warning whose firing is ``warned`` (None: ``detected`` gives it, a callable
-    of the instrument findings).  ``expect``: quantity prefix -> "cover" or "warn".
+    ``warning``: the named warning (or tuple of names) whose firing is ``warned`` (None: ``detected``
+    gives it, a callable of the instrument findings).  ``expect``: quantity prefix -> "cover" or
+    "warn".  ``blocks``: also run the job's block consistency check (``inconsistent-blocks``).
     """
-    from senscal.jobs.fit import instrument_check
+    from senscal.jobs.fit import block_check, instrument_check
+
+    names = (warning,) if isinstance(warning, str) else tuple(warning or ())
 
     rows = []
     for label, fits0 in (("3p", _fit3(y)), ("4p", [fit_sine(y[i], fs=FS) for i in range(y.shape[0])])):
         fits, warned = [], []
         for i, f in enumerate(fits0):
-            f2, found, warns, _ = instrument_check(y[i], t, f, freq=FREQ if label == "3p" else None)
+            f2, found, warns, keep = instrument_check(y[i], t, f, freq=FREQ if label == "3p" else None)
             allw = tuple(f2.warnings) + tuple(warns)
+            if blocks:
+                blk = block_check(y[i], t, f2, keep=keep)
+                allw += (blk.warning(),) if blk is not None and not blk.consistent else ()
             fits.append(f2)
-            warned.append(has_warning(allw, warning) if warning else bool(detected(found)))
+            warned.append(any(has_warning(allw, nm) for nm in names) if names else bool(detected(found)))
 
         def col(name):
             return np.array([getattr(f, name) for f in fits])
@@ -240,8 +247,9 @@ def _flicker_run(corner_hz: float, name: str):
         level = math.sqrt(2 * NOISE**2 / FS * corner_hz)
         t, y, phase = simulate_batch(n_seeds, seed0, flicker=level)
         note = (f"1/f noise crossing the white level at {corner_hz:g} Hz; u(offset) must be named "
-                "(low-frequency-noise), the rest must cover")
-        return _job_rows(name, y, t, phase, note, warning="low-frequency-noise", expect={"offset": "warn"})
+                "(low-frequency-noise or inconsistent-blocks), the rest must cover")
+        return _job_rows(name, y, t, phase, note, warning=("low-frequency-noise", "inconsistent-blocks"),
+                         expect={"offset": "warn"}, blocks=True)
     run.__doc__ = f"1/f noise with a corner at {corner_hz:g} Hz."
     return run
 
@@ -257,6 +265,7 @@ _DEPARTED = {
     "jitter-1sigma": _jitter_run(1.0, "jitter-1sigma"),
     "jitter-2sigma": _jitter_run(2.0, "jitter-2sigma"),
     "flicker-10hz": _flicker_run(10.0, "flicker-10hz"),
+    "flicker-5hz": _flicker_run(5.0, "flicker-5hz"),
 }
 
 for _run in (run_white, run_ar1_05, run_ar1_09, run_ar1_09_white_model, run_far_origin):
