@@ -307,6 +307,25 @@ def _compare_models(setup: DriftSetup, y: np.ndarray, t: np.ndarray, covariates,
     return tuple(rows), setups
 
 
+def _lag_warnings(noise: Sequence[NoiseParameter]) -> list[str]:
+    """Named warning when an estimated covariate lag is not determined by the record.
+
+    The coefficient's u holds the lag's uncertainty only where the lag is
+    known to better than a factor e; a lag at its search bound, or spread
+    wider, leaves the coefficient depending on a time constant the data do
+    not fix (a lag comparable to the record trades with the quantity).
+    """
+    bad = [f"{p.name[:-4]} (lag {p.value:.3g} s{', at the search bound' if p.at_bound else ''})"
+           for p in noise if p.estimated and p.name.endswith("_lag")
+           and (p.at_bound or p.std is None or p.std > p.value)]
+    if not bad:
+        return []
+    return [named("covariate-lag-uncertain", (
+        f"the lag between the covariate and the bias is not determined by this record for {'; '.join(bad)}: the "
+        "coefficient and the bias depend on it beyond their stated u; measure the sensor's own temperature, "
+        "give the lag (a model file, lag: SECONDS), or use a longer record with faster covariate changes"))]
+
+
 def _reference_warnings(setup: DriftSetup) -> list[str]:
     """Warn when a defaulted covariate reference fixes a channel's offset.
 
@@ -838,6 +857,7 @@ def _correct_drift(setup, y, t, covariates, *, window, smooth, false_alarm_rate,
     levels = {p.name: p.value for p in noise}
     warnings: list[str] = []
     warnings += _degenerate(setup, noise, mom)
+    warnings += _lag_warnings(noise)
     model = build(levels)
     res = kalman_filter(model, yy)
     if smooth:
