@@ -595,7 +595,11 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     # synchronous average (one bin per sample of a turn: every harmonic the sampling resolves).
     per_turn = tk.size / max(abs(float(tk[-1] - tk[0])) / (2.0 * math.pi), 1.0)
     sync_bins = max(1, int(round(per_turn)))
-    sync_harm = int(math.ceil(3.0 * per_turn / ml)) + 1
+    # At most 16 by least squares (a slow shaft's main lobe holds hundreds, and N x (2K + 1) columns would
+    # not fit): the synchronous average leaves about pi k / (sqrt(3) bins) of harmonic k inside its bins,
+    # which for k = 17 and bins = per_turn > 16 ml / 3 is below 3.2 / ml (1 % for the default 0.3 s
+    # instrument at 1 kHz) of a harmonic that the smooth regressors hardly hold.
+    sync_harm = min(int(math.ceil(3.0 * per_turn / ml)) + 1, 16)
     info = {}
     for name, (xv, zv, cvv) in cands.items():
         xt, zt = synchronous_residual(tk, np.column_stack([xv, zv]), sync_bins, sync_harm).T
@@ -728,10 +732,11 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     e_twice = 2.0 * twice / abs(amp) if amp else 0.0
     e_un = max(e_once - e_max, 0.0)
     twice_seen = twice - abs(amp) * e_max / 2.0 > crit * u_twice
-    # (Once-per-turn ripple the run could not model is named by synchronous-ripple already: one warning a cause.)
-    once_seen = not lost and e_un > crit * u_e_once \
+    once_seen = e_un > crit * u_e_once \
         and (b_sync * w_mean2 * e_un > 0.3 * u[0] or abs(amp) * e_un / 2.0 > 0.3 * u[2])
-    if twice_seen or once_seen:
+    # Ripple locked to the turn that the run could not model is named by synchronous-ripple already, and its
+    # unmodelled harmonics (S r alpha has m^2 / 2 of second harmonic) are twice-per-turn too: one warning a cause.
+    if (twice_seen or once_seen) and not lost:
         what = (f"the accelerometer has a twice-per-turn term of {twice:.3g} ({twice / u_twice:.3g} u), the trace of "
                 f"a {math.degrees(e_twice):.2g} deg once-per-turn angle error (or of a nonlinear sensor)"
                 if twice_seen else

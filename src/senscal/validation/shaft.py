@@ -200,8 +200,9 @@ SCENARIOS = {
 for _run in SCENARIOS.values():
     _run.full_seeds = 400
 run_long.ci_seeds = 20  # 60-turn runs: 0.3 s a seed; CI runs a 20-seed smoke check (catches gross miscoverage)
-# Issue 25 scenarios (0.3-0.5 s a seed): warn rows need 19 of 20 in CI; cover rows 30 seeds catch gross misses.
+# Issue 25 scenarios (0.3-0.5 s a seed): 20 seeds in CI (warn rows need 19 of 20; cover rows catch gross
+# misses, the regression tests in test_shaft_issue25.py pin the cases seed by seed).
 run_angle_sync.ci_seeds = 20
 run_eccentric.ci_seeds = 20
-run_ripple_07.ci_seeds = 30
-run_eccentric_declared.ci_seeds = 30
+run_ripple_07.ci_seeds = 20
+run_eccentric_declared.ci_seeds = 20
