@@ -183,3 +183,27 @@ def test_velocity_with_a_frequency_the_data_do_not_have_is_named(cli, hydraulic)
     assert any(w.startswith("frequency-mismatch: channel 'position'") for w in json.loads(r.out)["warnings"])
     ok = json.loads(_velocity(cli, files, "--freq", "1").out)
     assert not [w for w in ok["warnings"] if w.startswith("frequency-mismatch")]
+
+
+def test_output_unit_names_a_bare_header_and_is_converted(cli, centrifuge):
+    """--output-unit mV on a file whose header gives no unit: the mV are converted to V (S in V/(m/s^2))."""
+    folder, recs, truth = centrifuge
+    volts = _rescaled(recs, folder / "v3", {})
+    bare_mv = _rescaled(recs, folder / "bare_mv", {"output": (1e3, None)})
+    a = _response(cli, volts, "--input-amplitude", "100")
+    b = _response(cli, bare_mv, "--input-amplitude", "100", "--output-unit", "mV")
+    assert b["unit"] == "V/(m/s^2)"
+    for pa, pb in zip(a["points"], b["points"]):
+        assert pb["sensitivity"] == pytest.approx(pa["sensitivity"], rel=1e-9)
+
+
+def test_linearity_output_in_mv(cli, tmp_path):
+    from senscal.simulate.vibration import simulate_centrifuge
+
+    recs, _ = simulate_centrifuge(frequencies=(1.0,), accelerations=(20.0, 60.0, 100.0), seed=3)
+    volts = _rescaled(recs, tmp_path / "v", {})
+    mv = _rescaled(recs, tmp_path / "mv", {"output": (1e3, "mV")})
+    args = ["--output", "output", "--angle", "angle", "--input-amplitudes", "20,60,100", "--json"]
+    a, b = (json.loads(cli("linearity", *files, *args).out) for files in (volts, mv))
+    assert b["unit"] == "V/(m/s^2)" and b["output_unit"] == "V"
+    assert b["slope"] == pytest.approx(a["slope"], rel=1e-9)
