@@ -207,3 +207,20 @@ def test_linearity_output_in_mv(cli, tmp_path):
     a, b = (json.loads(cli("linearity", *files, *args).out) for files in (volts, mv))
     assert b["unit"] == "V/(m/s^2)" and b["output_unit"] == "V"
     assert b["slope"] == pytest.approx(a["slope"], rel=1e-9)
+
+
+def test_back_to_back_reference_in_mv(cli, tmp_path):
+    """A reference channel in mV with a bare --reference-sensitivity (V/(m/s^2)) or one in mV/(m/s^2): same S."""
+    from senscal.simulate.vibration import simulate_shaker
+
+    recs, truth = simulate_shaker(frequencies=(80.0, 160.0), duration=0.2, seed=2)
+    volts = _rescaled(recs, tmp_path / "v", {})
+    mv = _rescaled(recs, tmp_path / "mv", {"reference": (1e3, "mV")})
+    s_ref = truth["reference_sensitivity"]
+    args = ["--output", "dut", "--reference", "reference", "--json"]
+    a = json.loads(cli("response", *volts, *args, "--reference-sensitivity", str(s_ref)).out)
+    b = json.loads(cli("response", *mv, *args, "--reference-sensitivity", str(s_ref)).out)
+    c = json.loads(cli("response", *mv, *args, "--reference-sensitivity", f"{1e3 * s_ref!r} mV/(m/s^2)").out)
+    for pa, pb, pc in zip(a["points"], b["points"], c["points"]):
+        assert pb["sensitivity"] == pytest.approx(pa["sensitivity"], rel=1e-9)
+        assert pc["sensitivity"] == pytest.approx(pa["sensitivity"], rel=1e-9)
