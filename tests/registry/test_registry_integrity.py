@@ -155,14 +155,36 @@ def test_sensor_with_history_cannot_be_deleted_or_renamed(cli, db_url):
     else:
         _refused(reg, "INSERT OR REPLACE INTO sensors (id, serial, kind, created_at) "
                       "VALUES (1, 'A1', 'gyro', '2020-01-01 00:00:00')")
+    # With history its metadata is printed beside the calibrations: fixed too (issue 32, schema 0003).
+    _refused(reg, "UPDATE sensors SET notes = 'moved to lab 2' WHERE serial = 'A1'",
+             "UPDATE sensors SET model = 'X9' WHERE serial = 'A1'",
+             "UPDATE sensors SET nominal = NULL WHERE serial = 'A1'")
     # Without history a sensor is only a name: notes may change, it may be removed.
     with reg.engine.begin() as conn:
-        conn.execute(sa.text("UPDATE sensors SET notes = 'moved to lab 2' WHERE serial = 'A1'"))
+        conn.execute(sa.text("UPDATE sensors SET notes = 'moved to lab 2' WHERE serial = 'B2'"))
         conn.execute(sa.text("DELETE FROM sensors WHERE serial = 'B2'"))
     assert [s.serial for s in reg.sensors()] == ["A1"] and _verify(cli, db_url).code == 0
     _drop_triggers(reg)
     with reg.engine.begin() as conn:
         conn.execute(sa.text("UPDATE sensors SET serial = 'A9' WHERE serial = 'A1'"))
+    r = _verify(cli, db_url)
+    assert r.code == 3 and recs[0].uid in r.err, r.err
+    reg.close()
+
+
+def test_sensor_metadata_edit_behind_the_triggers_is_detected(cli, db_url):
+    # Issue 32: model, manufacturer and nominal values sat outside the chain; each record now carries the
+    # digest of its sensor's metadata, inside its hash.
+    reg, recs = _history(db_url)
+    assert _verify(cli, db_url).code == 0
+    _drop_triggers(reg)
+    with reg.engine.begin() as conn:
+        conn.execute(sa.text("UPDATE sensors SET manufacturer = 'Other' WHERE serial = 'A1'"))
+    r = _verify(cli, db_url)
+    assert r.code == 3 and "metadata of sensor 'A1'" in r.err, r.err
+    with reg.engine.begin() as conn:  # restoring the metadata but dropping the digest breaks the chain instead
+        conn.execute(sa.text("UPDATE sensors SET manufacturer = NULL WHERE serial = 'A1'"))
+        conn.execute(sa.text("UPDATE calibrations SET sensor_digest = NULL"))
     r = _verify(cli, db_url)
     assert r.code == 3 and recs[0].uid in r.err, r.err
     reg.close()

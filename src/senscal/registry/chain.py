@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from typing import Any, Iterable, Mapping, Sequence
 
-__all__ = ["GENESIS", "CONTENT_VERSION", "canonical_content", "link", "ChainReport"]
+__all__ = ["GENESIS", "CONTENT_VERSION", "canonical_content", "link", "ChainReport", "sensor_digest"]
 
 #: The "previous hash" of the first record.
 GENESIS = "0" * 64
@@ -78,7 +78,23 @@ def canonical_content(record: Mapping[str, Any], serial: str | None, kind: str |
         "supersedes": record["supersedes"],
         "quantities": sorted([str(q[0]), float(q[1]), float(q[2]), str(q[3]), float(q[4])] for q in quantities),
     }
+    digest = record.get("sensor_digest")
+    if digest is not None:
+        # Records since schema 0003 cover their sensor's metadata too; older ones hash as they always did.
+        doc["sensor_digest"] = digest
     return json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=True).encode("utf-8")
+
+
+def sensor_digest(sensor: Mapping[str, Any]) -> str:
+    """SHA-256 (hex) of a sensor's metadata: serial, kind, model, manufacturer, nominal values, notes, created_at.
+
+    Stored in each record (schema 0003) and so covered by its chain hash:
+    ``registry verify`` recomputes it from the sensor as it is now.
+    """
+    doc = {k: sensor.get(k) for k in ("serial", "kind", "model", "manufacturer", "nominal", "notes")}
+    doc["created_at"] = _utc_iso(sensor.get("created_at"))
+    return hashlib.sha256(json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False,
+                                     allow_nan=True).encode("utf-8")).hexdigest()
 
 
 def link(previous: str, content: bytes) -> str:

@@ -247,6 +247,8 @@ calibrations = sa.Table(
     sa.Column("supersedes", sa.String(36), sa.ForeignKey("calibrations.uid")),
     # sha256(previous record's chain_hash || canonical content): see senscal.registry.chain.
     sa.Column("chain_hash", sa.String(64)),
+    # SHA-256 of the sensor's metadata when the record was made (schema 0003; None before): see chain.sensor_digest.
+    sa.Column("sensor_digest", sa.String(64)),
 )
 
 quantities = sa.Table(
@@ -285,7 +287,7 @@ def _alembic_config(connection=None):
 # it must not import alembic (~1-2 s of a CLI call); a test checks that this
 # equals alembic's ScriptDirectory head, so a new migration cannot be
 # forgotten here.
-HEAD_REVISION = "0002"
+HEAD_REVISION = "0003"
 
 
 @lru_cache(maxsize=1)

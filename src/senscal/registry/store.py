@@ -18,7 +18,7 @@ from sqlalchemy.exc import DBAPIError, IntegrityError, InterfaceError, Operation
 from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import DataError, FileFormatError, InputError, SenscalError, TooFewSamplesError
 from senscal.registry import db
-from senscal.registry.chain import GENESIS, ChainReport, canonical_content, link
+from senscal.registry.chain import GENESIS, ChainReport, canonical_content, link, sensor_digest
 from senscal.registry.db import UTC, calibrations, quantities, registry_chain, sensors
 from senscal.registry.drift import DAYS_PER_YEAR, DriftFit, DueDate, due_time, fit_drift
 from senscal.quantity import Quantity, check_text as _check_text
@@ -515,6 +515,9 @@ class Registry:
                 self._insert_sensor(conn, serial, _clean(create_kind, "kind"), None, None, None, None)
             sid = self._sensor_id(conn, serial)
             values["supersedes"] = self._resolve_uid(conn, supersedes, sid, serial) if supersedes else None
+            # The sensor's metadata as it is now goes into the record (and so into its chain hash).
+            values["sensor_digest"] = sensor_digest(
+                conn.execute(sa.select(sensors).where(sensors.c.id == sid)).mappings().one())
             self._lock_chain(conn)
             # A retry after an output failure (or the same evidence saved twice) must not add a
             # second record: it would count as an independent calibration in the drift fit.
@@ -788,6 +791,7 @@ class Registry:
         with db.read_connection(self.engine) as conn:
             rows = conn.execute(sa.select(calibrations, sensors.c.serial, sensors.c.kind)
                                 .outerjoin(sensors, sensors.c.id == c.sensor_id).order_by(c.id)).mappings().all()
+            digests = {r["id"]: sensor_digest(r) for r in conn.execute(sa.select(sensors)).mappings()}
             qs: dict[int, list] = {}
             for q in conn.execute(sa.select(quantities).order_by(quantities.c.id)).mappings():
                 qs.setdefault(q["calibration_id"], []).append((q["name"], q["value"], q["uncertainty"], q["unit"],
@@ -797,6 +801,7 @@ class Registry:
         problems: list[str] = []
         first = None
         prev = GENESIS
+        changed: dict[int, bool] = {}
         for r in rows:
             # Recompute from the stored hash of the predecessor, so one edit names one record.
             expected = link(prev, canonical_content(r, r["serial"], r["kind"], qs.get(r["id"], ())))
@@ -809,6 +814,12 @@ class Registry:
                 problems.append(f"record {r['uid']} (sensor {r['serial']!r}, performed "
                                 f"{_iso(r['performed_at'])}) does not match its hash: {why}")
             prev = r["chain_hash"] or expected
+            if r["sensor_digest"] is not None and r["serial"] is not None \
+                    and digests.get(r["sensor_id"]) != r["sensor_digest"] and not changed.get(r["sensor_id"]):
+                changed[r["sensor_id"]] = True
+                problems.append(f"the metadata of sensor {r['serial']!r} (model, manufacturer, nominal values, "
+                                f"notes) changed after record {r['uid']} was made")
+                first = first or r["uid"]
         orphans = sorted(set(qs) - {r["id"] for r in rows})
         if orphans:
             problems.append(f"{len(orphans)} calibration record(s) were deleted: their quantities remain "

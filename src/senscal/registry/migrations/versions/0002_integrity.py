@@ -38,7 +38,9 @@ def _backfill(conn) -> None:
     from senscal.registry.db import calibrations, quantities, sensors
 
     c = calibrations.c
-    rows = conn.execute(sa.select(calibrations, sensors.c.serial, sensors.c.kind)
+    # The columns of this revision only (later ones, e.g. 0003's sensor_digest, do not exist yet).
+    cols = [col for col in calibrations.c if col.name != "sensor_digest"]
+    rows = conn.execute(sa.select(*cols, sensors.c.serial, sensors.c.kind)
                         .outerjoin(sensors, sensors.c.id == c.sensor_id).order_by(c.id)).mappings().all()
     qs: dict[int, list] = {}
     for q in conn.execute(sa.select(quantities)).mappings():
