@@ -233,5 +233,7 @@ def test_record_needs_k_and_a_unit(cli, tmp_path):
             "--date", "2024-03-01", "--create-sensor", "accelerometer", "--db", db]
     _one_line_error(cli(*base, "--unit", "V/(m/s^2)"), "give --k", "--k 2")
     _one_line_error(cli(*base, "--unit", "volts-ish", "--k", "2"), "--unit", "not a unit")
+    _one_line_error(cli("registry", "add", "B9", "--kind", "accelerometer", "--nominal", "sensitivity=0.01 V/blorb",
+                        "--db", db), "--nominal sensitivity", "not a unit")
     r = json.loads(_ok(cli(*base, "--unit", "V/(m/s^2)", "--k", "2", "--json")).out)
     assert r["quantities"][0]["uncertainty"] == pytest.approx(1e-5)

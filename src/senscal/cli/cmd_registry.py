@@ -69,7 +69,12 @@ def _parse_nominal(items: list[str] | None) -> dict:
         except ValueError:
             raise InputError(f"--nominal must look like NAME=VALUE [UNIT], e.g. 'sensitivity=0.01 V/(m/s^2)', "
                              f"got {item!r}") from None
-        out[name.strip()] = {"value": value, "unit": parts[1].strip() if len(parts) > 1 else ""}
+        unit = parts[1].strip() if len(parts) > 1 else ""
+        if unit:
+            from senscal.units import parse_unit
+
+            parse_unit(unit, what=f"the unit of --nominal {name.strip()}")
+        out[name.strip()] = {"value": value, "unit": unit}
     return out
 
 
