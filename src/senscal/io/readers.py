@@ -213,6 +213,9 @@ def read_recording(
     rec = Recording(channels=cols, t=t, fs=use_fs, t0=file_t0 if t is None else 0.0,
                     units={k: v for k, v in units.items() if k in cols}, metadata=meta,
                     source=src, allow_nan=allow_nan, warnings=warnings)
+    if (start is not None or stop is not None) and "time_basis" in meta:
+        raise InputError(f"--start/--stop are seconds from the first sample, and {path} has no time base (no time "
+                         f"column '{time_column}' or sample rate); give the sample rate with --fs")
     return rec.window(start, stop)
 
 
