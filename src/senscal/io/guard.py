@@ -41,7 +41,7 @@ from senscal.errors import InputError
 
 __all__ = ["protect_inputs", "note_input", "check_output", "check_output_dir", "atomic_output", "write_text",
            "write_bytes", "STDIO", "is_stdio", "stdin_bytes", "claim_stdout", "stdout_claimed", "declare_outputs",
-           "allow_new_folders", "commit_outputs", "discard_outputs"]
+           "allow_new_folders", "commit_outputs", "discard_outputs", "make_parent_folder"]
 
 _inputs: set[str] | None = None
 # Files the running command declared as its outputs (key -> what) and, of those, the ones that are read
@@ -316,6 +316,11 @@ def check_output(path: str | os.PathLike, *, suffixes: tuple[str, ...] | None = 
     if not os.access(path.parent, os.W_OK):
         raise InputError(f"cannot write {what} {path}: its folder is not writable")
     return path
+
+
+def make_parent_folder(path: str | os.PathLike, what: str = "output file") -> None:
+    """Create the folder a file is written in: inside a command only with ``--mkdir`` (else one line)."""
+    _make_parent(Path(path), what)
 
 
 def _make_parent(path: Path, what: str) -> None:

@@ -157,10 +157,18 @@ def create_registry_engine(url: str | Path | URL | None = None) -> Engine:
         db = u.database
         if db and db != ":memory:" and not db.startswith("file:"):
             path = Path(db)
-            try:
-                path.parent.mkdir(parents=True, exist_ok=True)
-            except OSError as exc:
-                raise InputError(f"cannot create the folder of the registry {path}: {exc.strerror}") from None
+            if not path.parent.is_dir():
+                if db == parse_url(None).database:
+                    # The default registry ($SENSCAL_DB or the user data folder) is made on first use.
+                    try:
+                        path.parent.mkdir(parents=True, exist_ok=True)
+                    except OSError as exc:
+                        raise InputError(f"cannot create the folder of the registry {path}: {exc.strerror}") from None
+                else:
+                    # A named --db in a missing folder is a typo unless --mkdir (senscal.io.guard); API use creates it.
+                    from senscal.io.guard import make_parent_folder
+
+                    make_parent_folder(path, "registry")
             # The database file is an input: no output of the command may overwrite it.
             note_input(path)
         kwargs["connect_args"] = {"timeout": 60}
