@@ -148,26 +148,35 @@ def protect_inputs() -> Iterator[None]:
     """
     global _inputs, _stdout_owner, _stdin_data, _stdin_owner, _declared, _updated, _pending, _new_folders, \
         _folders, _update_folders
+    import threading
+
+    # A job run in a worker thread of this process (batch, fit-array with threads) opens its own scope for its
+    # inputs; the held-back outputs belong to the command in the main thread and stay where they are.
+    owner = threading.current_thread() is threading.main_thread()
     saved, _inputs = _inputs, set()
     saved_io = (_stdout_owner, _stdin_data, _stdin_owner)
     saved_out = (_declared, _updated, _pending, _new_folders, _folders, _update_folders)
     _stdout_owner, _stdin_data, _stdin_owner = None, None, None
-    _declared, _updated, _pending, _folders, _update_folders = {}, set(), [], set(), set()
+    if owner:
+        _declared, _updated, _pending, _folders, _update_folders = {}, set(), [], set(), set()
     try:
         try:
             yield
         except BaseException as exc:
-            if _keeps_outputs(exc):
-                commit_outputs()
-            else:
-                discard_outputs()
+            if owner:
+                if _keeps_outputs(exc):
+                    commit_outputs()
+                else:
+                    discard_outputs()
             raise
-        commit_outputs()
+        if owner:
+            commit_outputs()
     finally:
-        discard_outputs()
+        if owner:
+            discard_outputs()
+            _declared, _updated, _pending, _new_folders, _folders, _update_folders = saved_out
         _inputs = saved
         _stdout_owner, _stdin_data, _stdin_owner = saved_io
-        _declared, _updated, _pending, _new_folders, _folders, _update_folders = saved_out
 
 
 def declare_outputs(outputs: dict[str, tuple[str, str]], inputs: dict[str, str] | None = None) -> None:
