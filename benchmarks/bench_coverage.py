@@ -39,6 +39,8 @@ def main(argv=None) -> int:
     ap.add_argument("--only", default=None, metavar="TEXT", help="run only the scenarios whose name contains TEXT")
     ap.add_argument("--seed0", type=int, default=0, help="first case of the sweep")
     ap.add_argument("--show", type=int, default=25, help="silent misses listed by the sweep (worst first)")
+    ap.add_argument("--summary", action="store_true",
+                    help="sweep: one row per job and departure class (quantities pooled) instead of per quantity")
     args = ap.parse_args(argv)
     if args.sweep is not None:
         return _sweep(args)
@@ -100,7 +102,7 @@ def _print(head, lines, markdown: bool) -> None:
 
 
 def _sweep(args) -> int:
-    from senscal.validation.sweep import JOBS, run_sweep, sweep_table
+    from senscal.validation.sweep import JOBS, case_classes, run_sweep, sweep_table
 
     jobs = args.jobs or list(JOBS)
     unknown = [j for j in jobs if j not in JOBS]
@@ -120,11 +122,30 @@ def _sweep(args) -> int:
     print(f"sweep: {n_cases} random cases ({args.sweep} per job, seeds {args.seed0}..{args.seed0 + args.sweep - 1}), "
           f"{len(cases)} quantities, {len(silent)} silent misses ({100 * len(silent) / max(len(cases), 1):.1f} %; "
           f"an honest k=2 interval allows 5 %), {len(bad)} of {len(rows)} classes fail")
-    head = ["job", "departure", "quantity", "n", "covered %", "named %", "silent", "P(>=silent | 5 %)", "worst |err|/U",
-            "ok"]
-    lines = [[r.job, r.departure, r.quantity, str(r.n), f"{100 * r.covered:.0f}", f"{100 * r.named:.0f}",
-              str(r.silent), f"{r.p_value:.2g}", f"{r.worst:.2f}" if r.silent else "", "yes" if r.ok else "NO"]
-             for r in rows]
+    if args.summary:
+        # quantities pooled per class: cases, silent misses over all quantities, the classes' failing quantities
+        groups: dict = {}
+        n_cases: dict = {}
+        for r in rows:
+            groups.setdefault((r.job, r.departure), []).append(r)
+        for job_seed in {(c.job, c.seed): c for c in cases}.values():
+            for d in case_classes(job_seed.strengths):
+                n_cases[(job_seed.job, d)] = n_cases.get((job_seed.job, d), 0) + 1
+        head = ["job", "departure", "cases", "quantities", "covered %", "named %", "silent %", "failing quantities"]
+        lines = []
+        for (job, dep), rs in groups.items():
+            nq = sum(r.n for r in rs)
+            lines.append([job, dep, str(n_cases.get((job, dep), 0)), str(nq),
+                          f"{100 * sum(r.covered * r.n for r in rs) / nq:.0f}",
+                          f"{100 * sum(r.named * r.n for r in rs) / nq:.0f}",
+                          f"{100 * sum(r.silent for r in rs) / nq:.1f}",
+                          ", ".join(r.quantity for r in rs if not r.ok) or "-"])
+    else:
+        head = ["job", "departure", "quantity", "n", "covered %", "named %", "silent", "P(>=silent | 5 %)",
+                "worst |err|/U", "ok"]
+        lines = [[r.job, r.departure, r.quantity, str(r.n), f"{100 * r.covered:.0f}", f"{100 * r.named:.0f}",
+                  str(r.silent), f"{r.p_value:.2g}", f"{r.worst:.2f}" if r.silent else "", "yes" if r.ok else "NO"]
+                 for r in rows]
     print()
     _print(head, lines, args.markdown)
     if silent:

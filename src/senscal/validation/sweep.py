@@ -46,7 +46,7 @@ from senscal._result import ResultMixin
 from senscal.diagnostics import warning_names
 
 __all__ = ["Departure", "SweepJob", "Outcome", "SweepCase", "SweepRow", "JOBS", "NOT_SWEPT", "draw",
-           "run_case", "run_sweep", "sweep_table", "unregistered_keywords", "ALPHA", "EXPECTED_MISS"]
+           "run_case", "run_sweep", "sweep_table", "case_classes", "unregistered_keywords", "ALPHA", "EXPECTED_MISS"]
 
 # An honest k = 2 interval misses this often (normal estimate; 4.55 % exactly, 5 % is the project's rule).
 EXPECTED_MISS = 0.05
@@ -440,6 +440,9 @@ NOT_SWEPT = {
     "senscal.simulate.drift.simulate_drift_batch": "drift job: scenarios in senscal.validation.drift",
     "senscal.simulate.fleet.simulate_fleet": "writes a Parquet fleet to disk (not pure); drift-fleet scenarios",
     "senscal.simulate.registry.simulate_calibration_history": "registry records, no reported uncertainty of its own",
+    "senscal.simulate.imu.simulate_imu": "new this session (multi-pose IMU calibration, its job still in progress): "
+                                         "register its departures (gyro_bias_drift, gyro_ar1, short poses, "
+                                         "exclude_axis ...) as a SweepJob once the job is in",
 }
 
 
@@ -577,6 +580,13 @@ class SweepRow(ResultMixin):
     worst: float = 0.0
 
 
+def case_classes(strengths: Mapping[str, float]) -> list[str]:
+    """The departure classes a case counts in: ``d`` alone, ``d+`` for each of several, ``none``."""
+    if not strengths:
+        return ["none"]
+    return list(strengths) if len(strengths) == 1 else [d + "+" for d in strengths]
+
+
 def _quantity_class(q: str) -> str:
     return q.split("@", 1)[0]
 
@@ -593,8 +603,7 @@ def sweep_table(cases: Sequence[SweepCase], *, alpha: float = ALPHA,
 
     groups: dict[tuple[str, str, str], list[SweepCase]] = {}
     for c in cases:
-        classes = (list(c.strengths) if len(c.strengths) == 1 else [d + "+" for d in c.strengths]) or ["none"]
-        for d in classes:
+        for d in case_classes(c.strengths):
             groups.setdefault((c.job, d, _quantity_class(c.quantity)), []).append(c)
     rows = []
     for (job, dep, q), cs in sorted(groups.items()):
