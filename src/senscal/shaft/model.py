@@ -732,7 +732,9 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     e_twice = 2.0 * twice / abs(amp) if amp else 0.0
     e_un = max(e_once - e_max, 0.0)
     twice_seen = twice - abs(amp) * e_max / 2.0 > crit * u_twice
-    once_seen = e_un > crit * u_e_once \
+    # A declared accuracy bounds the disc's share of a once-per-turn deviation (the rest is ripple, which the
+    # regressors remove rightly); without one, any of it could be the disc.
+    once_seen = u_angle == 0.0 and e_un > crit * u_e_once \
         and (b_sync * w_mean2 * e_un > 0.3 * u[0] or abs(amp) * e_un / 2.0 > 0.3 * u[2])
     # Ripple locked to the turn that the run could not model is named by synchronous-ripple already, and its
     # unmodelled harmonics (S r alpha has m^2 / 2 of second harmonic) are twice-per-turn too: one warning a cause.
