@@ -180,7 +180,7 @@ def _print_tables(file: Path, res, doc: dict) -> None:
                       "asked for")
     if res.result.selected:
         console.print(f"model used: {res.result.selected} (lowest AIC"
-                      + ("" if res.result.selected in ("--noise ar1", "--covariate-lag") else
+                      + ("" if res.result.selected == "--noise ar1" else
                          "; the innovations rejected the model asked for") + ")")
 
 

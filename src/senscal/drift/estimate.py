@@ -74,13 +74,72 @@ def _hessian_from_gradient(g: Callable[[np.ndarray], np.ndarray], x: np.ndarray,
     return 0.5 * (H + H.T)
 
 
-def _search(nll, nll_grad, start, starts, names, lo, hi, T):
-    """L-BFGS-B from every start; the best result (analytic gradient when ``nll_grad`` is given)."""
+def _scoring(nll_grad, info, x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, T: int,
+             max_iter: int = 12) -> np.ndarray:
+    """Fisher scoring on the log levels, within bounds: a good start for the polish.
+
+    Each step solves ``I d = g`` on the levels not held at a bound by their
+    gradient (``I`` the expected information the score pass accumulates),
+    halving it (at most three times) until the likelihood does not fall.
+    Where the model is well determined it converges in a few passes where a
+    quasi-Newton search from scratch needs tens (8 + 2 against 25 on the
+    white-noise pair).  Stops after 12 steps, when the predicted gain ``g'
+    d`` is below 1e-6 nat, when a step gains less than 1e-3 nat where less
+    than 0.1 was predicted (a flat direction: a level that collapsed to zero,
+    whose information vanishes with it) or when a step fails; the caller's L-BFGS-B then confirms (usually in one
+    or two passes) or finishes the search.
+    """
+    theta = np.array(x0, dtype=float)
+    f, gn = nll_grad(theta)
+    I = info()
+    if f >= 1e10 or I is None:
+        return theta
+    for _ in range(max_iter):
+        g = -gn * T  # gradient of ln L
+        free = ~(((theta <= lo + 1e-9) & (g < 0)) | ((theta >= hi - 1e-9) & (g > 0)))
+        if not free.any():
+            break
+        If = I[np.ix_(free, free)]
+        # A level with (almost) no effect has no information: a tiny ridge keeps the step finite.
+        ridge = 1e-9 * max(float(np.max(np.abs(np.diag(If)))), 1e-300)
+        try:
+            d = np.linalg.solve(If + ridge * np.eye(If.shape[0]), g[free])
+        except np.linalg.LinAlgError:
+            break
+        if not np.all(np.isfinite(d)):
+            break
+        pred = float(g[free] @ d)
+        if pred < 1e-6:
+            break
+        # No step longer than a factor e^3 in a level: the quadratic model is local.
+        d *= min(1.0, 3.0 / max(float(np.max(np.abs(d))), 1e-300))
+        alpha, ok = 1.0, False
+        for _ls in range(4):
+            new = theta.copy()
+            new[free] = np.clip(theta[free] + alpha * d, lo[free], hi[free])
+            f2, g2 = nll_grad(new)
+            if f2 < 1e10 and f2 <= f + 1e-12:
+                ok = True
+                break
+            alpha *= 0.5
+        if not ok:
+            break
+        gain = (f - f2) * T
+        theta, f, gn, I = new, f2, g2, info()
+        if I is None or (gain < 1e-3 and pred < 0.1):
+            break
+    return theta
+
+
+def _search(nll, nll_grad, start, starts, names, lo, hi, T, info=None):
+    """L-BFGS-B from every start (after Fisher scoring when ``info`` gives the information); the best result."""
     best = None
     for st in [start] + [np.log(np.array([s_[k] for k in names], dtype=float)) for s_ in starts]:
         st = np.clip(st, lo + 1e-3, hi - 1e-3)
         if st is not start and nll(st) >= 1e10:
             continue
+        if info is not None and nll_grad is not None:
+            st = _scoring(nll_grad, info, st, lo, hi, T)
         # Stop when an iteration gains less than 1e-5 nat in total: far
         # below the likelihood's statistical resolution (~1 nat), and tight
         # enough that the curvature below is taken at the maximum.
@@ -205,7 +264,9 @@ def estimate_levels(build: Callable[[Mapping[str, float]], StateSpaceModel], y: 
     # Stop when an iteration gains less than a thousandth of a nat in total:
     # far below the likelihood's statistical resolution (~1 nat).
     with one_blas_thread():
-        res = _search(nll, nll_grad if score is not None else None, start, starts, names, lo, hi, T)
+        res = _search(nll, nll_grad if score is not None else None, start, starts, names, lo, hi, T,
+                      info=(lambda: getattr(score, "info", None)) if score is not None and
+                      hasattr(score, "info") else None)
     if not np.all(np.isfinite(res.x)) or res.fun >= 1e10:
         raise ConvergenceError("the noise-level estimation failed (likelihood not finite); give the noise levels "
                                "in a model YAML or check the data for outliers")

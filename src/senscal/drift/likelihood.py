@@ -82,6 +82,8 @@ class LevelLikelihood:
         self._keep = np.arange(ns, n) if setup.signal.kind == "known" else np.arange(n)
         self._parts_key = None
         self._parts = None
+        #: Expected information over ln(level) of the last call with the gradient.
+        self.info = None
 
     def _raw(self, levels: Mapping[str, float]):
         F, H, Q, R, x0, P0 = augmented_arrays(self.setup, self.dt, levels, self.cov, x0=self.x0, P0=self.P0, T=self.T)
@@ -165,5 +167,7 @@ class LevelLikelihood:
                     dH[i] = (Hu - Hd) / (2 * _H_LOG)
         # The frozen gain needs every matrix and derivative constant in time.
         allow = self.allow_ss and max(F.shape[0], H.shape[0], Q.shape[0], dF.shape[1], dH.shape[1], dQ.shape[1]) == 1
-        ll, g, _ = score_series(F, H, Q, R, x0, P0, self.y, dF, dH, dQ, dR, dP0, useF, useH, bool(allow), grad)
+        ll, g, info, _ = score_series(F, H, Q, R, x0, P0, self.y, dF, dH, dQ, dR, dP0, useF, useH, bool(allow),
+                                      grad)
+        self.info = info
         return float(ll), g

@@ -63,14 +63,21 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
     otherwise).  ``allow_ss``: the model is time-invariant and ``y`` has no
     NaN, so the gain and its derivatives may be frozen once converged.
 
-    Returns (loglik, gradient (p,), first frozen step or -1); loglik is NaN
-    when an innovation covariance was not positive definite.
+    Returns (loglik, gradient (p,), expected information (p, p), first
+    frozen step or -1); loglik is NaN when an innovation covariance was not
+    positive definite.  The information is the sum over steps of
+    ``tr(S^-1 dS_k S^-1 dS_l) / 2 + dv_k' S^-1 dv_l`` (Fisher scoring for
+    state-space models: the expected Hessian of ``-ln L`` given the past).
     """
     n = F.shape[1]
     m = H.shape[1]
     p = dQ.shape[0]
     T = y.shape[0]
     g = np.zeros(p)
+    info = np.zeros((p, p))
+    tt = np.zeros((p, p))
+    SdS = np.empty((p, m, m))
+    u = np.empty((p, m))
     x = x0.copy()
     P = P0.copy()
     dx = np.zeros((p, n))
@@ -232,7 +239,7 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                     S[a, b] = acc
                     S[b, a] = acc
             if not _chol(S, idx, mo, L):
-                return np.nan, g, -2
+                return np.nan, g, info, -2
             logdet = 0.0
             for a in range(mo):
                 logdet += 2.0 * math.log(L[a, a])
@@ -312,6 +319,37 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                         acc += dS[k, a, b] * w[b]
                     q2 += w[a] * acc
                 g[k] += -0.5 * (trc[k] + 2.0 * q1 - q2)
+            # Expected information: the trace part changes only with the covariances.
+            if not frozen:
+                for k in range(p):
+                    for a in range(mo):
+                        for b in range(mo):
+                            acc = 0.0
+                            for c in range(mo):
+                                acc += Sinv[a, c] * dS[k, c, b]
+                            SdS[k, a, b] = acc
+                for k in range(p):
+                    for l in range(k + 1):
+                        acc = 0.0
+                        for a in range(mo):
+                            for b in range(mo):
+                                acc += SdS[k, a, b] * SdS[l, b, a]
+                        tt[k, l] = 0.5 * acc
+                        tt[l, k] = 0.5 * acc
+            for k in range(p):
+                for a in range(mo):
+                    acc = 0.0
+                    for b in range(mo):
+                        acc += Sinv[a, b] * dv[k, b]
+                    u[k, a] = acc
+            for k in range(p):
+                for l in range(k + 1):
+                    acc = tt[k, l]
+                    for a in range(mo):
+                        acc += dv[l, a] * u[k, a]
+                    info[k, l] += acc
+                    if l != k:
+                        info[l, k] += acc
         # ---- update: means
         for i in range(n):
             acc = xp[i]
@@ -394,4 +432,4 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
             if hold >= _SS_HOLD:
                 frozen = True
                 ss_from = t + 1
-    return ll, g, ss_from
+    return ll, g, info, ss_from
