@@ -1,0 +1,144 @@
+"""A multi-pose IMU session with known truth (the IMU-TK protocol).
+
+A still start, then ``n_poses`` static poses joined by smooth rotations about
+random axes (each about one fixed axis, so the truth attitude and rate are
+exact).  The accelerometer reads ``Ma f + Ba + noise`` (``Ma`` the triaxial
+engine's upper-triangular ``K S``), the gyroscope ``Mg w + b(t) + noise``
+(``Mg`` full: scales and misalignment to the accelerometer's frame).
+Departures are options: a drifting gyro bias, coloured gyro noise, short
+poses, fast rotations, few poses, rotations that leave an axis unturned.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from senscal.io import Recording
+from senscal.triaxial.models import sensor_matrix
+
+__all__ = ["simulate_imu", "gyro_truth"]
+
+CHANNELS = ("ax", "ay", "az", "gx", "gy", "gz")
+
+
+def _rot(e: np.ndarray, th: float) -> np.ndarray:
+    k = np.array([[0, -e[2], e[1]], [e[2], 0, -e[0]], [-e[1], e[0], 0]])
+    return np.eye(3) + math.sin(th) * k + (1 - math.cos(th)) * (k @ k)
+
+
+def gyro_truth(matrix: np.ndarray) -> dict[str, float]:
+    """Scale (signed row norm, reading per rad/s) and misalignment angles (rad) of a gyro matrix."""
+    from senscal.imu.calibrate import GYRO_ANGLES, _derived
+
+    d = _derived(np.asarray(matrix, float).ravel())
+    return {**{f"scale_{a}": float(d[i]) for i, a in enumerate("xyz")},
+            **{f"angle_{n}": float(d[3 + i]) for i, n in enumerate(GYRO_ANGLES)}}
+
+
+def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, pose_s: float = 3.0,
+                 rotation_s: float = 1.5, angle_deg: tuple[float, float] = (60.0, 150.0), gravity: float = 9.80665,
+                 accel_noise: float = 0.02, gyro_noise: float = 0.002,
+                 accel_gains: tuple[float, float, float] = (1.02, 0.99, 1.01),
+                 accel_angles_deg: tuple[float, float, float] = (0.5, -0.8, 0.3),
+                 accel_offsets: tuple[float, float, float] = (0.15, -0.10, 0.20),
+                 gyro_scales: tuple[float, float, float] = (1.01, 0.985, 1.005),
+                 gyro_misalignment_deg: tuple[float, ...] = (0.3, -0.5, 0.4, 0.2, -0.3, 0.6),
+                 gyro_bias: tuple[float, float, float] = (0.01, -0.02, 0.015),
+                 gyro_bias_drift: tuple[float, float, float] = (0.0, 0.0, 0.0), gyro_ar1: float = 0.0,
+                 exclude_axis: int | None = None, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
+    """Simulate an IMU calibration session.
+
+    Parameters
+    ----------
+    n_poses : int
+        Static poses after the still start.
+    fs : float
+        Sample rate, Hz.
+    init_s, pose_s, rotation_s : float
+        Still start, each pose and each rotation, s (``rotation_s`` small: fast motion).
+    angle_deg : (float, float)
+        Range of each rotation's angle, deg.
+    gravity : float
+        Local g, m/s^2.
+    accel_noise : float
+        White noise per accelerometer sample, m/s^2.
+    gyro_noise : float
+        Noise per gyro sample, rad/s (white, or AR(1) with ``gyro_ar1``, same per-sample std).
+    accel_gains, accel_angles_deg, accel_offsets :
+        Accelerometer model (triaxial convention: gains, alpha/beta/gamma in deg, offsets in m/s^2).
+    gyro_scales : (float, float, float)
+        Gyro scale per axis (reading per rad/s, before misalignment).
+    gyro_misalignment_deg : 6 floats
+        Off-diagonal elements of ``Mg = diag(scales) (I + A)`` as angles: xy, xz, yx, yz, zx, zy (deg).
+    gyro_bias : (float, float, float)
+        Gyro bias at mid-session, rad/s.
+    gyro_bias_drift : (float, float, float)
+        Gyro bias change per second (departure: a bias drifting during the session).
+    gyro_ar1 : float
+        AR(1) coefficient of the gyro noise (departure: coloured noise).
+    exclude_axis : int, optional
+        Never rotate about this body axis (0, 1, 2): the departure that leaves a gyro axis unexcited.
+    seed : int, optional
+
+    Returns
+    -------
+    (Recording, dict)
+        Channels ax, ay, az (m/s^2), gx, gy, gz (rad/s); the truth (accelerometer parameters, the gyro matrix,
+        bias, drift, noise, the time of mid-session).
+    """
+    rng = np.random.default_rng(seed)
+    dt = 1.0 / fs
+    n_init, n_pose, n_rot = int(round(init_s * fs)), int(round(pose_s * fs)), max(int(round(rotation_s * fs)), 2)
+    up = np.array([0.0, 0.0, gravity])
+    f_list, w_list = [], []
+    r_now = np.eye(3)
+    f_list.append(np.repeat((r_now.T @ up)[:, None], n_init, axis=1))
+    w_list.append(np.zeros((3, n_init)))
+    tau = (np.arange(n_rot) + 0.5) / n_rot
+    for _ in range(n_poses):
+        e = rng.normal(size=3)
+        if exclude_axis is not None:
+            e[exclude_axis] = 0.0
+        e /= np.linalg.norm(e)
+        th = math.radians(rng.uniform(*angle_deg)) * rng.choice([-1.0, 1.0])
+        prof = th * (tau - np.sin(2 * np.pi * tau) / (2 * np.pi))
+        rate = th / rotation_s * (1 - np.cos(2 * np.pi * tau))
+        f_list.append(np.stack([(r_now @ _rot(e, p)).T @ up for p in prof], axis=1))
+        w_list.append(e[:, None] * rate[None, :])
+        r_now = r_now @ _rot(e, th)
+        f_list.append(np.repeat((r_now.T @ up)[:, None], n_pose, axis=1))
+        w_list.append(np.zeros((3, n_pose)))
+    f = np.concatenate(f_list, axis=1)
+    w = np.concatenate(w_list, axis=1)
+    n = f.shape[1]
+    t = np.arange(n) * dt
+    ma = sensor_matrix(*accel_gains, *(math.radians(a) for a in accel_angles_deg))
+    ba = np.asarray(accel_offsets, float)
+    a_meas = ma @ f + ba[:, None] + accel_noise * rng.normal(size=(3, n))
+    mis = np.zeros((3, 3))
+    for (i, j), ang in zip(((0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)), gyro_misalignment_deg):
+        mis[i, j] = math.radians(ang)
+    mg = np.diag(gyro_scales) @ (np.eye(3) + mis)
+    t_mid = 0.5 * (t[0] + t[-1])
+    b = np.asarray(gyro_bias, float)[:, None] + np.asarray(gyro_bias_drift, float)[:, None] * (t - t_mid)[None, :]
+    e = rng.normal(size=(3, n))
+    if gyro_ar1:
+        from scipy.signal import lfilter
+
+        e = lfilter([math.sqrt(1 - gyro_ar1 ** 2)], [1.0, -gyro_ar1], e, axis=1)
+    g_meas = mg @ w + b + gyro_noise * e
+    rec = Recording({**{c: a_meas[i] for i, c in enumerate(CHANNELS[:3])},
+                     **{c: g_meas[i] for i, c in enumerate(CHANNELS[3:])}}, t=t,
+                    units={**{c: "m/s^2" for c in CHANNELS[:3]}, **{c: "rad/s" for c in CHANNELS[3:]}},
+                    source="<simulated imu>")
+    truth = {"gravity": gravity, "fs": fs, "n_poses": n_poses, "t_mid": t_mid,
+             "accelerometer": {"Kx": accel_gains[0], "Ky": accel_gains[1], "Kz": accel_gains[2],
+                               "alpha": math.radians(accel_angles_deg[0]), "beta": math.radians(accel_angles_deg[1]),
+                               "gamma": math.radians(accel_angles_deg[2]), "Bx": ba[0], "By": ba[1], "Bz": ba[2]},
+             "gyroscope": {"matrix": mg.tolist(), **gyro_truth(mg), "bias": list(map(float, gyro_bias)),
+                           "bias_drift": list(map(float, gyro_bias_drift)), "noise": gyro_noise, "ar1": gyro_ar1},
+             "accel_noise": accel_noise}
+    return rec, truth
