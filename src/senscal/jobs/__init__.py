@@ -88,6 +88,7 @@ for _name, _module, _function, _opts in (
     ("drift", "senscal.jobs.drift", "drift", "DriftOptions"),
     ("triaxial-calibrate", "senscal.jobs.triaxial", "triaxial_calibrate", "TriaxialCalibrateOptions"),
     ("triaxial-apply", "senscal.jobs.triaxial", "triaxial_apply", "TriaxialApplyOptions"),
+    ("imu-calibrate", "senscal.jobs.imu", "imu_calibrate", "ImuOptions"),
 ):
     register(_name, _module, _function, _opts)
 del _name, _module, _function, _opts
