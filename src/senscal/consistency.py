@@ -173,11 +173,10 @@ def block_consistency(fit: Callable[[np.ndarray], Mapping[str, tuple[float, floa
     BlockConsistency
         With fewer than two usable blocks, no quantities (and consistent).
     """
-    from scipy.stats import chi2 as chi2_dist
+    # scipy.special's distribution functions: microseconds a call, where scipy.stats takes a hundred.
+    from scipy.special import chdtrc, chdtri, fdtrc, fdtri
 
     from senscal.errors import SenscalError
-
-    from scipy.stats import f as f_dist
 
     per: dict[str, list[tuple[float, float, float]]] = {}
     n_ok = 0
@@ -211,11 +210,11 @@ def block_consistency(fit: Callable[[np.ndarray], Mapping[str, tuple[float, floa
         nu_min = float(np.min(nu))
         if math.isfinite(nu_min) and nu_min > 0:
             # u^2 from nu dof is chi2_nu / nu: the ratio of the scatter to it is F(K-1, nu).
-            lim = float(dof * f_dist.isf(alpha / q, dof, nu_min))
-            pv = float(f_dist.sf(c2 / dof, dof, nu_min))
+            lim = float(dof * fdtri(dof, nu_min, 1.0 - alpha / q))
+            pv = float(fdtrc(dof, nu_min, c2 / dof))
         else:
-            lim = float(chi2_dist.isf(alpha / q, dof))
-            pv = float(chi2_dist.sf(c2, dof))
+            lim = float(chdtri(dof, alpha / q))
+            pv = float(chdtrc(dof, c2))
         res.append(QuantityConsistency(nm, tuple(v.tolist()), tuple(u.tolist()), mean, c2, dof,
                                        math.sqrt(c2 / dof), lim, pv, c2 <= lim))
     return BlockConsistency(n_ok, tuple(res), alpha)
