@@ -263,3 +263,11 @@ def test_headerless_hint_follows_the_columns(cli, tmp_path):
     txyz.write_text("0.00,0.10,0.20,-0.98\n0.01,0.12,0.18,-0.97\n0.02,0.09,0.21,-0.99\n0.03,0.11,0.19,-0.98\n")
     r = cli("triaxial", "calibrate", txyz, "--channels", "x,y,z")
     assert _one_line(r) and "--names t,x,y,z" in r.err, r.err
+
+
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf", "1e308", "-1", "1e-320", "-0", "abc", ""])
+def test_hostile_windows_are_one_line_or_a_result(cli, tmp_path, value):
+    path = _sine(tmp_path, "h.csv")
+    for opt in ("--start", "--stop"):
+        r = cli("fit", path, f"{opt}={value}")
+        assert r.code == 0 or _one_line(r), (opt, value, r.err)
