@@ -61,7 +61,7 @@ MIN_SAMPLE_RATE_HZ = {
 #: magnetometers output at most a few tens of kHz (32 kHz for the fastest); 100 kHz is above all of them.
 #: Seconds labelled ms make a 1 kHz recording 1 MHz. Sine fits (oscilloscopes at MS/s to GS/s) and the
 #: vibration rigs (checked against their known frequency instead) have no such bound.
-MAX_SAMPLE_RATE_HZ = {"gfimu": 1e5, "triaxial": 1e5, "allan": 1e5, "shaft": 1e5}
+MAX_SAMPLE_RATE_HZ = {"gfimu": 1e5, "triaxial": 1e5, "allan": 1e5, "shaft": 1e5, "imu": 1e5}
 
 #: Jobs whose records come from slow loggers, where whole-second stamps at 1 Hz or slower are normal.
 SLOW_LOGGER_JOBS = frozenset({"drift"})
