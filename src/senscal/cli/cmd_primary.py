@@ -1,0 +1,114 @@
+"""``senscal primary`` and ``senscal simulate interferometer`` (ISO 16063-11 method 3, issue 28)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+from typing_extensions import Annotated
+
+from senscal.cli.app import app, simulate_app
+from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt,
+                                TimeUnitOpt, console, emit_warnings, print_json, progress_bar, table)
+from senscal.jobs._base import with_read_options
+
+
+@with_read_options
+def _primary_options(*, quadrature: str = "I,Q", output: str = "out", wavelength_nm: float = 632.8,
+                     freq: float | None = None, harmonics: int = 3, drift: bool = True, slices: int = 10,
+                     u_wavelength_rel: float = 0.0, u_gain_rel: float = 0.0, u_gain_phase_deg: float = 0.0,
+                     u_other_rel: float = 0.0, u_other_phase_deg: float = 0.0, sign_check: bool = True, **_):
+    """``PrimaryOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.jobs.primary import PrimaryOptions
+
+    return PrimaryOptions(quadrature=quadrature, output=output, wavelength_nm=wavelength_nm, freq=freq,
+                          harmonics=harmonics, drift=drift, slices=slices, u_wavelength_rel=u_wavelength_rel,
+                          u_gain_rel=u_gain_rel, u_gain_phase_deg=u_gain_phase_deg, u_other_rel=u_other_rel,
+                          u_other_phase_deg=u_other_phase_deg, sign_check=sign_check)
+
+
+# What `senscal batch` turns the job's option words into (see senscal.jobs).
+JOB_OPTIONS = {"primary": _primary_options}
+
+
+@app.command("primary")
+def primary_cmd(
+    files: Annotated[List[Path], typer.Argument(help="Recordings, one per frequency, with the interferometer's I and Q outputs and the accelerometer's output.")],
+    quadrature: Annotated[str, typer.Option("--quadrature", help="Channels of the quadrature outputs, I,Q.")] = "I,Q",
+    output: Annotated[str, typer.Option("--output", help="Channel of the accelerometer's output.")] = "out",
+    wavelength_nm: Annotated[float, typer.Option("--wavelength-nm", help="Laser wavelength in nm (632.8: HeNe).")] = 632.8,
+    freq: Annotated[Optional[float], typer.Option("--freq", help="Excitation frequency, Hz (default: estimated per file).")] = None,
+    harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (exciter distortion).")] = 3,
+    drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear drift of the offsets.")] = True,
+    slices: Annotated[int, typer.Option("--slices", help="Per-period (sliced) fits for the type A term of what the model lacks.")] = 10,
+    u_wavelength_rel: Annotated[float, typer.Option("--u-wavelength-rel", help="Type B: relative standard u of the wavelength.")] = 0.0,
+    u_gain_rel: Annotated[float, typer.Option("--u-gain-rel", help="Type B: relative standard u of the output voltage measurement.")] = 0.0,
+    u_gain_phase_deg: Annotated[float, typer.Option("--u-gain-phase-deg", help="Type B: standard u of the output channel's phase, deg.")] = 0.0,
+    u_other_rel: Annotated[float, typer.Option("--u-other-rel", help="Type B: other relative standard u (transverse motion, base strain ...).")] = 0.0,
+    u_other_phase_deg: Annotated[float, typer.Option("--u-other-phase-deg", help="Type B: other phase standard u, deg.")] = 0.0,
+    sign_check: Annotated[bool, typer.Option("--sign-check/--no-sign-check", help="Refuse an output near 180 deg from the acceleration (I/Q swapped); off for an inverting amplifier.")] = True,
+    strict: StrictOpt = False,
+    time_column: TimeColumnOpt = "t",
+    fs: FsOpt = None,
+    names: NamesOpt = None,
+    skip_rows: SkipRowsOpt = None,
+    time_unit: TimeUnitOpt = None,
+    start: StartOpt = None,
+    stop: StopOpt = None,
+    json_out: JsonOpt = False,
+) -> None:
+    """Primary accelerometer calibration by laser interferometry (ISO 16063-11 method 3): sensitivity and phase."""
+    from senscal.jobs.primary import primary
+
+    params = dict(locals())
+    params.pop("files")
+    with progress_bar("calibrating", None):
+        res = primary(list(files), _primary_options(**params))
+    doc = res.to_dict()
+    if json_out:
+        print_json(doc)
+        emit_warnings(res.warnings, strict)
+        return
+    rows = [[f"{p['frequency_hz']:.6g}", p["sensitivity"], 2 * p["u_sensitivity"], p["phase_deg"], 2 * p["u_phase_deg"],
+             f"{p['fringes']:.1f}"] for p in doc["points"]]
+    console.print(table(f"Primary calibration ({doc['method']}); U at k=2",
+                        ["f / Hz", f"S / {doc['sensitivity_unit']}", "U(S)", "phase / deg", "U(phase) / deg",
+                         "fringes"], rows))
+    emit_warnings(res.warnings, strict)
+
+
+@simulate_app.command("interferometer")
+def simulate_interferometer_cmd(
+    out: Annotated[Path, typer.Option("--out", help="Output folder.")],
+    freqs: Annotated[str, typer.Option("--freqs", help="Excitation frequencies, Hz, comma separated.")] = "10,160,1000,5000",
+    fs: Annotated[float, typer.Option("--fs", help="Sample rate, Hz.")] = 200_000.0,
+    duration: Annotated[float, typer.Option("--duration", help="Record length per frequency, s.")] = 1.0,
+    sensitivity: Annotated[float, typer.Option("--sensitivity", help="Accelerometer sensitivity, V per m/s^2.")] = 0.01,
+    phase_deg: Annotated[float, typer.Option("--phase-deg", help="Output phase minus acceleration phase, deg.")] = -2.0,
+    laser_noise: Annotated[float, typer.Option("--laser-noise", help="Noise on I and Q relative to their amplitude.")] = 2e-3,
+    harmonic_distortion: Annotated[float, typer.Option("--harmonic-distortion", help="Exciter's 2nd harmonic acceleration relative to the fundamental's.")] = 0.0,
+    output_drift: Annotated[float, typer.Option("--output-drift", help="Linear output drift over the record, relative.")] = 0.0,
+    hum: Annotated[float, typer.Option("--hum", help="50 Hz hum on the output, relative.")] = 0.0,
+    swap_iq: Annotated[bool, typer.Option("--swap-iq", help="Write I and Q swapped (a wiring mistake).")] = False,
+    seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
+) -> None:
+    """Quadrature interferometer and accelerometer recordings with Heydemann errors: interferometer_NN.csv + truth."""
+    from senscal.cli.common import parse_floats
+    from senscal.errors import InputError
+    from senscal.simulate.common import write_simulation
+    from senscal.simulate.interferometer import simulate_interferometer
+
+    fl = parse_floats(freqs, "--freqs")
+    if not fl or not fs > 0 or not duration > 0 or any(not 0 < f < fs / 2 for f in fl):
+        raise InputError("--freqs must lie between 0 and fs/2, --fs and --duration must be positive")
+    recs, pts = [], []
+    for i, f in enumerate(fl):
+        rec, tr = simulate_interferometer(freq=f, fs=fs, duration=duration, sensitivity=sensitivity,
+                                          phase_deg=phase_deg, laser_noise=laser_noise,
+                                          harmonic_distortion=harmonic_distortion, output_drift_rel=output_drift,
+                                          hum_rel=hum, swap_iq=swap_iq, seed=None if seed is None else seed + i)
+        recs.append(rec)
+        pts.append(tr)
+    paths = write_simulation(recs, {"points": pts}, out, "interferometer")
+    console.print(f"wrote {len(paths)} recordings and interferometer_truth.json to {out}")

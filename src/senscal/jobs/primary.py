@@ -1,0 +1,185 @@
+"""Primary vibration calibration by laser interferometry (``senscal primary``, ISO 16063-11 method 3, issue 28)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar, Sequence
+
+import numpy as np
+
+from senscal._result import to_jsonable
+from senscal.errors import InputError
+from senscal.jobs._base import JobResult, Quantity, ReadOptions, source_name
+
+__all__ = ["PrimaryOptions", "PrimaryResult", "primary"]
+
+
+def _pair(names: Any) -> tuple[str, str]:
+    listed = [s.strip() for s in names.split(",") if s.strip()] if isinstance(names, str) else list(names or ())
+    if len(listed) != 2:
+        raise InputError(f"--quadrature needs two channel names I,Q (the interferometer's quadrature outputs), "
+                         f"got {names!r}; a single channel is not a quadrature pair")
+    if listed[0] == listed[1]:
+        raise InputError(f"--quadrature names one channel twice ({listed[0]}): a single channel is not a "
+                         "quadrature pair; give the I and Q outputs")
+    return str(listed[0]), str(listed[1])
+
+
+@dataclass(frozen=True)
+class PrimaryOptions(ReadOptions):
+    """Options of :func:`primary` (the ``senscal primary`` options).
+
+    Attributes
+    ----------
+    quadrature : str or (str, str)
+        Channels of the interferometer's quadrature outputs, I then Q.
+    output : str
+        Channel of the accelerometer's output.
+    wavelength_nm : float
+        Laser wavelength, nm (632.8 for a HeNe).
+    freq : float, optional
+        Excitation frequency, Hz (estimated per file when omitted).
+    harmonics : int
+        Harmonics fitted with the fundamental (exciter distortion).
+    drift : bool
+        Fit a linear drift of the offsets.
+    slices : int
+        Per-period (sliced) fits for the type A term of what the model lacks.
+    u_wavelength_rel, u_gain_rel, u_other_rel : float
+        Type B relative standard uncertainties (wavelength; output voltage
+        measurement; other, e.g. transverse motion).
+    u_gain_phase_deg, u_other_phase_deg : float
+        Type B phase standard uncertainties, deg.
+    sign_check : bool
+        Refuse an output near 180 deg from the acceleration (I/Q swapped).
+    """
+
+    quadrature: str | tuple[str, str] = ("I", "Q")
+    output: str = "out"
+    wavelength_nm: float = 632.8
+    freq: float | None = None
+    harmonics: int = 3
+    drift: bool = True
+    slices: int = 10
+    u_wavelength_rel: float = 0.0
+    u_gain_rel: float = 0.0
+    u_gain_phase_deg: float = 0.0
+    u_other_rel: float = 0.0
+    u_other_phase_deg: float = 0.0
+    sign_check: bool = True
+
+
+@dataclass(frozen=True)
+class PrimaryResult(JobResult):
+    """A primary calibration: one point per recording.
+
+    Attributes
+    ----------
+    points : tuple of senscal.primary.PrimaryPoint
+        Sorted by frequency.
+    sources : tuple of str
+    quadrature : (str, str)
+    output : str
+    unit : str
+        Sensitivity unit (output unit per m/s^2).
+    wavelength_nm : float
+    warnings : tuple of str
+    """
+
+    job: ClassVar[str] = "primary"
+
+    points: tuple
+    sources: tuple[str, ...]
+    quadrature: tuple[str, str]
+    output: str
+    unit: str
+    wavelength_nm: float
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``senscal primary --json`` document."""
+        pts = []
+        for src, p in zip(self.sources, self.points):
+            d = p.to_dict()
+            d["file"] = src
+            pts.append(d)
+        return to_jsonable({"method": "ISO 16063-11 method 3 (homodyne quadrature, sine approximation)",
+                            "quadrature": list(self.quadrature), "output": self.output,
+                            "wavelength_nm": self.wavelength_nm, "sensitivity_unit": self.unit,
+                            "phase_unit": "deg", "points": pts, "warnings": list(self.warnings)})
+
+    def quantities(self) -> tuple[Quantity, ...]:
+        """Sensitivity and phase at each frequency."""
+        out = []
+        for p in self.points:
+            tag = f"{p.frequency_hz:g}Hz"
+            out.append(Quantity(f"sensitivity@{tag}", p.sensitivity, p.u_sensitivity, self.unit))
+            out.append(Quantity(f"phase@{tag}", p.phase_deg, p.u_phase_deg, "deg"))
+        return tuple(out)
+
+    def to_dataframe(self):
+        import pandas as pd
+
+        cols = ["file", "frequency_hz", "sensitivity", "u_sensitivity", "phase_deg", "u_phase_deg", "fringes"]
+        return pd.DataFrame([{c: d[c] for c in cols} for d in self.to_dict()["points"]], columns=cols)
+
+
+def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult:
+    """Calibrate an accelerometer against a homodyne quadrature interferometer, one recording per frequency.
+
+    Parameters
+    ----------
+    source : str, Path, Recording or sequence of them
+        One recording per frequency, each with the I, Q and output channels.
+    options : PrimaryOptions
+
+    Returns
+    -------
+    PrimaryResult
+
+    Raises
+    ------
+    SenscalError
+        Missing channels, I/Q swapped, one channel given as a pair, a
+        wavelength in metres, too few fringes (one line, with the fix).
+    """
+    from senscal.io.plausibility import merge_time_warnings
+    from senscal.primary import calibrate_point
+    from senscal.primary.core import check_wavelength
+
+    o = options
+    check_wavelength(o.wavelength_nm)
+    qi, qq = _pair(o.quadrature)
+    if o.output in (qi, qq):
+        raise InputError(f"--output {o.output} is one of the quadrature channels; name the accelerometer's channel")
+    if int(o.harmonics) < 1 or int(o.slices) < 0:
+        raise InputError("--harmonics must be at least 1 and --slices not negative")
+    sources: Sequence[Any] = list(source) if isinstance(source, (list, tuple)) else [source]
+    if not sources:
+        raise InputError("senscal primary needs at least one recording (one per frequency)")
+    rows = []
+    units = set()
+    warnings: list[str] = []
+    for src in sources:
+        rec = o.read(src, channels=[qi, qq, o.output], job="primary")
+        fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
+        name = source_name(src)
+        try:
+            p = calibrate_point(rec.channels[qi], rec.channels[qq], rec.channels[o.output], fs, freq=o.freq, wavelength_nm=o.wavelength_nm, harmonics=int(o.harmonics),
+                                drift=bool(o.drift), slices=int(o.slices), u_wavelength_rel=o.u_wavelength_rel,
+                                u_gain_rel=o.u_gain_rel, u_gain_phase_deg=o.u_gain_phase_deg,
+                                u_other_rel=o.u_other_rel, u_other_phase_deg=o.u_other_phase_deg,
+                                sign_check=o.sign_check)
+        except InputError as exc:
+            raise type(exc)(f"{name}: {exc}") from None
+        units.add(rec.unit(o.output))
+        warnings.extend(f"{w} ({name})" for w in p.warnings)
+        warnings.extend(merge_time_warnings((), rec.warnings))
+        rows.append((p.frequency_hz, name, p))
+    rows.sort(key=lambda r: r[0])
+    unit = units.pop() if len(units) == 1 else ""
+    unit = f"{unit or 'output'} per m/s^2"
+    return PrimaryResult(points=tuple(r[2] for r in rows), sources=tuple(r[1] for r in rows),
+                         quadrature=(qi, qq), output=o.output, unit=unit, wavelength_nm=float(o.wavelength_nm),
+                         warnings=tuple(dict.fromkeys(warnings)))

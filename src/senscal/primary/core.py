@@ -1,0 +1,407 @@
+"""Heydemann correction and the sine-approximation method of ISO 16063-11 (method 3).
+
+Model of the quadrature signals (homodyne interferometer, phase ``phi = 4 pi s / lambda``
+for the displacement ``s``)::
+
+    I = p + a cos(phi)
+    Q = q + b sin(phi + alpha)
+
+with offsets ``p, q``, gain ratio ``g = b / a`` and quadrature phase error
+``alpha`` (Heydemann 1981).  The corrected pair is ``c = (I - p) / a = cos(phi)``
+and ``s = ((Q - q) / g / a - c sin(alpha)) / cos(alpha) = sin(phi)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from senscal._result import ResultMixin
+from senscal.diagnostics import named
+from senscal.errors import DataError, InputError
+
+__all__ = ["HeydemannFit", "PrimaryPoint", "heydemann_fit", "corrected_phase", "calibrate_point",
+           "check_wavelength"]
+
+HEYDEMANN_NAMES = ("offset_i", "offset_q", "gain_ratio", "quadrature_error_rad")
+
+
+@dataclass(frozen=True)
+class HeydemannFit(ResultMixin):
+    """Ellipse parameters of the quadrature pair.
+
+    Attributes
+    ----------
+    offset_i, offset_q : float
+        Offsets ``p``, ``q`` (units of the signals).
+    gain_ratio : float
+        ``g = b / a`` (1 for a perfect pair).
+    quadrature_error_rad : float
+        ``alpha``, rad (0 for a perfect pair).
+    amplitude_i : float
+        ``a`` (units of the signals).
+    covariance : ndarray, shape (4, 4)
+        Covariance of (offset_i, offset_q, gain_ratio, quadrature_error_rad).
+    radius_rms : float
+        RMS of the corrected radius minus 1 (relative ellipse residual).
+    """
+
+    offset_i: float
+    offset_q: float
+    gain_ratio: float
+    quadrature_error_rad: float
+    amplitude_i: float
+    covariance: np.ndarray = field(repr=False)
+    radius_rms: float = float("nan")
+
+    @property
+    def params(self) -> np.ndarray:
+        return np.array([self.offset_i, self.offset_q, self.gain_ratio, self.quadrature_error_rad])
+
+    @property
+    def u(self) -> np.ndarray:
+        return np.sqrt(np.clip(np.diag(self.covariance), 0.0, None))
+
+    def to_dict(self) -> dict[str, Any]:
+        u = self.u
+        return {"offset_i": self.offset_i, "u_offset_i": u[0], "offset_q": self.offset_q, "u_offset_q": u[1],
+                "gain_ratio": self.gain_ratio, "u_gain_ratio": u[2],
+                "quadrature_error_deg": math.degrees(self.quadrature_error_rad), "u_quadrature_error_deg":
+                math.degrees(u[3]), "amplitude_i": self.amplitude_i, "radius_rms": self.radius_rms}
+
+
+def _conic_to_params(theta: np.ndarray) -> np.ndarray:
+    """(p, q, g, alpha, a) of the conic ``A x^2 + B y^2 + C xy + D x + E y = 1`` (normalised coordinates)."""
+    A, B, C, D, E = theta
+    m = np.array([[2 * A, C], [C, 2 * B]])
+    p, q = np.linalg.solve(m, -np.array([D, E]))
+    # value of the quadratic form on the ellipse, centred: A x^2 + B y^2 + C xy = 1 + A p^2 + B q^2 + C p q
+    k = 1.0 + A * p * p + B * q * q + C * p * q
+    if not (A > 0 and B > 0 and k > 0 and 4 * A * B - C * C > 0):
+        raise DataError("the quadrature signals do not lie on an ellipse: not a quadrature pair "
+                        "(give the two quadrature outputs of the interferometer with --quadrature I,Q)")
+    sin_a = -C / (2.0 * math.sqrt(A * B))
+    alpha = math.asin(max(-1.0, min(1.0, sin_a)))
+    g = math.sqrt(A / B)
+    # A / k = 1 / (a^2 cos^2 alpha)
+    a = math.sqrt(k / A) / math.cos(alpha)
+    return np.array([p, q, g, alpha, a])
+
+
+def heydemann_fit(i_sig, q_sig) -> HeydemannFit:
+    """Fit the ellipse of a quadrature pair (linear least squares on the conic).
+
+    Parameters
+    ----------
+    i_sig, q_sig : array_like, shape (N,)
+        The two quadrature signals (any unit, the same for both).
+
+    Returns
+    -------
+    HeydemannFit
+        Offsets, gain ratio, quadrature error and their covariance (the
+        conic's least-squares covariance propagated by a numerical Jacobian).
+
+    Raises
+    ------
+    DataError
+        A single channel given twice (the pair lies on a line), or no ellipse.
+    """
+    x = np.asarray(i_sig, float)
+    y = np.asarray(q_sig, float)
+    mx, my = float(np.mean(x)), float(np.mean(y))
+    sx, sy = float(np.std(x)), float(np.std(y))
+    if not (sx > 0 and sy > 0):
+        raise DataError("a quadrature channel is constant: give the two quadrature outputs with --quadrature I,Q")
+    xn, yn = (x - mx) / sx, (y - my) / sy
+    r = abs(float(np.mean(xn * yn)))
+    if r > 0.995:
+        raise DataError(f"the I and Q channels are one signal (correlation {r:.4f}): a single channel is not a "
+                        "quadrature pair; give both quadrature outputs with --quadrature I,Q")
+    X = np.column_stack([xn * xn, yn * yn, xn * yn, xn, yn])
+    theta, *_ = np.linalg.lstsq(X, np.ones_like(xn), rcond=None)
+    res = X @ theta - 1.0
+    n = xn.size
+    s2 = float(res @ res) / max(n - 5, 1)
+    cov_t = s2 * np.linalg.inv(X.T @ X)
+    pn = _conic_to_params(theta)
+    jac = np.empty((5, 5))
+    for j in range(5):
+        h = 1e-6 * max(abs(theta[j]), 1e-3)
+        tp = theta.copy()
+        tp[j] += h
+        tm = theta.copy()
+        tm[j] -= h
+        jac[:, j] = (_conic_to_params(tp) - _conic_to_params(tm)) / (2 * h)
+    cov_n = jac @ cov_t @ jac.T
+    # back to the signals' units: p = mx + sx pn, q = my + sy qn, g = g_n sy / sx, alpha unchanged
+    scale = np.array([sx, sy, sy / sx, 1.0])
+    params = np.array([mx + sx * pn[0], my + sy * pn[1], pn[2] * sy / sx, pn[3]])
+    cov = cov_n[:4, :4] * np.outer(scale, scale)
+    fit = HeydemannFit(offset_i=float(params[0]), offset_q=float(params[1]), gain_ratio=float(params[2]),
+                       quadrature_error_rad=float(params[3]), amplitude_i=float(pn[4] * sx), covariance=cov)
+    c, s = _corrected(x, y, params, fit.amplitude_i)
+    rad = np.sqrt(c * c + s * s)
+    return HeydemannFit(offset_i=fit.offset_i, offset_q=fit.offset_q, gain_ratio=fit.gain_ratio,
+                        quadrature_error_rad=fit.quadrature_error_rad, amplitude_i=fit.amplitude_i,
+                        covariance=cov, radius_rms=float(np.sqrt(np.mean((rad - 1.0) ** 2))))
+
+
+def _corrected(x, y, params, a: float = 1.0):
+    p, q, g, alpha = params
+    c = (x - p) / a
+    s = ((y - q) / (g * a) - c * math.sin(alpha)) / math.cos(alpha)
+    return c, s
+
+
+def corrected_phase(i_sig, q_sig, params) -> np.ndarray:
+    """Unwrapped interferometer phase (rad) of the pair corrected with ``params`` (p, q, g, alpha)."""
+    c, s = _corrected(np.asarray(i_sig, float), np.asarray(q_sig, float), params)
+    return np.unwrap(np.arctan2(s, c))
+
+
+def check_wavelength(wavelength_nm: float) -> None:
+    """Refuse a wavelength that is not in nanometres (a value in metres, or a typo)."""
+    w = float(wavelength_nm)
+    if not math.isfinite(w) or w <= 0:
+        raise InputError(f"--wavelength-nm must be a positive number of nanometres, got {wavelength_nm!r}")
+    if w < 1e-3:
+        raise InputError(f"--wavelength-nm {w:g} looks like metres: give nanometres (632.8 for a HeNe laser)")
+    if not 150.0 <= w <= 20000.0:
+        raise InputError(f"--wavelength-nm {w:g} is not a laser wavelength in nm (632.8 for a HeNe laser)")
+
+
+@dataclass(frozen=True)
+class PrimaryPoint(ResultMixin):
+    """Sensitivity of an accelerometer at one frequency against the interferometer.
+
+    Attributes
+    ----------
+    frequency_hz : float
+    sensitivity, u_sensitivity : float
+        Output amplitude per m/s^2 of acceleration, standard u (k=1).
+    phase_deg, u_phase_deg : float
+        Output phase minus acceleration phase, deg (negative for a lag).
+    displacement_m, acceleration : float
+        Displacement amplitude (m) and acceleration amplitude (m/s^2).
+    fringes : float
+        Peak-to-peak interferometer phase / 2 pi.
+    heydemann : HeydemannFit
+    budget : dict
+        ``{component: {"u_rel": ..., "u_phase_deg": ..., "type": "A"|"B"}}``.
+    residual : dict
+        Residual RMS of the displacement (m) and output fits, the ellipse residual.
+    slices : int
+        Number of per-period (sliced) fits.
+    warnings : tuple of str
+    """
+
+    frequency_hz: float
+    sensitivity: float
+    u_sensitivity: float
+    phase_deg: float
+    u_phase_deg: float
+    displacement_m: float
+    acceleration: float
+    fringes: float
+    heydemann: HeydemannFit
+    budget: dict
+    residual: dict
+    slices: int
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"frequency_hz": self.frequency_hz, "sensitivity": self.sensitivity,
+                "u_sensitivity": self.u_sensitivity, "phase_deg": self.phase_deg, "u_phase_deg": self.u_phase_deg,
+                "displacement_m": self.displacement_m, "acceleration": self.acceleration, "fringes": self.fringes,
+                "heydemann": self.heydemann.to_dict(), "residual": dict(self.residual),
+                "budget": {k: dict(v) for k, v in self.budget.items()}, "slices": self.slices,
+                "warnings": list(self.warnings)}
+
+
+def _amp_phase(fit, idx):
+    return float(fit.amplitude[idx]), float(fit.phase[idx]), float(fit.u_amplitude[idx]), float(fit.u_phase[idx])
+
+
+def _wrap(x):
+    return (x + math.pi) % (2 * math.pi) - math.pi
+
+
+def _chi2_upper(dof: int, p: float = 0.99) -> float:
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(p, dof))
+
+
+def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = None, wavelength_nm: float = 632.8,
+                    harmonics: int = 3, drift: bool = True, slices: int = 10, u_wavelength_rel: float = 0.0,
+                    u_gain_rel: float = 0.0, u_gain_phase_deg: float = 0.0, u_other_rel: float = 0.0,
+                    u_other_phase_deg: float = 0.0, sign_check: bool = True) -> PrimaryPoint:
+    """Sensitivity and phase of an accelerometer at one frequency (ISO 16063-11 method 3).
+
+    Parameters
+    ----------
+    i_sig, q_sig : array_like, shape (N,)
+        Quadrature outputs of the homodyne interferometer.
+    output : array_like, shape (N,)
+        Accelerometer output (its unit is the sensitivity's numerator).
+    fs : float
+        Sample rate, Hz (uniform sampling).
+    freq : float, optional
+        Excitation frequency, Hz; estimated from the displacement when omitted.
+    wavelength_nm : float
+        Laser wavelength in vacuum (or in air, as the user corrects it), nm.
+    harmonics : int
+        Harmonics fitted with the fundamental (exciter distortion).
+    drift : bool
+        Fit a linear drift of the offsets (output drift, slow table motion).
+    slices : int
+        Per-period (sliced) fits whose spread is the type A term for what the
+        model lacks.
+    u_wavelength_rel, u_gain_rel, u_other_rel : float
+        Type B relative standard uncertainties: wavelength, gain of the
+        output's voltage measurement, other (transverse motion, base strain ...).
+    u_gain_phase_deg, u_other_phase_deg : float
+        Type B phase standard uncertainties, deg.
+    sign_check : bool
+        Refuse a phase near 180 deg (I/Q swapped or an inverted output).
+
+    Returns
+    -------
+    PrimaryPoint
+
+    Raises
+    ------
+    DataError, InputError
+        Not a quadrature pair, too few fringes, aliased fringes, I/Q swapped
+        (one line with the fix).
+    """
+    from senscal.sinefit import fit_sine
+
+    check_wavelength(wavelength_nm)
+    x = np.asarray(i_sig, float)
+    y = np.asarray(q_sig, float)
+    out = np.asarray(output, float)
+    if not (x.shape == y.shape == out.shape and x.ndim == 1):
+        raise InputError("the I, Q and output channels must be one-dimensional and of equal length")
+    if not np.all(np.isfinite(x)) or not np.all(np.isfinite(y)) or not np.all(np.isfinite(out)):
+        raise DataError("NaN or inf in the interferometer or output samples: cut them out with --start/--stop")
+    # coverage of the ellipse before fitting it: a partial arc (under one fringe) has no unique ellipse
+    ang = np.sort(np.arctan2((y - 0.5 * (y.max() + y.min())) / max(np.ptp(y), 1e-300),
+                             (x - 0.5 * (x.max() + x.min())) / max(np.ptp(x), 1e-300)))
+    gap = float(np.max(np.diff(np.concatenate([ang, ang[:1] + 2 * math.pi])))) if ang.size else 2 * math.pi
+    if gap > math.pi / 2:
+        raise DataError(f"too few fringes: the quadrature signals leave {math.degrees(gap):.0f} deg of the ellipse "
+                        "empty; the Heydemann fit needs at least one full fringe (raise the vibration amplitude)")
+    hf = heydemann_fit(x, y)
+    phi_raw = np.arctan2(*_corrected(x, y, hf.params)[::-1])
+    step = np.abs(_wrap(np.diff(phi_raw)))
+    if step.size and float(np.quantile(step, 0.999)) > 0.75 * math.pi:
+        raise DataError("the fringes alias at this sample rate (phase steps near pi per sample): record faster or "
+                        "lower the vibration amplitude")
+    phi = np.unwrap(phi_raw)
+    fringes = float(np.ptp(phi) / (2 * math.pi))
+    if fringes < 1.0:
+        raise DataError(f"too few fringes ({fringes:.2f}): the Heydemann fit needs at least one full fringe "
+                        "(raise the vibration amplitude)")
+    lam = wavelength_nm * 1e-9
+    disp = phi * lam / (4 * math.pi)
+    n = disp.size
+    if freq is None:
+        f0 = fit_sine(disp, fs=fs, harmonics=1, drift=drift)
+        freq = float(f0.frequency)
+        u_f = float(f0.u_frequency)
+    else:
+        u_f = 0.0
+    if not (freq > 0 and freq < fs / 2):
+        raise InputError(f"--freq {freq:g} Hz must be positive and below the Nyquist frequency {fs / 2:g} Hz")
+    both = np.vstack([disp, out])
+    fit = fit_sine(both, fs=fs, freq=freq, harmonics=harmonics, drift=drift)
+    ad, pd, uad, upd = _amp_phase(fit, 0)
+    ao, po, uao, upo = _amp_phase(fit, 1)
+    w = 2 * math.pi * freq
+    acc = w * w * ad
+    sens = ao / acc
+    phase = _wrap(po - (pd + math.pi))
+    warnings: list[str] = list(fit.warnings)
+    if sign_check and abs(phase) > math.pi / 2:
+        raise DataError(f"the output is {math.degrees(phase):+.1f} deg from the acceleration: the displacement's "
+                        "sign is flipped (I and Q swapped: give --quadrature Q,I), or the output is inverted "
+                        "(then --no-sign-check)")
+    # type A from the fits' covariances (laser noise, output noise; coloured noise by the engine's model)
+    ud_rel, uo_rel = uad / ad, uao / ao
+    u_fit_rel = math.hypot(ud_rel, uo_rel)
+    u_fit_ph = math.hypot(upd, upo)
+    # per-period (sliced) fits: the spread of the ratio over slices holds what the model lacks
+    periods = n * freq / fs
+    m = int(min(slices, math.floor(periods)))
+    u_sl_rel = u_sl_ph = 0.0
+    s_rel = s_ph = float("nan")
+    if m >= 3:
+        per = math.floor(periods / m)
+        L = int(round(per * fs / freq))
+        seg = both[:, : m * L].reshape(2, m, L)
+        sf = fit_sine(seg.reshape(2 * m, L), fs=fs, freq=freq, harmonics=harmonics, drift=False,
+                      noise_model="white")
+        amp = np.asarray(sf.amplitude).reshape(2, m)
+        ph = np.asarray(sf.phase).reshape(2, m)
+        ratio = amp[1] / amp[0]
+        dph = _wrap(ph[1] - ph[0] - phase - math.pi)
+        s_rel = float(np.std(ratio, ddof=1) / np.mean(ratio) / math.sqrt(m))
+        s_ph = float(np.std(dph, ddof=1) / math.sqrt(m))
+        # the slices' spread replaces the fit's u only when it exceeds it beyond chance (chi-square, 1 %)
+        lim = _chi2_upper(m - 1) / (m - 1)
+        if s_rel ** 2 > lim * u_fit_rel ** 2:
+            u_sl_rel = math.sqrt(s_rel ** 2 - u_fit_rel ** 2)
+        if s_ph ** 2 > lim * u_fit_ph ** 2:
+            u_sl_ph = math.sqrt(s_ph ** 2 - u_fit_ph ** 2)
+        if u_sl_rel > 2 * u_fit_rel or u_sl_ph > 2 * u_fit_ph:
+            warnings.append(named("unmodelled-components", f"the {m} per-period fits scatter "
+                                  f"{s_rel / max(u_fit_rel, 1e-300):.1f}x (magnitude) and "
+                                  f"{s_ph / max(u_fit_ph, 1e-300):.1f}x (phase) beyond the fit's noise "
+                                  "(drift, hum or parasitic motion); their spread is in u"))
+    # Heydemann parameters' u propagated to magnitude and phase: the phase change a parameter step makes,
+    # projected on the fundamental (a linear change of the fit, so no re-fit is needed)
+    J = np.zeros((2, 4))
+    hu = hf.u
+    tt = np.arange(n) / fs
+    sn, cs = np.sin(w * tt + pd), np.cos(w * tt + pd)
+    g_ss, g_cc, g_sc = float(sn @ sn), float(cs @ cs), float(sn @ cs)
+    det = g_ss * g_cc - g_sc * g_sc
+    for j in range(4):
+        h = hu[j] if hu[j] > 0 else 1e-9
+        pp = hf.params.copy()
+        pp[j] += h
+        dd = _wrap(np.arctan2(*_corrected(x, y, pp)[::-1]) - phi_raw) * lam / (4 * math.pi)
+        bs, bc = float(sn @ dd), float(cs @ dd)
+        # d = A sin(wt + pd) + dA sin(...) + A dp cos(...): solve the 2x2 normal equations
+        da = (g_cc * bs - g_sc * bc) / det
+        dp = (g_ss * bc - g_sc * bs) / det / ad
+        J[0, j] = da / ad / h
+        J[1, j] = dp / h
+    ch = J @ hf.covariance @ J.T
+    u_hey_rel = math.sqrt(max(ch[0, 0], 0.0))
+    u_hey_ph = math.sqrt(max(ch[1, 1], 0.0))
+    deg = math.degrees
+    budget = {
+        "displacement_fit": {"type": "A", "u_rel": ud_rel, "u_phase_deg": deg(upd)},
+        "output_fit": {"type": "A", "u_rel": uo_rel, "u_phase_deg": deg(upo)},
+        "unmodelled_slices": {"type": "A", "u_rel": u_sl_rel, "u_phase_deg": deg(u_sl_ph)},
+        "heydemann": {"type": "A", "u_rel": u_hey_rel, "u_phase_deg": deg(u_hey_ph)},
+        "frequency": {"type": "A", "u_rel": 2 * u_f / freq, "u_phase_deg": 0.0},
+        "wavelength": {"type": "B", "u_rel": float(u_wavelength_rel), "u_phase_deg": 0.0},
+        "output_gain": {"type": "B", "u_rel": float(u_gain_rel), "u_phase_deg": float(u_gain_phase_deg)},
+        "other": {"type": "B", "u_rel": float(u_other_rel), "u_phase_deg": float(u_other_phase_deg)},
+    }
+    u_rel = math.sqrt(sum(v["u_rel"] ** 2 for v in budget.values()))
+    u_ph = math.sqrt(sum(v["u_phase_deg"] ** 2 for v in budget.values()))
+    residual = {"displacement_rms_m": float(np.asarray(fit.residual_rms)[0]),
+                "output_rms": float(np.asarray(fit.residual_rms)[1]), "ellipse_radius_rms": hf.radius_rms,
+                "slices_u_rel": s_rel, "slices_u_phase_deg": deg(s_ph) if s_ph == s_ph else s_ph}
+    return PrimaryPoint(frequency_hz=float(freq), sensitivity=float(sens), u_sensitivity=float(sens * u_rel),
+                        phase_deg=deg(phase), u_phase_deg=u_ph, displacement_m=ad, acceleration=acc,
+                        fringes=fringes, heydemann=hf, budget=budget, residual=residual, slices=max(m, 0),
+                        warnings=tuple(dict.fromkeys(warnings)))
