@@ -48,7 +48,7 @@ def test_response_dcc_from_the_command_line(cli, records, tmp_path):
     lab = tmp_path / "lab.toml"
     lab.write_text(LAB)
     out = tmp_path / "out" / "response.xml"
-    r = cli(*_args(records, lab, out))
+    r = cli(*_args(records, lab, out), "--mkdir")  # a new folder for the DCC only on request (issue 32)
     assert r.code == 0, r.err
     doc = json.loads(r.out)
     data = out.read_bytes()
