@@ -274,8 +274,9 @@ def _accel_covariance(st, theta, gravity):
     m, b, _ = unpack("full", theta, gravity)
     mi = np.linalg.inv(m)
     a = _unit_rows(mi @ (st.means - b[:, None]))
-    var = np.array([a[:, k] @ mi @ np.diag(st.stds[:, k] ** 2 / st.counts[k]) @ mi.T @ a[:, k]
-                    for k in range(st.n_poses)])
+    # The engine's residual is (|u| - g) / |M^-T n| (sensor units): its variance is w^T C w / |w|^2, w = M^-T n.
+    w = mi.T @ a
+    var = np.einsum("ik,ik->k", w, (st.stds ** 2 / st.counts[None, :]) * w) / np.einsum("ik,ik->k", w, w)
     var = np.maximum(var, 1e-300)
     bread = np.linalg.pinv(jac.T @ jac)
     cov = bread @ (jac.T * var[None, :]) @ jac @ bread
@@ -441,31 +442,38 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         rg_ = prob.whitened(phi[9:].reshape(3, 3) * s0, nu_j, t_ref)
         return np.concatenate([ra_ / inflate[0], rg_ / inflate[1]])
 
-    phi0 = np.concatenate([fa.values, sol.x])
-    sol = optimize.least_squares(joint, phi0, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12)
-    if not np.all(np.isfinite(sol.x)):
-        raise ConvergenceError("the gyroscope fit did not converge; check --gyro-channels and that the IMU rotates "
-                               "between still poses")
-    phi = sol.x
-    r = joint(phi)
+    phi = np.concatenate([fa.values, sol.x])
     n_a = st.n_poses
-    dof_a, dof = n_a - 9, r.size - n_a - 9
-    chi2_a, chi2 = float(r[:n_a] @ r[:n_a]), float(r[n_a:] @ r[n_a:])
-    if dof_a > 0 and chi2_a > stats.chi2.ppf(0.999, dof_a):
-        inflate[0] = math.sqrt(chi2_a / dof_a)
+    dof_a, dof = n_a - 9, 2 * n_r - 9
+    q_a, q_g = stats.chi2.ppf(0.999, max(dof_a, 1)), stats.chi2.ppf(0.999, dof)
+    # A block whose residuals exceed its noise model (chi-square above the 99.9 % point) gets its noise scaled
+    # by its excess and the fit is repeated: a misfitting gyro must not drag the accelerometer's parameters.
+    for _ in range(4):
+        sol = optimize.least_squares(joint, phi, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12)
+        if not np.all(np.isfinite(sol.x)):
+            raise ConvergenceError("the gyroscope fit did not converge; check --gyro-channels and that the IMU "
+                                   "rotates between still poses")
+        phi = sol.x
+        r = joint(phi)
+        chi2_a = float(r[:n_a] @ r[:n_a]) * inflate[0] ** 2
+        chi2 = float(r[n_a:] @ r[n_a:]) * inflate[1] ** 2
+        new_inf = np.array([math.sqrt(chi2_a / dof_a) if dof_a > 0 and chi2_a > q_a else 1.0,
+                            math.sqrt(chi2 / dof) if chi2 > q_g else 1.0])
+        if np.allclose(new_inf, inflate, rtol=0.05):
+            break
+        inflate[:] = new_inf
+    if inflate[0] > 1.0:
         warnings.append(named("accel-residuals-inconsistent", f"the static pose means scatter about |f| = g "
                               f"{inflate[0]:.2g} times more than their noise explains (chi2 {chi2_a:.1f} for "
                               f"{dof_a} dof): poses not still, coloured noise, or a drift; the u are scaled by it"))
-    if chi2 > stats.chi2.ppf(0.999, dof):
+    if inflate[1] > 1.0:
         # The noise model is too small (coloured gyro noise, poses not still, motion the integration cannot
         # follow): the residuals' own scatter sets the u, and the departure is named.
-        inflate[1] = math.sqrt(chi2 / dof)
         warnings.append(named("gyro-residuals-inconsistent", f"the rotations between poses predict the next "
                               f"gravity direction {inflate[1]:.2g} times worse than the noise explains (chi2 "
                               f"{chi2:.1f} for {dof} dof): coloured gyro noise, fast or jerky rotations for the "
                               "sample rate, poses not still, or g-sensitivity; the u are scaled by it"))
-    jac = sol.jac / np.concatenate([np.full(n_a, inflate[0]), np.full(r.size - n_a, inflate[1])])[:, None] \
-        if np.any(inflate != 1.0) else sol.jac
+    jac = sol.jac
     cov_phi = np.linalg.pinv(jac.T @ jac)
     ns = math.sqrt(chi2 / dof)
     cov_a = cov_phi[:9, :9]
