@@ -164,8 +164,10 @@ def test_triaxial_apply_inverts_the_sensor_model_and_checks_units():
                                     field=cal.field, unit="m/s^2")
     np.testing.assert_array_equal(with_unit.apply(raw, unit="m/s²"), cal.apply(raw))
     np.testing.assert_array_equal(with_unit.apply(raw, unit="m s-2"), cal.apply(raw))
-    with pytest.raises(InputError, match="'g' but the sensor was calibrated in 'm/s\\^2'"):
-        with_unit.apply(raw, unit="g")
+    # Another scale of the same dimension is converted (g -> m/s^2), another dimension refused.
+    np.testing.assert_allclose(with_unit.apply(raw / 9.80665, unit="g"), cal.apply(raw), rtol=1e-12)
+    with pytest.raises(InputError, match="'V' \\(a voltage\\) but the sensor was calibrated in 'm/s\\^2'"):
+        with_unit.apply(raw, unit="V")
 
 
 def test_shaft_apply_leaves_the_non_gravity_acceleration():
@@ -195,8 +197,9 @@ def test_response_apply_interpolates_between_points_and_refuses_outside():
     assert dev == pytest.approx(0.01, rel=1e-9) and u_dev == pytest.approx(u[2] / s[2])
     with pytest.raises(InputError, match="outside the calibrated range"):
         resp.sensitivity_at(2 * f.max())
-    with pytest.raises(InputError, match="'mV' but the sensor was calibrated in 'V'"):
-        resp.apply(amplitude, mid, unit="mV")
+    np.testing.assert_allclose(resp.apply(1e3 * amplitude * s_mid, mid, unit="mV"), amplitude, rtol=1e-12)
+    with pytest.raises(InputError, match="'m/s' \\(a velocity\\) but the sensor was calibrated in 'V'"):
+        resp.apply(amplitude, mid, unit="m/s")
 
 
 def test_old_h5_response_converts_to_a_real_hdf5_file(tmp_path):

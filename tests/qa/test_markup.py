@@ -50,7 +50,7 @@ def _clean(r, code=0):
 def test_registry_fields_round_trip_literally(cli, tmp_path, serial):
     db = str(tmp_path / "reg.sqlite")
     _clean(cli("registry", "add", serial, "--kind", STYLED, "--model", LINK, "--manufacturer", EMOJI,
-               "--nominal", f"{BROKEN}q=0.01 {STYLED}", "--notes", BROKEN, "--db", db))
+               "--nominal", f"{BROKEN}q=0.01 V", "--notes", BROKEN, "--db", db))
     out = _clean(cli("registry", "sensors", "--db", db)).out
     for text in (serial, STYLED, EMOJI, BROKEN):
         assert _shown(text, out), (text, out)
@@ -58,7 +58,11 @@ def test_registry_fields_round_trip_literally(cli, tmp_path, serial):
     assert (sens["serial"], sens["kind"], sens["model"], sens["manufacturer"], sens["notes"]) == (
         serial, STYLED, LINK, EMOJI, BROKEN)
 
-    q, unit = f"{BROKEN}{TEX}", f"{STYLED}/g"
+    # Units are quantities (pint), not free text: markup is refused as a unit, and shown literally.
+    r = _clean(cli("registry", "record", serial, "--quantity", "s", "--value", "1", "--uncertainty", "0.001",
+                   "--k", "2", "--unit", f"{STYLED}/g", "--date", "2021-01-01", "--db", db), code=2)
+    assert len(r.err.strip().splitlines()) == 1 and STYLED in r.err, r.err
+    q, unit = f"{BROKEN}{TEX}", "V/g"
     for year, value in ((2021, 1.0), (2022, 1.001), (2023, 1.002)):
         r = _clean(cli("registry", "record", serial, "--quantity", q, "--value", value, "--uncertainty", "0.001",
                        "--k", "2", "--unit", unit, "--date", f"{year}-01-01", "--note", LINK, "--certificate", BROKEN,
@@ -124,10 +128,13 @@ def test_markup_in_vibration_options_and_outputs(cli, tmp_path):
     folder = tmp_path / "out["
     folder.mkdir()
     files = sorted((tmp_path / "h").glob("hydraulic_0[1-2].csv"))
-    r = _clean(cli("velocity", *files, "--position", "position", "--velocity", "velocity", "--output-unit", STYLED,
+    r = _clean(cli("velocity", *files, "--position", "position", "--velocity", "velocity", "--output-unit", STYLED),
+               code=2)
+    assert len(r.err.strip().splitlines()) == 1 and STYLED in r.err, r.err   # not a unit, shown literally
+    r = _clean(cli("velocity", *files, "--position", "position", "--velocity", "velocity", "--output-unit", "pC",
                    "--sensor-id", BROKEN, "--model", LINK, "--condition", f"{EMOJI}={BROKEN}",
                    "--report", folder / "]c.html", "--plot", folder / f"]{TEX}.png"))
-    assert _shown(f"{STYLED}/(m/s)", r.out) and _shown(str(folder / "]c.html"), r.out), r.out
+    assert _shown("pC/(m/s)", r.out) and _shown(str(folder / "]c.html"), r.out), r.out
     html = (folder / "]c.html").read_text()
     assert LINK in html and BROKEN in html                  # the certificate quotes them verbatim too
     r = _clean(cli("velocity", files[0], "--position", BROKEN, "--velocity", "velocity"), code=2)

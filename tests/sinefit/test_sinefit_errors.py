@@ -17,7 +17,7 @@ Y = np.sin(2 * math.pi * 3 * T)
 def test_nan_names_channel_and_sample():
     y = np.stack([Y, Y.copy()])
     y[1, 17] = np.nan
-    with pytest.raises(DataError, match=r"channel 1 .*sample 17"):
+    with pytest.raises(DataError, match=r"channel 1 .*data row 18"):
         fit_sine(y, T, freq=3)
 
 
