@@ -341,6 +341,33 @@ def _triaxial_simulator():
 
 
 # ---------------------------------------------------------------------------
+# primary calibration by laser interferometry (senscal primary)
+# ---------------------------------------------------------------------------
+
+def _run_primary(strengths: Mapping[str, float], seed: int) -> list[Outcome]:
+    from senscal.validation.primary import one_seed
+
+    kw: dict[str, Any] = dict(strengths)
+    if "swap_iq" in kw:
+        kw["swap_iq"] = True
+    f = 160.0
+    r = one_seed(seed, kw, freqs=(f,))[f]
+    if r is None:  # the job refused the record (one_seed keeps no message)
+        from senscal.errors import DataError
+
+        raise DataError("the primary job refused the record")
+    (s, us, st), (ph, uph, pht), warns = r
+    w = _w(warns)
+    return [_o("sensitivity", s, us, st, w), _o("phase", ph, uph, pht, w)]
+
+
+def _primary_simulator():
+    from senscal.simulate.interferometer import simulate_interferometer
+
+    return simulate_interferometer
+
+
+# ---------------------------------------------------------------------------
 # the registry
 # ---------------------------------------------------------------------------
 
@@ -387,6 +414,16 @@ def _jobs() -> dict[str, SweepJob]:
              "inclination_deg", "tilt_deg", "fs", "hold_s", "move_s", "band_deg", "order", "drift_shape", "step_at",
              "seed"),
             _run_triaxial),
+        "primary": SweepJob(
+            "primary", _primary_simulator(),
+            (Departure("harmonic_distortion", 0.005, 0.1, "log", "exciter's 2nd/3rd harmonics, relative"),
+             Departure("output_drift_rel", 0.002, 0.05, "log", "linear output drift over the record, relative"),
+             Departure("hum_rel", 0.001, 0.05, "log", "50 Hz hum on the output, relative"),
+             Departure("intensity_drift", 0.01, 0.3, "log", "laser intensity change over the record, relative"),
+             Departure("swap_iq", 0.0, 1.0, "linear", "I and Q swapped (a wiring mistake; on = swapped)")),
+            ("freq", "acceleration", "fs", "duration", "wavelength_nm", "sensitivity", "phase_deg", "offsets",
+             "gain_ratio", "quadrature_deg", "laser_noise", "output_noise_rel", "hum_hz", "seed"),
+            _run_primary),
     }
 
 
