@@ -236,6 +236,49 @@ def _chi2_upper(dof: int, p: float = 0.99) -> float:
     return float(chi2.ppf(p, dof))
 
 
+def _model(fit, n: int, fs: float) -> np.ndarray:
+    """The fitted sines, offsets and drifts of a batch fit, shape (channels, n)."""
+    t = np.arange(n) / fs
+    w = 2 * math.pi * float(np.ravel(fit.frequency)[0])
+    amp = np.atleast_2d(fit.harmonic_amplitudes)
+    ph = np.atleast_2d(fit.harmonic_phases)
+    out = np.asarray(fit.offset, float).reshape(-1, 1) + np.zeros((amp.shape[0], n))
+    if fit.drift is not None:
+        out = out + np.asarray(fit.drift, float).reshape(-1, 1) * (t - fit.t_ref)
+    for k in range(amp.shape[1]):
+        out = out + amp[:, k:k + 1] * np.sin((k + 1) * w * t + ph[:, k:k + 1])
+    return out
+
+
+def _tone(r: np.ndarray, fs: float, freq: float):
+    """(frequency, samples) of the largest tone in a residual when it is beyond chance, else None.
+
+    The periodogram peak of white noise over N/2 bins exceeds ``ln(N/2 / p)`` times its mean with
+    probability ``p``; p = 1e-3 keeps false detections rare.
+    """
+    from senscal.errors import SenscalError
+    from senscal.sinefit import fit_sine
+
+    n = r.size
+    spec = np.abs(np.fft.rfft(r - r.mean())) ** 2
+    spec[0] = 0.0
+    mean = float(np.median(spec[1:])) / math.log(2.0)  # robust mean of an exponential variable
+    if not mean > 0:
+        return None
+    k = int(np.argmax(spec))
+    if spec[k] / mean < math.log(0.5 * n / 1e-3):
+        return None
+    f_k = k * fs / n
+    if abs(f_k - freq) < 2 * fs / n or f_k < 2 * fs / n:
+        return None  # at the excitation (inseparable) or a slow drift: left to the fit and the slices
+    try:
+        tf = fit_sine(r, fs=fs, harmonics=1, noise_model="white")
+    except SenscalError:
+        return None
+    t = np.arange(n) / fs
+    return float(tf.frequency), float(tf.amplitude) * np.sin(2 * math.pi * float(tf.frequency) * t + float(tf.phase))
+
+
 def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = None, wavelength_nm: float = 632.8,
                     harmonics: int = 3, drift: bool = True, slices: int = 10, u_wavelength_rel: float = 0.0,
                     u_gain_rel: float = 0.0, u_gain_phase_deg: float = 0.0, u_other_rel: float = 0.0,
@@ -320,6 +363,21 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
         raise InputError(f"--freq {freq:g} Hz must be positive and below the Nyquist frequency {fs / 2:g} Hz")
     both = np.vstack([disp, out])
     fit = fit_sine(both, fs=fs, freq=freq, harmonics=harmonics, drift=drift)
+    # tones that are no harmonic of the excitation (mains hum, a second exciter mode): found in the residual,
+    # fitted by the same engine and removed, so that neither the fit's noise model nor the slices take them for noise
+    tones: list[float] = []
+    for _ in range(3):
+        found = False
+        model = _model(fit, n, fs)
+        for row in range(2):
+            tf = _tone(both[row] - model[row], fs, freq)
+            if tf is not None:
+                both[row] = both[row] - tf[1]
+                tones.append(tf[0])
+                found = True
+        if not found:
+            break
+        fit = fit_sine(both, fs=fs, freq=freq, harmonics=harmonics, drift=drift)
     ad, pd, uad, upd = _amp_phase(fit, 0)
     ao, po, uao, upo = _amp_phase(fit, 1)
     w = 2 * math.pi * freq
@@ -400,7 +458,7 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
     u_ph = math.sqrt(sum(v["u_phase_deg"] ** 2 for v in budget.values()))
     residual = {"displacement_rms_m": float(np.asarray(fit.residual_rms)[0]),
                 "output_rms": float(np.asarray(fit.residual_rms)[1]), "ellipse_radius_rms": hf.radius_rms,
-                "slices_u_rel": s_rel, "slices_u_phase_deg": deg(s_ph) if s_ph == s_ph else s_ph}
+                "removed_tones_hz": tones, "slices_u_rel": s_rel, "slices_u_phase_deg": deg(s_ph) if s_ph == s_ph else s_ph}
     return PrimaryPoint(frequency_hz=float(freq), sensitivity=float(sens), u_sensitivity=float(sens * u_rel),
                         phase_deg=deg(phase), u_phase_deg=u_ph, displacement_m=ad, acceleration=acc,
                         fringes=fringes, heydemann=hf, budget=budget, residual=residual, slices=max(m, 0),
