@@ -45,7 +45,8 @@ from senscal.cli.common import err_console
 from senscal.errors import InputError
 
 __all__ = ["ReportOpt", "DccOpt", "LabOpt", "RunFileOpt", "CustomerOpt", "ItemOpt", "ManufacturerOpt", "ModelOpt",
-           "SensorIdOpt", "LocationOpt", "CertIdOpt", "CalDateOpt", "EnvOpt", "certificate_info", "cert_fields", "certify"]
+           "SensorIdOpt", "LocationOpt", "CertIdOpt", "CalDateOpt", "EnvOpt", "ConformityOpt", "DecisionRuleOpt",
+           "certificate_info", "cert_fields", "certify", "decide_conformity"]
 
 _PANEL = "Certificate"
 
@@ -82,6 +83,15 @@ CalDateOpt = Annotated[Optional[str], typer.Option(
 EnvOpt = Annotated[Optional[List[str]], typer.Option(
     "--env", metavar="NAME=VALUE+-U UNIT", help="Environmental condition with its standard uncertainty (repeatable), "
                                                 "e.g. 'temperature=23.1+-0.5 degC'.", rich_help_panel=_PANEL)]
+ConformityOpt = Annotated[Optional[str], typer.Option(
+    "--conformity", metavar="NAME=VALUE+-TOL", help="Specification for a statement of conformity of every point: "
+    "'sensitivity=0.05+-2%', 'sensitivity=50 mV/(m/s^2)+-1 mV/(m/s^2)', 'sensitivity=0.049..0.051', "
+    "'phase_delay_deg<=5'. Adds conformity and probability_false_accept per point (JSON, certificate, DCC).",
+    rich_help_panel=_PANEL)]
+DecisionRuleOpt = Annotated[Optional[str], typer.Option(
+    "--decision-rule", metavar="simple|guard-band|non-binary", help="ILAC-G8:09/2019 decision rule of --conformity: "
+    "simple (w = 0, the default), guard-band (w = U), non-binary (pass, conditional pass, conditional fail, fail).",
+    rich_help_panel=_PANEL)]
 
 
 def _date_part(text: str | None) -> str:
@@ -97,7 +107,8 @@ def _date_part(text: str | None) -> str:
 def certificate_info(*, lab: Path | None = None, run_file: Path | None = None, customer: str | None = None,
                      item: str | None = None, manufacturer: str | None = None, model: str | None = None,
                      serial: str | None = None, location: str | None = None, certificate_id: str | None = None,
-                     env: Sequence[str] | None = None, calibration_date: str | None = None):
+                     env: Sequence[str] | None = None, calibration_date: str | None = None,
+                     conformity: str | None = None, decision_rule: str | None = None):
     """The :class:`~senscal.report.lab.CertificateInfo` from the profile, the run file and the options.
 
     Raises
@@ -116,7 +127,7 @@ def certificate_info(*, lab: Path | None = None, run_file: Path | None = None, c
     conds = tuple(parse_condition(e) for e in env or ())
     run = merge_run(run, customer=customer, item=item, manufacturer=manufacturer, model=model, serial=serial,
                     location=location, certificate_id=certificate_id, calibration_date=_date_part(calibration_date),
-                    conditions=conds)
+                    conditions=conds, conformity=conformity, decision_rule=decision_rule)
     return CertificateInfo(profile, run)
 
 
@@ -126,12 +137,40 @@ def cert_fields(params: Mapping[str, Any]) -> dict[str, Any]:
                                       "certificate_id", "env")}
     out["serial"] = params.get("sensor_id") or params.get("sensor")
     out["calibration_date"] = params.get("calibration_date") or params.get("date")
+    out["conformity"] = params.get("conformity")
+    out["decision_rule"] = params.get("decision_rule")
     return out
+
+
+def decide_conformity(doc: dict | None, conformity: str | None, decision_rule: str | None) -> tuple[str | None, str | None]:
+    """``--conformity``/``--decision-rule`` decided on the command's JSON document (per point, in place).
+
+    Returns the statement and the decision rule for the certificate, (None, None) without ``--conformity``.
+
+    Raises
+    ------
+    InputError
+        ``--decision-rule`` without ``--conformity``, an unknown rule, a malformed specification, a quantity
+        the result does not have.
+    """
+    from senscal.report.conformity import RULES, apply_to_document, parse_specification
+
+    if conformity is None:
+        if decision_rule is not None:
+            raise InputError("--decision-rule needs --conformity NAME=VALUE+-TOL (the specification to decide on)")
+        return None, None
+    rule = (decision_rule or "simple").strip().lower()
+    if rule not in RULES:
+        raise InputError(f"--decision-rule {decision_rule!r} is not known; use one of {', '.join(RULES)}")
+    spec = parse_specification(conformity)
+    if doc is None:
+        raise InputError("--conformity: this command has no per-point result to decide on")
+    return apply_to_document(doc, spec, rule)
 
 
 def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, unit: str, method: str,
             conditions: Mapping[str, Any], files: Sequence[str], warnings: Sequence[str] = (),
-            **fields: Any) -> list[str]:
+            doc: dict | None = None, **fields: Any) -> list[str]:
     """Write the certificate (``--report``) and the DCC (``--dcc``) of one result; return their warnings.
 
     Parameters
@@ -150,9 +189,13 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
         Records used.
     warnings : sequence of str
         The command's named warnings (printed on the certificate with the certificate's own).
+    doc : dict, optional
+        The command's JSON document: with ``conformity`` in ``fields`` each point gets its ``conformity`` and
+        ``probability_false_accept`` (:func:`decide_conformity`), also without ``--report``/``--dcc``.
     **fields
         The certificate options: ``lab``, ``run_file``, ``customer``, ``item``, ``manufacturer``, ``model``,
-        ``serial``, ``location``, ``certificate_id``, ``env``, ``calibration_date`` (see :func:`certificate_info`).
+        ``serial``, ``location``, ``certificate_id``, ``env``, ``calibration_date``, ``conformity`` (a
+        specification), ``decision_rule`` (see :func:`certificate_info`).
 
     Returns
     -------
@@ -160,6 +203,8 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
         ``certificate-draft`` (a required field is missing: DRAFT on every page), ``budget-zero-component``,
         ``u-below-reference``; empty when nothing was written.
     """
+    fields["conformity"], fields["decision_rule"] = decide_conformity(doc, fields.get("conformity"),
+                                                                       fields.get("decision_rule"))
     if report is None and dcc is None:
         return []
     from senscal.io.guard import check_output, write_bytes

@@ -11,8 +11,9 @@ import typer
 from typing_extensions import Annotated
 
 from senscal.cli.app import app, simulate_app
-from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, CustomerOpt, DccOpt, EnvOpt, ItemOpt, LabOpt, LocationOpt,
-                                   ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt, SensorIdOpt, cert_fields, certify)
+from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, ConformityOpt, CustomerOpt, DccOpt, DecisionRuleOpt, EnvOpt,
+                                   ItemOpt, LabOpt, LocationOpt, ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt,
+                                   SensorIdOpt, cert_fields, certify)
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console, emit_warnings,
@@ -171,6 +172,7 @@ def velocity_cmd(
     dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,
     item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
     certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
+    conformity: ConformityOpt = None, decision_rule: DecisionRuleOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
@@ -187,7 +189,7 @@ def velocity_cmd(
                                       "offset drift fitted": "yes" if drift else "no",
                                       "position reference u (type B)": f"{100 * opts.u_position:g} %",
                                       **_conditions(condition)},
-                         warnings=result.warnings, **cert_fields(locals()))
+                         warnings=result.warnings, doc=doc, **cert_fields(locals()))
     _with_certificate(doc, cert_warns, report)
 
     def figure():
@@ -239,6 +241,7 @@ def response_cmd(
     dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,
     item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
     certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
+    conformity: ConformityOpt = None, decision_rule: DecisionRuleOpt = None,
     save_response_to: Annotated[Optional[Path], typer.Option("--save-response", help="Save the response (JSON with type and version) for later use.")] = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
@@ -270,7 +273,7 @@ def response_cmd(
     cert_warns = certify("response", resp, report=report, dcc=dcc, unit=unit, method=meth, conditions=cond,
                          files=[str(f) for f in files]
                          + ([f"{phase_reference} (phase reference)"] if phase_reference is not None else []),
-                         warnings=result.warnings, **cert_fields(locals()))
+                         warnings=result.warnings, doc=doc, **cert_fields(locals()))
     _with_certificate(doc, cert_warns, report)
     if save_response_to is not None:
         from senscal.vibration import save_response
@@ -322,6 +325,7 @@ def linearity_cmd(
     dcc: DccOpt = None, lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None,
     item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
     certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
+    conformity: ConformityOpt = None, decision_rule: DecisionRuleOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
@@ -338,7 +342,7 @@ def linearity_cmd(
                                       "input range (m/s^2)": f"{min(amps):g} .. {max(amps):g}",
                                       "input level u (random per level)": f"{100 * opts.u_input:g} %",
                                       "angle synchronisation": "yes" if angle else "no", **_conditions(condition)},
-                         warnings=result.warnings, **cert_fields(locals()))
+                         warnings=result.warnings, doc=doc, **cert_fields(locals()))
     _with_certificate(doc, cert_warns, report)
 
     def figure():

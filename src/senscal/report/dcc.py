@@ -439,9 +439,11 @@ def _administrative(b: _Builder, root: ET.Element, info: CertificateInfo, today:
         b.statement(sts, sentence, "lab.standards.traceability", ref="senscal_traceability", traceable=claimed)
     if run.conformity:
         rule = f" Decision rule: {run.decision_rule}" if run.decision_rule else ""
-        enum = {v.lower(): v for v in ("pass", "fail", "conditionalPass", "conditionalFail", "noPass", "noFail")}
+        from senscal.report.conformity import dcc_conformity
+
+        # "conditional pass (...)" as the schema's conditionalPass; free text gets no enumerated value
         b.statement(sts, f"Statement of conformity: {run.conformity}.{rule}", "run.conformity",
-                    ref="senscal_conformity", conformity=enum.get(run.conformity.strip().lower(), ""))
+                    ref="senscal_conformity", conformity=dcc_conformity(run.conformity))
     if run.deviations:
         b.statement(sts, f"Deviations from the method: {run.deviations}", "run.deviations", ref="senscal_deviations")
     if run.remarks:

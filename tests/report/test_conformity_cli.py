@@ -1,0 +1,92 @@
+"""``--conformity``/``--decision-rule`` on ``senscal response`` (shared by velocity and linearity): per point
+conformity and probability of false accept in the JSON, the statement on the certificate and in the DCC."""
+
+from __future__ import annotations
+
+import json
+import xml.etree.ElementTree as ET
+
+import pytest
+
+LAB = """
+name = "Vibration Lab Nord"
+address = "Hafenstr. 7, 20457 Hamburg"
+country = "DE"
+email = "lab@example.org"
+approvers = [{name = "Dr. Ada Pruefer", role = "Head of laboratory"}]
+
+[[standards]]
+name = "Double centrifuge DC-2"
+serial = "DC2-0042"
+certificate = "PTB-1.21-4711"
+traceability = "PTB"
+due = "2099-12-31"
+u_relative = 0.0005
+
+[run]
+location = "Laboratory hall 2"
+customer = "ACME"
+customer_email = "qa@acme.example"
+customer_address = "Am Markt 1, 10115 Berlin"
+manufacturer = "Qfab"
+item = "servo accelerometer"
+"""
+
+NS = {"dcc": "https://ptb.de/dcc"}
+
+
+def _base(files):
+    return ["response", *files, "--output", "output", "--input-amplitude", "100", "--angle", "angle",
+            "--static-sensitivity", "0.05", "--initial-phase-deg", "90", "--json", "--u-input", "0.2%",
+            "--u-static-sensitivity", "0.05%", "--u-initial-phase-deg", "0.05", "--sensor-id", "SN-1",
+            "--calibration-date", "2026-01-05", "--env", "temperature=23.1+-0.5 degC"]
+
+
+def test_json_points(cli, centrifuge_files):
+    r = cli(*_base(centrifuge_files), "--conformity", "sensitivity=50 mV/(m/s^2)+-2%", "--decision-rule", "guard-band")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    for p in doc["points"]:
+        assert p["conformity"] in ("pass", "fail")
+        assert 0 <= p["probability_false_accept"] <= 0.5 * 0.0456 + 1e-9   # guard band w = U
+        assert p["guard_band"] == pytest.approx(p["U_sensitivity"])
+    assert doc["conformity"]["decision_rule"] == "guard-band"
+    assert doc["conformity"]["lower"] == pytest.approx(0.049)
+    # a tolerance far inside U: no point has its acceptance interval, none passes outright
+    r = cli(*_base(centrifuge_files), "--conformity", "sensitivity=0.05+-1e-9", "--decision-rule", "non-binary")
+    assert r.code == 0, r.err
+    assert all(p["conformity"] != "pass" for p in json.loads(r.out)["points"])
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--conformity", "sensitivity=0.05"], "tolerance"),
+    (["--conformity", "gain=1+-1%"], "no quantity 'gain'"),
+    (["--conformity", "sensitivity=0.05+-1%", "--decision-rule", "lenient"], "guard-band"),
+    (["--decision-rule", "simple"], "needs --conformity"),
+    (["--conformity", "sensitivity=50 m+-1%"], "sensitivity"),
+])
+def test_refusals(cli, centrifuge_files, args, words):
+    r = cli(*_base(centrifuge_files), *args)
+    assert r.code == 2 and "Traceback" not in r.err and len(r.err.strip().splitlines()) == 1, r.err
+    assert words in r.err
+
+
+def test_certificate_and_dcc_statement(cli, centrifuge_files, tmp_path):
+    (tmp_path / "lab.toml").write_text(LAB)
+    r = cli(*_base(centrifuge_files), "--lab", tmp_path / "lab.toml", "--conformity", "sensitivity=0.05+-5%",
+            "--decision-rule", "non-binary", "--report", tmp_path / "c.html", "--dcc", tmp_path / "c.xml")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    verdict = doc["conformity"]["statement"]
+    html = (tmp_path / "c.html").read_text()
+    assert "Statement of conformity" in html and "ILAC-G8:09/2019 4.2.3" in html and verdict in html
+    assert "MISSING" not in html
+    from senscal.report.conformity import dcc_conformity
+    from senscal.report.dcc import validate_dcc
+
+    xml = (tmp_path / "c.xml").read_bytes()
+    validate_dcc(xml)
+    root = ET.fromstring(xml)
+    st = [s for s in root.iter("{https://ptb.de/dcc}statement") if s.get("refType") == "senscal_conformity"]
+    assert len(st) == 1
+    assert st[0].findtext("dcc:conformity", namespaces=NS) == dcc_conformity(verdict) != ""
