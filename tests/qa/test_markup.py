@@ -82,6 +82,7 @@ def test_registry_fields_round_trip_literally(cli, tmp_path, serial):
     r = _clean(cli("registry", "due", serial, "--quantity", q, "--tolerance", "1%", "--plot", plot, "--db", db))
     assert _shown(q, r.out), r.out
     export = tmp_path / "p[" / f"]{STYLED}.json"
+    export.parent.mkdir(parents=True, exist_ok=True)  # the '/' of '[/]' makes a folder; writers never invent one
     r = _clean(cli("registry", "export", export, "--db", db))
     assert _shown(str(export), r.err), r.err
     r = _clean(cli("registry", "import", export, "--db", str(tmp_path / "copy.sqlite")))
