@@ -115,3 +115,16 @@ def test_coverage(case):
     rows = run(mc_seeds(run.full_seeds, run.ci_seeds), 0)
     assert rows and all(r.n > 0 for r in rows)
     check_coverage(rows)
+
+
+def test_saturated_gyro_named():
+    from senscal.imu import calibrate_imu
+    from senscal.simulate.imu import simulate_imu
+
+    rec, _ = simulate_imu(seed=4, n_poses=15)
+    gyr = rec.data(["gx", "gy", "gz"])
+    clipped = np.clip(gyr, -1.0, 1.0)  # rotations reach ~2 rad/s: a +/-1 rad/s range clips them
+    r = calibrate_imu(rec.time, rec.data(["ax", "ay", "az"]), clipped, gyro_unit="rad/s")
+    assert any(w.startswith("gyro-saturated") for w in r.warnings)
+    clean = calibrate_imu(rec.time, rec.data(["ax", "ay", "az"]), gyr, gyro_unit="rad/s")
+    assert not any(w.startswith("gyro-saturated") for w in clean.warnings)

@@ -250,6 +250,20 @@ def _bias_model(t, gyro, starts, stops):
     return c, u_c, s, u_s, t_ref, noise, chi2, dof
 
 
+def _saturated_axes(gyro: np.ndarray, idx: np.ndarray) -> list[str]:
+    """Axes whose readings sit at the record's extreme for >= 3 samples in a row during the rotations."""
+    out = []
+    for i in range(3):
+        x = gyro[i, idx]
+        for ext in (gyro[i].max(), gyro[i].min()):
+            at = np.concatenate([[0], (x == ext).astype(np.int8), [0]])
+            edges = np.flatnonzero(np.diff(at))
+            if edges.size and np.max(edges[1::2] - edges[0::2]) >= 3:
+                out.append("xyz"[i])
+                break
+    return out
+
+
 def _accel_covariance(st, theta, gravity):
     """Covariance of the accelerometer's maximum-likelihood fit from the pose means' own noise.
 
@@ -498,6 +512,11 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         warnings.append(named("rotation-too-fast", f"the IMU turns up to {math.degrees(float(np.linalg.norm(step, axis=0).max())):.1f} deg "
                               f"per sample at {fs:.4g} Hz; the integration cannot follow: rotate slower or sample "
                               "faster"))
+    sat = _saturated_axes(gyro, prob.idx)
+    if sat:
+        warnings.append(named("gyro-saturated", f"gyro axis {', '.join(sat)} sits at its extreme reading for 3 or "
+                              "more samples in a row during the rotations: the rate was clipped and the rotation "
+                              "under-counted; rotate slower or use a wider gyro range"))
     before = prob.angles_deg(nominal * np.eye(3), nu, t_ref)
     after = prob.angles_deg(mg, nu, t_ref)
     gyro_cal = GyroCalibration(matrix=mg, covariance=cov_m, scale=der[:3], u_scale=u_d[:3], angles=der[3:],
