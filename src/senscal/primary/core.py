@@ -332,6 +332,12 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
         raise InputError("the I, Q and output channels must be one-dimensional and of equal length")
     if not np.all(np.isfinite(x)) or not np.all(np.isfinite(y)) or not np.all(np.isfinite(out)):
         raise DataError("NaN or inf in the interferometer or output samples: cut them out with --start/--stop")
+    sx, sy = float(np.std(x)), float(np.std(y))
+    if sx > 0 and sy > 0:
+        r = abs(float(np.mean((x - x.mean()) * (y - y.mean()))) / (sx * sy))
+        if r > 0.995:
+            raise DataError(f"the I and Q channels are one signal (correlation {r:.4f}): a single channel is not a "
+                            "quadrature pair; give both quadrature outputs with --quadrature I,Q")
     # coverage of the ellipse before fitting it: a partial arc (under one fringe) has no unique ellipse
     ang = np.sort(np.arctan2((y - 0.5 * (y.max() + y.min())) / max(np.ptp(y), 1e-300),
                              (x - 0.5 * (x.max() + x.min())) / max(np.ptp(x), 1e-300)))
