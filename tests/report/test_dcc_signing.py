@@ -112,3 +112,91 @@ def test_signing_refuses_bad_material(dcc, keys, tmp_path):
     signed = sign_dcc(dcc, k.read_bytes(), c.read_bytes())
     with pytest.raises(InputError, match="already"):
         sign_dcc(signed, k.read_bytes(), c.read_bytes())
+
+
+# --------------------------------------------------------------------------------------------------------------
+# command line: response --dcc --sign-key --sign-cert, then senscal dcc verify
+
+LAB = """
+name = "Vibration Lab Nord"
+address = "Hafenstr. 7, 20457 Hamburg"
+country = "DE"
+email = "lab@example.org"
+approvers = [{name = "Dr. Ada Pruefer", role = "Head of laboratory"}]
+
+[[standards]]
+name = "Double centrifuge DC-2"
+serial = "DC2-0042"
+certificate = "PTB-1.21-4711"
+traceability = "PTB"
+due = "2099-12-31"
+u_relative = 0.0005
+
+[run]
+location = "Laboratory hall 2"
+customer = "ACME"
+customer_email = "qa@acme.example"
+customer_address = "Am Markt 1, 10115 Berlin"
+manufacturer = "Qfab"
+item = "servo accelerometer"
+"""
+
+
+def _response(files, lab):
+    return ["response", *files, "--output", "output", "--input-amplitude", "100", "--angle", "angle",
+            "--static-sensitivity", "0.05", "--initial-phase-deg", "90", "--u-input", "0.2%",
+            "--u-static-sensitivity", "0.05%", "--u-initial-phase-deg", "0.05", "--sensor-id", "SN-1",
+            "--calibration-date", "2026-01-05", "--env", "temperature=23.1+-0.5 degC", "--lab", lab]
+
+
+def test_cli_sign_and_verify(cli, centrifuge_files, keys, tmp_path):
+    (tmp_path / "lab.toml").write_text(LAB)
+    k, c = keys["lab"]
+    out = tmp_path / "c.xml"
+    r = cli(*_response(centrifuge_files, tmp_path / "lab.toml"), "--dcc", out, "--sign-key", k, "--sign-cert", c,
+            "--conformity", "sensitivity=0.05+-5%")
+    assert r.code == 0, r.err
+    assert "signed and written" in r.err
+    r = cli("dcc", "verify", out, "--cert", c)
+    assert r.code == 0, r.err
+    assert "valid" in r.out and "lab signer" in r.out
+    r = cli("dcc", "verify", out, "--json")
+    assert r.code == 0 and '"certificate_pinned": false' in r.out
+    # one digit changed: exit 3 naming what
+    bad = tmp_path / "tampered.xml"
+    bad.write_bytes(_tamper_digit(out.read_bytes()))
+    r = cli("dcc", "verify", bad, "--cert", c)
+    assert r.code == 3 and "signed value was changed" in r.err and len(r.err.strip().splitlines()) == 1, r.err
+    r = cli("dcc", "verify", out, "--cert", keys["other"][1])
+    assert r.code == 3 and "signature" in r.err
+    # an unsigned DCC does not verify
+    plain = tmp_path / "plain.xml"
+    r = cli(*_response(centrifuge_files, tmp_path / "lab.toml"), "--dcc", plain)
+    assert r.code == 0, r.err
+    r = cli("dcc", "verify", plain)
+    assert r.code == 3 and "no signature" in r.err
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--sign-key", "KEY"], "go together"),
+    (["--sign-key", "KEY", "--sign-cert", "OTHERCERT"], "not the private key"),
+    (["--sign-key", "CERT", "--sign-cert", "CERT"], "not a PEM private key"),
+    (["--sign-key", "KEY", "--sign-cert", "/nonexistent/c.pem"], "cannot read"),
+])
+def test_cli_signing_refusals(cli, centrifuge_files, keys, tmp_path, extra, words):
+    (tmp_path / "lab.toml").write_text(LAB)
+    sub = {"KEY": str(keys["lab"][0]), "CERT": str(keys["lab"][1]), "OTHERCERT": str(keys["other"][1])}
+    r = cli(*_response(centrifuge_files, tmp_path / "lab.toml"), "--dcc", tmp_path / "c.xml",
+            *[sub.get(a, a) for a in extra])
+    assert r.code == 2 and words in r.err and len(r.err.strip().splitlines()) == 1, r.err
+    assert not (tmp_path / "c.xml").exists()
+
+
+def test_cli_sign_without_dcc_and_bad_verify_input(cli, centrifuge_files, keys, tmp_path):
+    (tmp_path / "lab.toml").write_text(LAB)
+    k, c = keys["lab"]
+    r = cli(*_response(centrifuge_files, tmp_path / "lab.toml"), "--sign-key", k, "--sign-cert", c)
+    assert r.code == 2 and "add --dcc" in r.err
+    (tmp_path / "x.xml").write_text("hello")
+    r = cli("dcc", "verify", tmp_path / "x.xml")
+    assert r.code == 2 and "not an XML file" in r.err

@@ -21,6 +21,7 @@ COMMANDS = {'allan': ('cmd_allan',
  'linearity': ('cmd_vibration',
                'Amplitude linearity at a fixed frequency: best straight line, deviations, linearity in % of full '
                'scale.'),
+ 'dcc': ('cmd_dcc', 'Digital Calibration Certificates: verify a signed DCC.'),
  'imu': ('cmd_imu', 'IMU calibration: accelerometer and gyroscope together from one multi-pose session.'),
  'registry': ('cmd_registry', 'Sensor registry: calibration history, drift between calibrations, due dates.'),
  'shaft': ('cmd_shaft',

@@ -46,6 +46,7 @@ from senscal.errors import InputError
 
 __all__ = ["ReportOpt", "DccOpt", "LabOpt", "RunFileOpt", "CustomerOpt", "ItemOpt", "ManufacturerOpt", "ModelOpt",
            "SensorIdOpt", "LocationOpt", "CertIdOpt", "CalDateOpt", "EnvOpt", "ConformityOpt", "DecisionRuleOpt",
+           "SignKeyOpt", "SignCertOpt",
            "certificate_info", "cert_fields", "certify", "decide_conformity"]
 
 _PANEL = "Certificate"
@@ -91,6 +92,13 @@ ConformityOpt = Annotated[Optional[str], typer.Option(
 DecisionRuleOpt = Annotated[Optional[str], typer.Option(
     "--decision-rule", metavar="simple|guard-band|non-binary", help="ILAC-G8:09/2019 decision rule of --conformity: "
     "simple (w = 0, the default), guard-band (w = U), non-binary (pass, conditional pass, conditional fail, fail).",
+    rich_help_panel=_PANEL)]
+SignKeyOpt = Annotated[Optional[Path], typer.Option(
+    "--sign-key", metavar="KEY.pem", help="Sign the DCC (XAdES-B-B enveloped XML signature) with this private key "
+    "(PEM, RSA or EC; an encrypted key's password in $SENSCAL_SIGN_KEY_PASSWORD). Needs --sign-cert and --dcc.",
+    rich_help_panel=_PANEL)]
+SignCertOpt = Annotated[Optional[Path], typer.Option(
+    "--sign-cert", metavar="CERT.pem", help="The signer's X.509 certificate (PEM), embedded in the DCC's signature.",
     rich_help_panel=_PANEL)]
 
 
@@ -139,7 +147,33 @@ def cert_fields(params: Mapping[str, Any]) -> dict[str, Any]:
     out["calibration_date"] = params.get("calibration_date") or params.get("date")
     out["conformity"] = params.get("conformity")
     out["decision_rule"] = params.get("decision_rule")
+    out["sign_key"] = params.get("sign_key")
+    out["sign_cert"] = params.get("sign_cert")
     return out
+
+
+def _signing_material(key: Path | None, cert: Path | None, dcc: Path | None) -> tuple[bytes, bytes, bytes | None] | None:
+    """The PEM bytes of ``--sign-key``/``--sign-cert`` (checked to belong together), None without them."""
+    import os
+
+    if key is None and cert is None:
+        return None
+    if key is None or cert is None:
+        raise InputError("--sign-key and --sign-cert go together: give the signer's private key and its certificate")
+    if dcc is None:
+        raise InputError("--sign-key signs the DCC; add --dcc FILE.xml")
+    data = []
+    for path, opt in ((key, "--sign-key"), (cert, "--sign-cert")):
+        try:
+            data.append(Path(path).read_bytes())
+        except OSError as exc:
+            raise InputError(f"{opt} {path}: cannot read it ({exc.strerror or exc}); give a readable PEM file") from None
+    pw = os.environ.get("SENSCAL_SIGN_KEY_PASSWORD")
+    password = pw.encode() if pw else None
+    from senscal.report.signing import load_signing_material
+
+    load_signing_material(data[0], data[1], password=password)  # refuse a bad pair before anything is written
+    return data[0], data[1], password
 
 
 def decide_conformity(doc: dict | None, conformity: str | None, decision_rule: str | None) -> tuple[str | None, str | None]:
@@ -195,7 +229,8 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     **fields
         The certificate options: ``lab``, ``run_file``, ``customer``, ``item``, ``manufacturer``, ``model``,
         ``serial``, ``location``, ``certificate_id``, ``env``, ``calibration_date``, ``conformity`` (a
-        specification), ``decision_rule`` (see :func:`certificate_info`).
+        specification), ``decision_rule`` (see :func:`certificate_info`); ``sign_key``, ``sign_cert`` (PEM files:
+        the DCC is signed, :func:`senscal.report.signing.sign_dcc`).
 
     Returns
     -------
@@ -205,6 +240,7 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     """
     fields["conformity"], fields["decision_rule"] = decide_conformity(doc, fields.get("conformity"),
                                                                        fields.get("decision_rule"))
+    signing = _signing_material(fields.pop("sign_key", None), fields.pop("sign_cert", None), dcc)
     if report is None and dcc is None:
         return []
     from senscal.io.guard import check_output, write_bytes
@@ -227,18 +263,25 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
                                                          method=method, conditions=conditions, files=files,
                                                          warnings=shown)
     if dcc is not None:
-        _write_dcc(dcc, kind, result, info, unit=unit, method=method, files=files, warnings=shown)
-        err_console.print(f"DCC {info.run.certificate_id} written to {dcc}")  # stdout stays clean for --json
+        _write_dcc(dcc, kind, result, info, unit=unit, method=method, files=files, warnings=shown, signing=signing)
+        err_console.print(f"DCC {info.run.certificate_id} {'signed and ' if signing else ''}written to {dcc}")  # stdout stays clean for --json
     if data is not None:
         write_bytes(report, data, what="report")
     return warns
 
 
-def _write_dcc(path: Path, kind: str, result: Any, info: Any, **kw: Any) -> None:
+def _write_dcc(path: Path, kind: str, result: Any, info: Any, *, signing: tuple | None = None, **kw: Any) -> None:
     try:
-        from senscal.report.dcc import write_dcc
+        from senscal.report.dcc import dcc_xml, write_dcc
     except ModuleNotFoundError as exc:
         if exc.name != "senscal.report.dcc":
             raise
         raise InputError("--dcc: this senscal has no DCC writer (senscal.report.dcc); write --report only") from None
-    write_dcc(path, kind, result, info, **kw)
+    if signing is None:
+        write_dcc(path, kind, result, info, **kw)
+        return
+    from senscal.io.guard import write_bytes
+    from senscal.report.signing import sign_dcc
+
+    key, cert, password = signing
+    write_bytes(path, sign_dcc(dcc_xml(kind, result, info, **kw), key, cert, password=password), what="DCC")

@@ -13,7 +13,7 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, ConformityOpt, CustomerOpt, DccOpt, DecisionRuleOpt, EnvOpt,
                                    ItemOpt, LabOpt, LocationOpt, ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt,
-                                   SensorIdOpt, cert_fields, certify)
+                                   SensorIdOpt, SignCertOpt, SignKeyOpt, cert_fields, certify)
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console, emit_warnings,
@@ -173,6 +173,7 @@ def velocity_cmd(
     item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
     certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
     conformity: ConformityOpt = None, decision_rule: DecisionRuleOpt = None,
+    sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:
@@ -242,6 +243,7 @@ def response_cmd(
     item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
     certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
     conformity: ConformityOpt = None, decision_rule: DecisionRuleOpt = None,
+    sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
     save_response_to: Annotated[Optional[Path], typer.Option("--save-response", help="Save the response (JSON with type and version) for later use.")] = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
@@ -326,6 +328,7 @@ def linearity_cmd(
     item: ItemOpt = None, manufacturer: ManufacturerOpt = None, location: LocationOpt = None,
     certificate_id: CertIdOpt = None, calibration_date: CalDateOpt = None, env: EnvOpt = None,
     conformity: ConformityOpt = None, decision_rule: DecisionRuleOpt = None,
+    sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
     date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
 ) -> None:

@@ -17,7 +17,7 @@ import datetime as _dt
 from dataclasses import dataclass
 
 from senscal._result import ResultMixin
-from senscal.errors import InputError
+from senscal.errors import DiagnosticError, InputError
 
 __all__ = ["DS_NS", "SignatureCheck", "SignatureInvalid", "load_signing_material", "sign_dcc", "verify_dcc"]
 
@@ -25,7 +25,7 @@ DS_NS = "http://www.w3.org/2000/09/xmldsig#"
 DCC_NS = "https://ptb.de/dcc"
 
 
-class SignatureInvalid(Exception):
+class SignatureInvalid(DiagnosticError):
     """A DCC's signature or schema check failed: the message names what (exit 3 on the command line)."""
 
 
