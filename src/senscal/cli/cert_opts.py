@@ -47,7 +47,7 @@ from senscal.errors import InputError
 __all__ = ["ReportOpt", "DccOpt", "LabOpt", "RunFileOpt", "CustomerOpt", "ItemOpt", "ManufacturerOpt", "ModelOpt",
            "SensorIdOpt", "LocationOpt", "CertIdOpt", "CalDateOpt", "EnvOpt", "ConformityOpt", "DecisionRuleOpt",
            "SignKeyOpt", "SignCertOpt",
-           "certificate_info", "cert_fields", "certify", "decide_conformity"]
+           "certificate_info", "cert_fields", "certify", "check_conformity", "decide_conformity"]
 
 _PANEL = "Certificate"
 
@@ -174,6 +174,20 @@ def _signing_material(key: Path | None, cert: Path | None, dcc: Path | None) -> 
 
     load_signing_material(data[0], data[1], password=password)  # refuse a bad pair before anything is written
     return data[0], data[1], password
+
+
+def check_conformity(conformity: str | None, decision_rule: str | None) -> None:
+    """Refuse a bad ``--conformity``/``--decision-rule`` before the job runs (the same checks as
+    :func:`decide_conformity`, without a result)."""
+    from senscal.report.conformity import RULES, parse_specification
+
+    if conformity is None:
+        if decision_rule is not None:
+            raise InputError("--decision-rule needs --conformity NAME=VALUE+-TOL (the specification to decide on)")
+        return
+    if decision_rule is not None and decision_rule.strip().lower() not in RULES:
+        raise InputError(f"--decision-rule {decision_rule!r} is not known; use one of {', '.join(RULES)}")
+    parse_specification(conformity)
 
 
 def decide_conformity(doc: dict | None, conformity: str | None, decision_rule: str | None) -> tuple[str | None, str | None]:

@@ -13,7 +13,8 @@ from typing_extensions import Annotated
 from senscal.cli.app import app, simulate_app
 from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, ConformityOpt, CustomerOpt, DccOpt, DecisionRuleOpt, EnvOpt,
                                    ItemOpt, LabOpt, LocationOpt, ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt,
-                                   SensorIdOpt, SignCertOpt, SignKeyOpt, cert_fields, certify)
+                                   SensorIdOpt, SignCertOpt, SignKeyOpt, cert_fields, certify,
+                                   check_conformity)
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
                                        save_if_requested)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console, emit_warnings,
@@ -113,8 +114,9 @@ def _finish(result, doc: dict, cert_warns: list[str], params: dict, *, method: s
 
 @with_read_options
 def velocity_options(*, position=None, velocity=None, freq=None, u_position=None, drift=True, harmonics=1,
-                     output_unit=None, **_) -> VelocityOptions:
+                     output_unit=None, conformity=None, decision_rule=None, **_) -> VelocityOptions:
     """:class:`~senscal.jobs.vibration.VelocityOptions` from the ``senscal velocity`` parameters."""
+    check_conformity(conformity, decision_rule)
     return VelocityOptions(position=position, velocity=velocity, freq=_freq_values(freq),
                            u_position=_rel(u_position, "--u-position"), drift=drift, harmonics=harmonics,
                            output_unit=output_unit)
@@ -124,8 +126,10 @@ def velocity_options(*, position=None, velocity=None, freq=None, u_position=None
 def response_options(*, output=None, input_amplitude=None, reference=None, reference_sensitivity=None, angle=None,
                      static_sensitivity=None, initial_phase_deg=None, u_initial_phase_deg=0.0, phase_reference=None,
                      freq=None, u_input=None, u_reference=None, u_static=None, drift=False, harmonics=1,
-                     output_unit=None, encoder_lines=None, u_angle_deg=0.0, **_) -> ResponseOptions:
+                     output_unit=None, encoder_lines=None, u_angle_deg=0.0, conformity=None, decision_rule=None,
+                     **_) -> ResponseOptions:
     """:class:`~senscal.jobs.vibration.ResponseOptions` from the ``senscal response`` parameters."""
+    check_conformity(conformity, decision_rule)
     return ResponseOptions(
         output=output, input_amplitude=input_amplitude, reference=reference,
         reference_sensitivity=reference_sensitivity, angle=angle, static_sensitivity=static_sensitivity,
@@ -137,8 +141,9 @@ def response_options(*, output=None, input_amplitude=None, reference=None, refer
 
 @with_read_options
 def linearity_options(*, output=None, input_amplitudes=None, freq=None, angle=None, drift=False, harmonics=1,
-                      u_input=None, output_unit=None, **_) -> LinearityOptions:
+                      u_input=None, output_unit=None, conformity=None, decision_rule=None, **_) -> LinearityOptions:
     """:class:`~senscal.jobs.vibration.LinearityOptions` from the ``senscal linearity`` parameters."""
+    check_conformity(conformity, decision_rule)
     if input_amplitudes is None:
         raise InputError("give --input-amplitudes A1,A2,... (peak input of each file, m/s^2)")
     return LinearityOptions(output=output, input_amplitudes=tuple(parse_floats(input_amplitudes, "--input-amplitudes")),

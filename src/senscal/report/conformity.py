@@ -298,8 +298,9 @@ def apply_to_document(doc: MutableMapping[str, Any], spec: Specification, rule: 
             raise InputError(f"--conformity: {q!r} has no standard uncertainty u_{q} in this result; "
                              "choose a quantity with one")
         big = p.get(f"U_{q}")
+        # a point without its own U takes k = 2 (its u is a point's, not the fit's with Student's t)
         k = (float(big) / float(u) if isinstance(big, (int, float)) and u > 0
-             else float(doc.get("coverage_factor") or 2.0))
+             else float(doc.get("coverage_factor") or 2.0) if p is doc else 2.0)
         d = decide(float(value), float(u), spec_u, rule, k)
         p.update(conformity=d.conformity, probability_conforming=d.probability_conforming,
                  probability_false_accept=d.probability_false_accept,
