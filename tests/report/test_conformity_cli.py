@@ -55,7 +55,15 @@ def test_json_points(cli, centrifuge_files):
     # a tolerance far inside U: no point has its acceptance interval, none passes outright
     r = cli(*_base(centrifuge_files), "--conformity", "sensitivity=0.05+-1e-9", "--decision-rule", "non-binary")
     assert r.code == 0, r.err
-    assert all(p["conformity"] != "pass" for p in json.loads(r.out)["points"])
+    doc = json.loads(r.out)
+    assert all(p["conformity"] != "pass" for p in doc["points"])
+    assert [w.split(":")[0] for w in doc["warnings"]] == ["conformity-no-acceptance-interval"]
+    r = cli(*_base(centrifuge_files), "--conformity", "sensitivity=0.05+-1e-9", "--decision-rule", "non-binary",
+            "--strict")
+    assert r.code == 3 and "conformity-no-acceptance-interval" in r.err
+    # the simple rule has no guard band: no such warning
+    r = cli(*_base(centrifuge_files), "--conformity", "sensitivity=0.05+-1e-9")
+    assert r.code == 0 and json.loads(r.out)["warnings"] == []
 
 
 @pytest.mark.parametrize("args, words", [

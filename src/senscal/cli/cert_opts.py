@@ -249,14 +249,16 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     Returns
     -------
     list of str
+        ``conformity-no-acceptance-interval`` (with ``--conformity``: U >= half the tolerance with a guard band),
         ``certificate-draft`` (a required field is missing: DRAFT on every page), ``budget-zero-component``,
-        ``u-below-reference``; empty when nothing was written.
+        ``u-below-reference``; the last three only when something was written.
     """
     fields["conformity"], fields["decision_rule"] = decide_conformity(doc, fields.get("conformity"),
                                                                        fields.get("decision_rule"))
     signing = _signing_material(fields.pop("sign_key", None), fields.pop("sign_cert", None), dcc)
+    conf_warns = _conformity_warnings(doc)
     if report is None and dcc is None:
-        return []
+        return conf_warns
     from senscal.io.guard import check_output, write_bytes
     from senscal.report.certificate import REPORT_SUFFIXES, certificate_bytes, certificate_id, certificate_warnings
 
@@ -281,7 +283,18 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
         err_console.print(f"DCC {info.run.certificate_id} {'signed and ' if signing else ''}written to {dcc}")  # stdout stays clean for --json
     if data is not None:
         write_bytes(report, data, what="report")
-    return warns
+    return [*conf_warns, *warns]
+
+
+def _conformity_warnings(doc: dict | None) -> list[str]:
+    """``conformity-no-acceptance-interval`` when a guard band w = U left some point nothing to pass."""
+    conf = (doc or {}).get("conformity") or {}
+    n = conf.get("no_acceptance_interval_points") or 0
+    if not n:
+        return []
+    return [f"conformity-no-acceptance-interval: at {n} point(s) U is at least half the tolerance interval of "
+            f"{conf.get('quantity')}, so the {conf.get('decision_rule')} rule cannot pass them whatever the value; "
+            "a smaller uncertainty or a wider tolerance makes the decision meaningful"]
 
 
 def _write_dcc(path: Path, kind: str, result: Any, info: Any, *, signing: tuple | None = None, **kw: Any) -> None:

@@ -273,7 +273,9 @@ def apply_to_document(doc: MutableMapping[str, Any], spec: Specification, rule: 
     document's top level: its value ``q``, standard uncertainty ``u_q`` and expanded uncertainty ``U_q``
     (k = U_q / u_q, else the document's ``coverage_factor``, else 2).  Each decided entry gets
     ``conformity``, ``probability_conforming``, ``probability_false_accept`` and
-    ``probability_false_reject``; ``doc["conformity"]`` gets the specification, rule and statement.
+    ``probability_false_reject``; ``doc["conformity"]`` gets the specification, rule and statement, and
+    ``no_acceptance_interval_points``: how many points have U >= half the tolerance interval, so that a guard band
+    w = U leaves nothing to pass (the command warns ``conformity-no-acceptance-interval``).
 
     Raises
     ------
@@ -292,6 +294,7 @@ def apply_to_document(doc: MutableMapping[str, Any], spec: Specification, rule: 
                          "numbers in the result's unit")
     spec_u = spec.in_unit(unit)
     verdicts = []
+    undecidable = 0   # points whose guard bands leave no acceptance interval: U >= half the tolerance
     for p in entries:
         value, u = p.get(q), p.get(f"u_{q}")
         if not isinstance(value, (int, float)) or not isinstance(u, (int, float)):
@@ -306,6 +309,9 @@ def apply_to_document(doc: MutableMapping[str, Any], spec: Specification, rule: 
                  probability_false_accept=d.probability_false_accept,
                  probability_false_reject=d.probability_false_reject, guard_band=d.guard_band)
         verdicts.append(d)
+        if d.guard_band > 0 and spec_u.lower is not None and spec_u.upper is not None \
+                and 2 * d.guard_band >= spec_u.upper - spec_u.lower:
+            undecidable += 1
     verdict = overall([d.conformity for d in verdicts])
     counts = ", ".join(f"{sum(d.conformity == v for d in verdicts)} {v}" for v in reversed(_ORDER)
                        if any(d.conformity == v for d in verdicts))
@@ -315,5 +321,5 @@ def apply_to_document(doc: MutableMapping[str, Any], spec: Specification, rule: 
                  f"{100 * worst_pfa:.2g} %)")
     doc["conformity"] = {"specification": spec.text, "quantity": q, "lower": spec_u.lower, "upper": spec_u.upper,
                          "unit": unit or spec.unit, "decision_rule": rule, "statement": verdict,
-                         "text": statement}
+                         "text": statement, "no_acceptance_interval_points": undecidable}
     return statement, f"{rule}: {rule_text(rule)}"
