@@ -79,7 +79,7 @@ def test_complete_certificate_pdf_and_dcc(cli, setup):
         assert f"Certificate {cert_id}" in page and f"Page {i} of {len(pages)}" in page
     for field in ("Vibration Lab Nord", "ACME <GmbH>", "servo accelerometer", "Qfab QF-1", "SN-1", "2026-01-05",
                   "Laboratory hall 2", "PTB-1.21-4711", "Dr. Ada Pruefer", "omitted at the customer's request",
-                  "temperature", "23.1", "degC"):
+                  "temperature", "23.1", "°C"):
         assert field in text, field
     assert "DRAFT" not in text
     from senscal.report.dcc import validate_dcc

@@ -54,9 +54,11 @@ def test_response_dcc_from_the_command_line(cli, records, tmp_path):
     data = out.read_bytes()
     validate_dcc(data)
     q = read_dcc_quantities(data)
-    assert q["senscal_sensitivity"]["value"] == [p["sensitivity"] for p in doc["points"]]
-    assert q["senscal_frequency"]["value"] == [p["frequency_hz"] for p in doc["points"]]
-    assert q["senscal_normalizedSensitivity"]["value"] == [p["normalized_sensitivity"] for p in doc["points"]]
+    # the DCC states values to 12 significant digits (no float noise); the JSON keeps every digit
+    r12 = lambda v: float(f"{v:.12g}")  # noqa: E731
+    assert q["senscal_sensitivity"]["value"] == [r12(p["sensitivity"]) for p in doc["points"]]
+    assert q["senscal_frequency"]["value"] == [r12(p["frequency_hz"]) for p in doc["points"]]
+    assert q["senscal_normalizedSensitivity"]["value"] == [r12(p["normalized_sensitivity"]) for p in doc["points"]]
     root = ET.fromstring(data)
     assert root.findtext(".//dcc:customer/dcc:name/dcc:content", namespaces=NS) == 'ACME "Sensors" <script>'
     assert root.findtext(".//dcc:item//dcc:identification/dcc:value", namespaces=NS) == "SN-1&2"
