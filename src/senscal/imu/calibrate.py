@@ -242,9 +242,11 @@ def _bias_model(t, gyro, starts, stops):
     s = (nk[:, None] * dt[:, None] * mk).sum(axis=0) / swt2 if swt2 > 0 else np.zeros(3)
     resid = mk - c[None, :] - dt[:, None] * s[None, :]
     dof = k_n - 2
-    # Window means scatter more than sigma/sqrt(n) under coloured noise: their own scatter scales the u.
+    # Window means scatter more than sigma/sqrt(n) under coloured noise: when their chi-square exceeds its
+    # 99.9 % point their own scatter scales the u (always scaling up by max(1, chi2/dof) over-covered: 98 %).
     chi2 = (nk[:, None] * resid ** 2).sum(axis=0) / noise ** 2
-    scale = np.sqrt(np.maximum(1.0, chi2 / dof)) if dof > 0 else np.ones(3)
+    scale = (np.where(chi2 > stats.chi2.ppf(0.999, dof), np.sqrt(chi2 / dof), 1.0) if dof > 0
+             else np.ones(3))
     u_c = noise / math.sqrt(sw) * scale
     u_s = (noise / math.sqrt(swt2) if swt2 > 0 else np.full(3, np.inf)) * scale
     return c, u_c, s, u_s, t_ref, noise, chi2, dof
