@@ -9,6 +9,7 @@ import numpy as np
 
 from senscal.demo import DemoSection
 from senscal.gfimu import error_statistics
+from senscal.gfimu.core import convergence_index
 from senscal.gfimu.plots import plot_rates
 from senscal.io import write_recording
 from senscal.jobs.gfimu import GfimuOptions, gfimu
@@ -29,10 +30,17 @@ def run(out: Path, seed: int) -> DemoSection:
     w_true = truth.data(["wx", "wy", "wz"])
     # The paper's plain filter (no constant-error states) for its Table 2 comparison ...
     est = gfimu(rec, GfimuOptions(distance=0.04, method="all", plain=True)).estimate
-    stats = error_statistics(est.omega, w_true)
     # ... and the default filter, which also carries the array's nine constant errors as states.
     aug = gfimu(rec, GfimuOptions(distance=0.04)).estimate
-    st_aug = error_statistics(aug.omega, w_true)["kalman"]
+    # Errors after both filters have settled (the job's own rule, errors_from_s in its JSON): the default
+    # filter starts from a 0.1 m/s^2 prior on nine error states, and its first milliseconds would make its
+    # worst error look many times the plain filter's although it is the better one from then on.
+    k_conv = max(convergence_index(est.u_omega), convergence_index(aug.u_omega))
+    t_conv = float(t[k_conv])
+    stats = error_statistics(est.omega, w_true, skip=k_conv)
+    st_aug = error_statistics(aug.omega, w_true, skip=k_conv)["kalman"]
+    st_aug_all = error_statistics(aug.omega, w_true)["kalman"]
+    st_plain_all = error_statistics(est.omega, w_true)["kalman"]
     plot_rates(t, est.omega, folder / "errors.png", truth=w_true,
                title="paper set-up: 30 deg / 2 Hz about z, 10 kHz, 10 s, bias 1e-4 g, noise 1e-3 g")
     rows = []
@@ -76,7 +84,10 @@ def run(out: Path, seed: int) -> DemoSection:
                  "integration method's z error is " + ("a bias drift" if abs(bias_alpha_z) > 1e-9 else
                                                          "only a random walk (the biases cancel on z)") + "."),
         rows=tuple(rows), plot="gfimu/errors.png", files=("gfimu/gfimu.npz", "gfimu/gfimu_truth.json"),
-        tables=({"title": "Angular-velocity error vs truth (rad/s), the paper's Table 2",
+        tables=({"title": f"Angular-velocity error vs truth (rad/s), the paper's Table 2, after t = {t_conv:.3g} s "
+                          "(both filters settled; over the whole record including the start-up, the worst wz "
+                          f"error is {float(st_plain_all.max_abs_error[2]):.3g} for the plain filter and "
+                          f"{float(st_aug_all.max_abs_error[2]):.3g} for the default one)",
                  "columns": ["method", "max |e| wx", "std wx", "max |e| wy", "std wy", "max |e| wz", "std wz"],
                  "rows": table_rows},
                 {"title": "Vibrating axis z: single method's error / Kalman filter's error",
