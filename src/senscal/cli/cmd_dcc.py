@@ -25,7 +25,7 @@ def _read(path: Path, what: str) -> bytes:
 
 @dcc_app.command("verify")
 def verify_cmd(
-    file: Annotated[Path, typer.Argument(metavar="FILE.xml", help="The DCC to check.")],
+    file: Annotated[Path, typer.Argument(help="The DCC (.xml) to check.")],
     cert: Annotated[Optional[Path], typer.Option(
         "--cert", metavar="CERT.pem", help="The signer's certificate (PEM) the signature must be by; without it the "
                                            "certificate in the signature proves integrity, not who signed.")] = None,
