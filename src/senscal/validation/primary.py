@@ -95,7 +95,7 @@ def run_hum(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     return _run("hum", {"hum_rel": 0.01}, n_seeds, seed0, "50 Hz hum 1 % on the output")
 
 
-for _f, _ci in ((run_white, 6), (run_harmonics, 3), (run_output_drift, 2), (run_hum, 3)):
+for _f, _ci in ((run_white, 10), (run_harmonics, 4), (run_output_drift, 3), (run_hum, 4)):
     _f.full_seeds = 200  # type: ignore[attr-defined]
     _f.ci_seeds = _ci  # type: ignore[attr-defined]
 
