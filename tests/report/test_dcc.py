@@ -441,12 +441,16 @@ def test_linearity_job_result_takes_its_output_unit():
 
     levels = (20.0, 60.0, 100.0)
     recs, _ = simulate_centrifuge(frequencies=(1.0,), accelerations=levels, seed=6, min_duration=5.0)
+    # a file whose header gives no unit for the output: --output-unit states it (one that contradicts a header
+    # unit is refused, issue 32)
+    recs = [replace(r, units={k: v for k, v in r.units.items() if k != "output"}) for r in recs]
     res = jobs.run("linearity", recs, jobs.options("linearity", output="output", input_amplitudes=levels,
                                                     angle="angle", output_unit="mV"))
     q = read_dcc_quantities(dcc_xml("linearity", res, _info()))
-    assert q["senscal_sensitivity"]["unit"] == ["\\milli\\volt\\metre\\tothe{-1}\\second\\tothe{2}"]
-    assert q["senscal_outputAmplitude"]["unit"] == ["\\milli\\volt"] * 3
-    assert q["senscal_sensitivity"]["value"] == [res.linearity.slope]
+    # an output in mV is converted to V (units are quantities, issue 32): the DCC states V/(m/s^2)
+    assert q["senscal_sensitivity"]["unit"] == ["\\volt\\metre\\tothe{-1}\\second\\tothe{2}"]
+    assert q["senscal_outputAmplitude"]["unit"] == ["\\volt"] * 3
+    _exact(q["senscal_sensitivity"]["value"], [res.linearity.slope])
 
 
 def test_certificate_id_and_approver_from_the_run(response):

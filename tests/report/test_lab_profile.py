@@ -53,7 +53,8 @@ def test_options_win_over_run_file_over_profile(tmp_path, monkeypatch):
     (tmp_path / "run.toml").write_text('customer = "from run file"\nserial = "S-1"\n')
     params = dict(lab=tmp_path / "lab.toml", run_file=tmp_path / "run.toml", customer=None, item="from option",
                   sensor_id=None, sensor="REG-1", env=["temperature=23+-0.5 degC"], date="2026-01-05T10:00:00")
-    info = certificate_info(**cert_fields(params))
+    fields = {k: v for k, v in cert_fields(params).items() if k not in ("sign_key", "sign_cert")}  # signing: elsewhere
+    info = certificate_info(**fields)
     run = info.run
     assert (run.customer, run.item, run.location) == ("from run file", "from option", "hall 1")
     assert run.serial == "REG-1"                        # the registry's --sensor when no --serial
