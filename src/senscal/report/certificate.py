@@ -44,7 +44,7 @@ import numpy as np
 from senscal._result import to_jsonable
 from senscal.errors import InputError
 from senscal.report.lab import CertificateInfo, missing_fields, signing_approvers, traceability_claim
-from senscal.report.plots import new_figure, svg_inline
+from senscal.report.plots import SUPERSCRIPT_DIGITS, new_figure, svg_inline
 
 __all__ = ["write_certificate", "certificate_bytes", "certificate_html", "certificate_id", "certificate_warnings", "budget_warnings",
            "REPORT_SUFFIXES", "response_figure", "linearity_figure", "velocity_figure"]
@@ -207,9 +207,6 @@ def value_and_u(value: Any, U: Any) -> tuple[str, str]:
     return f"{v:.{digits}e}", f"{u_r:.{max(digits - (e - math.floor(math.log10(u_r))), 1)}e}"
 
 
-_SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
-
-
 def pretty_unit(unit: str) -> str:
     """A unit as a certificate prints it: ``m/s^2`` -> ``m/s²``, ``degC`` -> ``°C``, ``deg`` -> ``°``.
 
@@ -220,7 +217,7 @@ def pretty_unit(unit: str) -> str:
 
     if not unit:
         return unit
-    out = re.sub(r"\^(?:\((-?\d+)\)|(-?\d+))", lambda m: (m.group(1) or m.group(2)).translate(_SUPERSCRIPT), unit)
+    out = re.sub(r"\^(?:\((-?\d+)\)|(-?\d+))", lambda m: (m.group(1) or m.group(2)).translate(SUPERSCRIPT_DIGITS), unit)
     out = re.sub(r"\bdegC\b", "°C", out)
     out = re.sub(r"\bdeg\b", "°", out)
     return out.replace("*", "·")

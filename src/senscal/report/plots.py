@@ -36,7 +36,8 @@ def literal_text(fig: Figure) -> Figure:
     return fig
 
 
-_SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
+# Digits and minus as superscripts: powers in tick labels and unit symbols without TeX.
+SUPERSCRIPT_DIGITS = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 
 
 def _pow10(v: float, _pos=None) -> str:
@@ -48,7 +49,7 @@ def _pow10(v: float, _pos=None) -> str:
     e = math.log10(v)
     if abs(e - round(e)) < 1e-9:
         n = int(round(e))
-        return f"{v:g}" if -2 <= n <= 3 else "10" + str(n).translate(_SUPERSCRIPT)
+        return f"{v:g}" if -2 <= n <= 3 else "10" + str(n).translate(SUPERSCRIPT_DIGITS)
     return ""
 
 
