@@ -9,26 +9,8 @@ import subprocess
 
 import pytest
 
-LAB = """
-name = "Vibration Lab Nord"
-address = "Hafenstr. 7, 20457 Hamburg"
-country = "DE"
-email = "lab@example.org"
-accreditation = "DAkkS D-K-99999-01-00"
-procedure = "QP-VIB-07 rev 3"
-approvers = [{name = "Dr. Ada Pruefer", role = "Head of laboratory"}]
 
-[[standards]]
-name = "Double centrifuge DC-2"
-serial = "DC2-0042"
-certificate = "PTB-1.21-4711"
-traceability = "PTB"
-due = "2099-12-31"
-u_relative = %(u_rel)s
-
-[run]
-location = "Laboratory hall 2"
-"""
+ACCREDITED = 'accreditation = "DAkkS D-K-99999-01-00"\nprocedure = "QP-VIB-07 rev 3"\n'
 
 RUN = """
 [run]
@@ -42,10 +24,10 @@ deviations = "Points above 10 Hz omitted at the customer's request."
 
 
 @pytest.fixture(scope="module")
-def setup(tmp_path_factory, centrifuge_files):
+def setup(tmp_path_factory, centrifuge_files, lab_profile):
     d = tmp_path_factory.mktemp("certcli")
-    (d / "lab.toml").write_text(LAB % {"u_rel": "0.0005"})
-    (d / "lab_poor_reference.toml").write_text(LAB % {"u_rel": "0.05"})
+    (d / "lab.toml").write_text(lab_profile("0.0005", extra=ACCREDITED, run_fields=False))
+    (d / "lab_poor_reference.toml").write_text(lab_profile("0.05", extra=ACCREDITED, run_fields=False))
     (d / "run.toml").write_text(RUN)
     return d, centrifuge_files
 

@@ -8,29 +8,6 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-LAB = """
-name = "Vibration Lab Nord"
-address = "Hafenstr. 7, 20457 Hamburg"
-country = "DE"
-email = "lab@example.org"
-approvers = [{name = "Dr. Ada Pruefer", role = "Head of laboratory"}]
-
-[[standards]]
-name = "Double centrifuge DC-2"
-serial = "DC2-0042"
-certificate = "PTB-1.21-4711"
-traceability = "PTB"
-due = "2099-12-31"
-u_relative = 0.0005
-
-[run]
-location = "Laboratory hall 2"
-customer = "ACME"
-customer_email = "qa@acme.example"
-customer_address = "Am Markt 1, 10115 Berlin"
-manufacturer = "Qfab"
-item = "servo accelerometer"
-"""
 
 NS = {"dcc": "https://ptb.de/dcc"}
 
@@ -79,8 +56,8 @@ def test_refusals(cli, centrifuge_files, args, words):
     assert words in r.err
 
 
-def test_certificate_and_dcc_statement(cli, centrifuge_files, tmp_path):
-    (tmp_path / "lab.toml").write_text(LAB)
+def test_certificate_and_dcc_statement(cli, centrifuge_files, tmp_path, lab_profile):
+    (tmp_path / "lab.toml").write_text(lab_profile())
     r = cli(*_base(centrifuge_files), "--lab", tmp_path / "lab.toml", "--conformity", "sensitivity=0.05+-5%",
             "--decision-rule", "non-binary", "--report", tmp_path / "c.html", "--dcc", tmp_path / "c.xml")
     assert r.code == 0, r.err

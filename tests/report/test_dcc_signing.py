@@ -117,29 +117,6 @@ def test_signing_refuses_bad_material(dcc, keys, tmp_path):
 # --------------------------------------------------------------------------------------------------------------
 # command line: response --dcc --sign-key --sign-cert, then senscal dcc verify
 
-LAB = """
-name = "Vibration Lab Nord"
-address = "Hafenstr. 7, 20457 Hamburg"
-country = "DE"
-email = "lab@example.org"
-approvers = [{name = "Dr. Ada Pruefer", role = "Head of laboratory"}]
-
-[[standards]]
-name = "Double centrifuge DC-2"
-serial = "DC2-0042"
-certificate = "PTB-1.21-4711"
-traceability = "PTB"
-due = "2099-12-31"
-u_relative = 0.0005
-
-[run]
-location = "Laboratory hall 2"
-customer = "ACME"
-customer_email = "qa@acme.example"
-customer_address = "Am Markt 1, 10115 Berlin"
-manufacturer = "Qfab"
-item = "servo accelerometer"
-"""
 
 
 def _response(files, lab):
@@ -149,8 +126,8 @@ def _response(files, lab):
             "--calibration-date", "2026-01-05", "--env", "temperature=23.1+-0.5 degC", "--lab", lab]
 
 
-def test_cli_sign_and_verify(cli, centrifuge_files, keys, tmp_path):
-    (tmp_path / "lab.toml").write_text(LAB)
+def test_cli_sign_and_verify(cli, centrifuge_files, keys, tmp_path, lab_profile):
+    (tmp_path / "lab.toml").write_text(lab_profile())
     k, c = keys["lab"]
     out = tmp_path / "c.xml"
     r = cli(*_response(centrifuge_files, tmp_path / "lab.toml"), "--dcc", out, "--sign-key", k, "--sign-cert", c,
@@ -183,8 +160,8 @@ def test_cli_sign_and_verify(cli, centrifuge_files, keys, tmp_path):
     (["--sign-key", "CERT", "--sign-cert", "CERT"], "not a PEM private key"),
     (["--sign-key", "KEY", "--sign-cert", "/nonexistent/c.pem"], "cannot read"),
 ])
-def test_cli_signing_refusals(cli, centrifuge_files, keys, tmp_path, extra, words):
-    (tmp_path / "lab.toml").write_text(LAB)
+def test_cli_signing_refusals(cli, centrifuge_files, keys, tmp_path, lab_profile, extra, words):
+    (tmp_path / "lab.toml").write_text(lab_profile())
     sub = {"KEY": str(keys["lab"][0]), "CERT": str(keys["lab"][1]), "OTHERCERT": str(keys["other"][1])}
     r = cli(*_response(centrifuge_files, tmp_path / "lab.toml"), "--dcc", tmp_path / "c.xml",
             *[sub.get(a, a) for a in extra])
@@ -192,8 +169,8 @@ def test_cli_signing_refusals(cli, centrifuge_files, keys, tmp_path, extra, word
     assert not (tmp_path / "c.xml").exists()
 
 
-def test_cli_sign_without_dcc_and_bad_verify_input(cli, centrifuge_files, keys, tmp_path):
-    (tmp_path / "lab.toml").write_text(LAB)
+def test_cli_sign_without_dcc_and_bad_verify_input(cli, centrifuge_files, keys, tmp_path, lab_profile):
+    (tmp_path / "lab.toml").write_text(lab_profile())
     k, c = keys["lab"]
     r = cli(*_response(centrifuge_files, tmp_path / "lab.toml"), "--sign-key", k, "--sign-cert", c)
     assert r.code == 2 and "add --dcc" in r.err
