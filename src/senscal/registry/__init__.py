@@ -30,16 +30,19 @@ References
 from senscal.registry.chain import ChainReport
 from senscal.registry.db import default_url, mask_url, parse_url
 from senscal.registry.drift import DriftFit, DueDate, due_time, fit_drift
+from senscal.registry.standards import ImpactReport, ImpactRow, ReferenceStandard, StandardUse
 from senscal.registry.store import (
     Calibration,
     DriftReport,
     DuplicateSensorError,
+    DuplicateStandardError,
     HistoryPoint,
     Quantity,
     Registry,
     Sensor,
     UnknownQuantityError,
     UnknownSensorError,
+    UnknownStandardError,
     open_registry,
     parse_date,
     sha256_file,
@@ -49,4 +52,5 @@ __all__ = [
     "Registry", "open_registry", "Sensor", "Quantity", "Calibration", "HistoryPoint", "DriftReport",
     "DriftFit", "DueDate", "fit_drift", "due_time", "default_url", "mask_url", "parse_url", "parse_date",
     "sha256_file", "UnknownSensorError", "DuplicateSensorError", "UnknownQuantityError", "ChainReport",
+    "ReferenceStandard", "StandardUse", "ImpactReport", "ImpactRow", "UnknownStandardError", "DuplicateStandardError",
 ]

@@ -52,7 +52,9 @@ def canonical_content(record: Mapping[str, Any], serial: str | None, kind: str |
         Stored columns of the calibration: ``uid, performed_at, utc_offset_s,
         recorded_at, job, method, conditions, result, certificate,
         input_files, senscal_version, operator, note, supersedes``
-        (datetimes timezone-aware or naive UTC).
+        (datetimes timezone-aware or naive UTC); optional ``sensor_digest``
+        and ``standards`` (pairs of a standard's ident and the SHA-256 of its
+        row's content), hashed only when present.
     serial, kind : str or None
         The sensor the record belongs to (None when its sensor row is missing).
     quantities : iterable of (name, value, uncertainty, unit, k)
@@ -82,6 +84,10 @@ def canonical_content(record: Mapping[str, Any], serial: str | None, kind: str |
     if digest is not None:
         # Records since schema 0003 cover their sensor's metadata too; older ones hash as they always did.
         doc["sensor_digest"] = digest
+    used = record.get("standards")
+    if used:
+        # Records that name reference standards (schema 0004) cover each one's ident and content digest.
+        doc["standards"] = sorted([str(i), str(h)] for i, h in used)
     return json.dumps(doc, sort_keys=True, separators=(",", ":"), ensure_ascii=False, allow_nan=True).encode("utf-8")
 
 
@@ -118,6 +124,8 @@ class ChainReport:
         uid of the first record whose stored hash does not recompute.
     problems : tuple of str
         One sentence per finding, first the first broken record.
+    n_standards : int
+        Reference-standard rows found (their own chain is checked too, schema 0004).
     """
 
     intact: bool
@@ -125,3 +133,4 @@ class ChainReport:
     head: str | None
     first_broken: str | None
     problems: tuple[str, ...]
+    n_standards: int = 0

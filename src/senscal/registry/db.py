@@ -25,7 +25,8 @@ from senscal.errors import InputError
 from senscal.io.guard import note_input
 
 __all__ = ["default_url", "parse_url", "mask_url", "missing_registry_file", "create_registry_engine", "upgrade", "metadata",
-           "sensors", "calibrations", "quantities", "registry_chain", "UTC"]
+           "sensors", "calibrations", "quantities", "registry_chain", "standards", "calibration_standards",
+           "standards_chain", "UTC"]
 
 UTC = timezone.utc
 MIGRATIONS = Path(__file__).with_name("migrations")
@@ -270,6 +271,44 @@ quantities = sa.Table(
     sa.Column("k", sa.Double, nullable=False),
 )
 
+# Reference standards (schema 0004): one row per certificate of a standard; a recalibration supersedes.
+standards = sa.Table(
+    "standards", metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("uid", sa.String(36), nullable=False, unique=True),
+    # The lab's id of the standard (e.g. "REF-8305"): the same for every certificate of it.
+    sa.Column("ident", sa.String(200), nullable=False),
+    sa.Column("name", sa.String(200)),
+    sa.Column("serial", sa.String(200)),
+    sa.Column("certificate", sa.Text, nullable=False),
+    sa.Column("certificate_sha256", sa.String(64)),
+    sa.Column("traceability", sa.Text),
+    sa.Column("due", sa.Date, nullable=False),
+    sa.Column("u_relative", sa.Double, nullable=False),
+    sa.Column("recorded_at", UTCDateTime, nullable=False),
+    sa.Column("operator", sa.String(200)),
+    sa.Column("note", sa.Text),
+    sa.Column("supersedes", sa.String(36), sa.ForeignKey("standards.uid")),
+    # sha256(previous standard's chain_hash || canonical content): see senscal.registry.standards.
+    sa.Column("chain_hash", sa.String(64), nullable=False),
+)
+
+# Which standard rows (a certificate of a standard) each calibration used (schema 0004).
+calibration_standards = sa.Table(
+    "calibration_standards", metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("calibration_id", sa.Integer, sa.ForeignKey("calibrations.id"), nullable=False),
+    sa.Column("standard_id", sa.Integer, sa.ForeignKey("standards.id"), nullable=False),
+)
+
+# One row (id = 1): number of standard rows and the newest hash of their chain (schema 0004).
+standards_chain = sa.Table(
+    "standards_chain", metadata,
+    sa.Column("id", sa.Integer, primary_key=True),
+    sa.Column("n_records", sa.Integer, nullable=False),
+    sa.Column("head", sa.String(64), nullable=False),
+)
+
 # One row (id = 1): number of records and the newest chain hash.
 registry_chain = sa.Table(
     "registry_chain", metadata,
@@ -295,7 +334,7 @@ def _alembic_config(connection=None):
 # it must not import alembic (~1-2 s of a CLI call); a test checks that this
 # equals alembic's ScriptDirectory head, so a new migration cannot be
 # forgotten here.
-HEAD_REVISION = "0003"
+HEAD_REVISION = "0004"
 
 
 @lru_cache(maxsize=1)

@@ -19,18 +19,23 @@ from senscal._result import ResultMixin, to_jsonable
 from senscal.errors import DataError, FileFormatError, InputError, SenscalError, TooFewSamplesError
 from senscal.registry import db
 from senscal.registry.chain import GENESIS, ChainReport, canonical_content, link, sensor_digest
-from senscal.registry.db import UTC, calibrations, quantities, registry_chain, sensors
+from senscal.registry.db import (UTC, calibration_standards, calibrations, quantities, registry_chain, sensors,
+                                 standards, standards_chain)
 from senscal.registry.drift import DAYS_PER_YEAR, DriftFit, DueDate, due_time, fit_drift
+from senscal.registry.standards import (ImpactReport, ImpactRow, ReferenceStandard, StandardUse, check_ident,
+                                        check_sha256, check_u_relative, overdue_on, parse_due, standard_content)
 from senscal.quantity import Quantity, check_text as _check_text
 
 __all__ = [
     "Registry", "open_registry", "Sensor", "Quantity", "Calibration", "HistoryPoint", "DriftReport",
     "UnknownSensorError", "DuplicateSensorError", "UnknownQuantityError", "parse_date", "sha256_file",
-    "EXPORT_FORMAT", "ChainReport",
+    "EXPORT_FORMAT", "ChainReport", "ReferenceStandard", "StandardUse", "ImpactReport", "ImpactRow",
+    "UnknownStandardError", "DuplicateStandardError",
 ]
 
 EXPORT_FORMAT = "senscal-registry"
-EXPORT_VERSION = 1
+# 2: reference standards and the standards each record used (schema 0004); version 1 exports still import.
+EXPORT_VERSION = 2
 
 
 class UnknownSensorError(InputError):
@@ -43,6 +48,14 @@ class DuplicateSensorError(InputError):
 
 class UnknownQuantityError(InputError):
     """A quantity a sensor's history (or a result) does not contain."""
+
+
+class UnknownStandardError(InputError):
+    """A reference-standard ID the registry does not hold."""
+
+
+class DuplicateStandardError(InputError):
+    """A reference-standard ID that is already registered (a recalibration is ``renew``)."""
 
 
 @dataclass(frozen=True)
@@ -108,6 +121,9 @@ class Calibration(ResultMixin):
     already_recorded : bool
         True when :meth:`Registry.record` found this record already stored
         (same evidence) and added nothing (derived, not stored).
+    standards : tuple of StandardUse
+        The reference standards (their certificates) the calibration used,
+        each marked overdue when its due date was before the calibration date.
     """
 
     uid: str
@@ -127,6 +143,7 @@ class Calibration(ResultMixin):
     supersedes: str | None
     superseded_by: str | None = None
     already_recorded: bool = False
+    standards: tuple[StandardUse, ...] = ()
 
     def quantity(self, name: str) -> Quantity | None:
         return next((q for q in self.quantities if q.name == name), None)
@@ -285,6 +302,43 @@ def _sensor_from(row) -> Sensor:
 
 _INSERT_CALIBRATION = calibrations.insert()
 _INSERT_QUANTITY = quantities.insert()
+_INSERT_LINK = calibration_standards.insert()
+
+
+def _standard_ref(row: Mapping[str, Any]) -> tuple[str, str]:
+    """(ident, SHA-256 of the standard row's content): what a calibration's hash covers of a standard it used.
+
+    The content digest (not the row's chain hash) so that an export imported
+    into another registry, whose standards chain differs, hashes the same way.
+    """
+    return str(row["ident"]), hashlib.sha256(standard_content(row)).hexdigest()
+
+
+def _standard_from(row, superseded_by: str | None = None) -> ReferenceStandard:
+    return ReferenceStandard(
+        ident=row["ident"], name=row["name"], serial=row["serial"], certificate=row["certificate"],
+        certificate_sha256=row["certificate_sha256"], traceability=row["traceability"], due=_as_date(row["due"]),
+        u_relative=float(row["u_relative"]), uid=row["uid"], recorded_at=row["recorded_at"],
+        operator=row["operator"], note=row["note"], supersedes=row["supersedes"], superseded_by=superseded_by,
+        chain_hash=row["chain_hash"])
+
+
+def _as_date(value) -> "date":
+    from datetime import date
+
+    if isinstance(value, datetime):
+        return value.date()
+    if isinstance(value, date):
+        return value
+    return date.fromisoformat(str(value))
+
+
+def _use(row: Mapping[str, Any], when: datetime) -> StandardUse:
+    """A standard row as a calibration performed at ``when`` (its own offset) used it."""
+    due = _as_date(row["due"])
+    return StandardUse(ident=row["ident"], certificate=row["certificate"], due=due,
+                       u_relative=float(row["u_relative"]), uid=row["uid"], overdue=overdue_on(due, when),
+                       certificate_sha256=row["certificate_sha256"])
 
 
 class TamperedRegistryError(SenscalError):
@@ -454,7 +508,8 @@ class Registry:
                job: str = "manual", method: str | None = None, conditions: Mapping[str, Any] | None = None,
                result: Mapping[str, Any] | None = None, certificate: str | Path | None = None,
                input_files: Iterable[str | Path] = (), operator: str | None = None, note: str | None = None,
-               supersedes: str | None = None, create_kind: str | None = None) -> Calibration:
+               supersedes: str | None = None, create_kind: str | None = None,
+               standards: Sequence[str] = ()) -> Calibration:
         """Append one calibration record.
 
         Parameters
@@ -483,10 +538,19 @@ class Registry:
             same sensor that this one corrects.
         create_kind : str, optional
             Register the sensor with this kind if it is not registered yet.
+        standards : sequence of str
+            IDs of the reference standards used (their current certificates are
+            linked; the links are part of the record's hashed content).
 
         Returns
         -------
         Calibration
+            With ``standards`` marked overdue where a due date was before the calibration date.
+
+        Raises
+        ------
+        UnknownStandardError
+            A standard ID that is not registered.
         """
         serial = _clean(serial, "serial")
         qs = tuple(quantities_)
@@ -496,6 +560,7 @@ class Registry:
         if len(set(names)) != len(names):
             raise InputError(f"quantity names in one calibration must be unique, got {names}")
         when = parse_date(performed_at)
+        idents = list(dict.fromkeys(check_ident(i, "--standard") for i in standards))
         _check_free(job=job, method=method, note=note, operator=operator,
                     certificate=str(certificate) if certificate is not None else None)
         files = tuple({"path": str(Path(p).resolve()), "sha256": sha256_file(p)} for p in input_files)
@@ -519,12 +584,13 @@ class Registry:
             values["sensor_digest"] = sensor_digest(
                 conn.execute(sa.select(sensors).where(sensors.c.id == sid)).mappings().one())
             self._lock_chain(conn)
+            used = [self._current_standard(conn, i) for i in idents]
             # A retry after an output failure (or the same evidence saved twice) must not add a
             # second record: it would count as an independent calibration in the drift fit.
-            same = self._same_evidence(conn, sid, values, qs)
+            same = self._same_evidence(conn, sid, values, qs, [u["id"] for u in used])
             if same is not None:
                 return replace(self._calibrations(conn, calibrations.c.id == same)[0], already_recorded=True)
-            self._insert_calibration(conn, sid, values, qs)
+            self._insert_calibration(conn, sid, values, qs, used)
         # Built from what was stored (no second round trip); microseconds as the database keeps them.
         return Calibration(
             uid=values["uid"], serial=serial, performed_at=when, recorded_at=values["recorded_at"], job=job,
@@ -532,7 +598,7 @@ class Registry:
                                             for q in qs),
             conditions=values["conditions"], result=values["result"], certificate=values["certificate"],
             input_files=files, senscal_version=values["senscal_version"], operator=operator, note=note,
-            supersedes=values["supersedes"])
+            supersedes=values["supersedes"], standards=tuple(_use(u, when) for u in used))
 
     @staticmethod
     def _lock_chain(conn) -> None:
@@ -540,7 +606,8 @@ class Registry:
         if conn.dialect.name == "postgresql":
             conn.execute(sa.text("SELECT pg_advisory_xact_lock(:k)"), {"k": db.PG_APPEND_LOCK_KEY})
 
-    def _same_evidence(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity]) -> int | None:
+    def _same_evidence(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity],
+                       standard_ids: Sequence[int] = ()) -> int | None:
         """id of a stored record of this sensor that carries the same evidence, else None.
 
         With input files, the same evidence is the same job and method on the
@@ -558,6 +625,14 @@ class Registry:
                 stmt = stmt.where(getattr(c, col).is_(None) if v is None else getattr(c, col) == v)
         ids = [r.id for r in conn.execute(stmt)
                if sorted(f.get("sha256") for f in (r.input_files or ()) if isinstance(f, Mapping)) == files]
+        if ids:
+            # The same evidence measured against other standards is another calibration.
+            links: dict[int, set] = {}
+            cs = calibration_standards.c
+            for cid, std in conn.execute(sa.select(cs.calibration_id, cs.standard_id)
+                                         .where(cs.calibration_id.in_(ids))):
+                links.setdefault(cid, set()).add(std)
+            ids = [i for i in ids if links.get(i, set()) == set(standard_ids)]
         if not ids:
             return None
         want = sorted((q.name, float(q.value), float(q.uncertainty), q.unit, float(q.k)) for q in qs)
@@ -566,20 +641,28 @@ class Registry:
             have.setdefault(q["calibration_id"], []).append((q["name"], q["value"], q["uncertainty"], q["unit"], q["k"]))
         return next((i for i in ids if sorted(have.get(i, ())) == want), None)
 
-    def _insert_calibration(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity]) -> None:
-        """Append one record and its quantities, extending the hash chain (caller holds the chain lock)."""
+    def _insert_calibration(self, conn, sensor_id: int, values: dict, qs: Sequence[Quantity],
+                            used: Sequence[Mapping[str, Any]] = ()) -> None:
+        """Append one record, its quantities and its standards, extending the hash chain (caller holds the lock).
+
+        ``used`` are standard rows (mappings with ``id``, ``ident`` and the other columns); their idents and
+        content digests are part of the record's hashed content.
+        """
         owner = conn.execute(sa.select(sensors.c.serial, sensors.c.kind).where(sensors.c.id == sensor_id)).one()
         head = conn.execute(sa.select(registry_chain.c.n_records, registry_chain.c.head)
                             .where(registry_chain.c.id == 1)).first()
         n, prev = (head.n_records, head.head) if head is not None else (0, GENESIS)
+        hashed = dict(values, standards=[_standard_ref(u) for u in used]) if used else values
         chain_hash = link(prev, canonical_content(
-            values, owner.serial, owner.kind, [(q.name, q.value, q.uncertainty, q.unit, q.k) for q in qs]))
+            hashed, owner.serial, owner.kind, [(q.name, q.value, q.uncertainty, q.unit, q.k) for q in qs]))
         # Parameters passed to execute (not .values()) so the compiled statement is reused from the cache.
         cid = conn.execute(_INSERT_CALIBRATION, dict(values, sensor_id=sensor_id,
                                                      chain_hash=chain_hash)).inserted_primary_key[0]
         conn.execute(_INSERT_QUANTITY, [
             dict(calibration_id=cid, name=q.name, value=float(q.value), uncertainty=float(q.uncertainty),
                  unit=q.unit, k=float(q.k)) for q in qs])
+        if used:
+            conn.execute(_INSERT_LINK, [dict(calibration_id=cid, standard_id=u["id"]) for u in used])
         if head is None:
             conn.execute(registry_chain.insert().values(id=1, n_records=1, head=chain_hash))
         else:
@@ -636,12 +719,20 @@ class Registry:
         uids = [r["uid"] for r in rows]
         later = dict(conn.execute(sa.select(c.supersedes, c.uid).where(c.supersedes.in_(uids))
                                   .order_by(c.recorded_at, c.id)).all())
+        used: dict[int, list] = {}
+        for srow in conn.execute(sa.select(standards, calibration_standards.c.calibration_id)
+                                 .join(calibration_standards, calibration_standards.c.standard_id == standards.c.id)
+                                 .where(calibration_standards.c.calibration_id.in_(ids))
+                                 .order_by(calibration_standards.c.id)).mappings():
+            used.setdefault(srow["calibration_id"], []).append(srow)
         return [Calibration(
             uid=r["uid"], serial=r["serial"], performed_at=_localise(r["performed_at"], r["utc_offset_s"]),
             recorded_at=r["recorded_at"], job=r["job"], method=r["method"], quantities=tuple(by_cal.get(r["id"], ())),
             conditions=r["conditions"] or {}, result=r["result"], certificate=r["certificate"],
             input_files=tuple(r["input_files"] or ()), senscal_version=r["senscal_version"], operator=r["operator"],
-            note=r["note"], supersedes=r["supersedes"], superseded_by=later.get(r["uid"])) for r in rows]
+            note=r["note"], supersedes=r["supersedes"], superseded_by=later.get(r["uid"]),
+            standards=tuple(_use(u, _localise(r["performed_at"], r["utc_offset_s"])) for u in used.get(r["id"], ())))
+            for r in rows]
 
     @_db_errors
     def calibrations(self, serial: str, *, include_superseded: bool = False) -> list[Calibration]:
@@ -749,6 +840,194 @@ class Registry:
             reference_source="nominal" if nominal is not None else "first record",
             tolerance=tol_abs, due=due, due_date=due_date, as_of=parse_date(as_of, what="as_of"))
 
+    # reference standards -----------------------------------------------------
+
+    @_db_errors
+    def add_standard(self, ident: str, *, certificate: str, due: str | Any, u_relative: float | str,
+                     name: str | None = None, serial: str | None = None, traceability: str | None = None,
+                     certificate_sha256: str | None = None, operator: str | None = None, note: str | None = None,
+                     renew: bool = False) -> ReferenceStandard:
+        """Register a reference standard's certificate, or (``renew``) its next certificate after a recalibration.
+
+        Parameters
+        ----------
+        ident : str
+            The lab's id of the standard, e.g. ``REF-8305`` (see :func:`~senscal.registry.standards.check_ident`).
+        certificate : str
+            Number or reference of the standard's own calibration certificate.
+        due : str or date
+            ``YYYY-MM-DD``: when its next calibration is due.
+        u_relative : float or str
+            Its relative standard uncertainty (k=1): 0.002 or "0.2%".
+        name, serial, traceability : str, optional
+            Description, serial number, traceability statement (``renew`` keeps the previous ones when omitted).
+        certificate_sha256 : str, optional
+            SHA-256 of the standard's own certificate file (DCC), linked from the DCCs that use it.
+        operator, note : str, optional
+        renew : bool
+            Add a new certificate of a registered standard (the previous one is superseded, never edited).
+
+        Raises
+        ------
+        DuplicateStandardError
+            The ID is registered and ``renew`` is not given.
+        UnknownStandardError
+            ``renew`` of an ID that is not registered.
+        """
+        ident = check_ident(ident)
+        due_d = parse_due(due)
+        u = check_u_relative(u_relative)
+        cert = str(certificate).strip() if certificate is not None else ""
+        if not cert:
+            raise InputError("--certificate must name the standard's own calibration certificate (its number or "
+                             "file), e.g. --certificate PTB-12345-2026")
+        sha = check_sha256(certificate_sha256) if certificate_sha256 is not None else None
+        _check_free(certificate=cert, name=name, serial=serial, traceability=traceability, operator=operator,
+                    note=note)
+        if operator is None:
+            try:
+                operator = getpass.getuser()
+            except Exception:  # no login name (containers)
+                operator = None
+        with self.engine.begin() as conn:
+            self._lock_chain(conn)
+            current = self._current_standard(conn, ident, missing_ok=True)
+            if current is not None and not renew:
+                raise DuplicateStandardError(
+                    f"standard {ident!r} is already registered (certificate {current['certificate']}, due "
+                    f"{_as_date(current['due']).isoformat()}); for its next certificate add --renew")
+            if current is None and renew:
+                raise UnknownStandardError(self._unknown_standard_message(conn, ident))
+            if current is not None and current["certificate"] == cert:
+                raise DuplicateStandardError(
+                    f"standard {ident!r} already has certificate {cert!r}; --renew records a new certificate "
+                    "after a recalibration: give its number with --certificate")
+            prev = current or {}
+            values = dict(uid=str(uuid.uuid4()), ident=ident, name=name if name is not None else prev.get("name"),
+                          serial=serial if serial is not None else prev.get("serial"), certificate=cert,
+                          certificate_sha256=sha,
+                          traceability=traceability if traceability is not None else prev.get("traceability"),
+                          due=due_d, u_relative=u, recorded_at=db.now_utc(), operator=operator, note=note,
+                          supersedes=prev.get("uid"))
+            row = self._insert_standard(conn, values)
+        return _standard_from(row)
+
+    @staticmethod
+    def _insert_standard(conn, values: dict):
+        """Append one standard row, extending the standards' chain (caller holds the chain lock); the stored row."""
+        head = conn.execute(sa.select(standards_chain.c.n_records, standards_chain.c.head)
+                            .where(standards_chain.c.id == 1)).first()
+        n, prev_hash = (head.n_records, head.head) if head is not None else (0, GENESIS)
+        values = dict(values, chain_hash=link(prev_hash, standard_content(values)))
+        conn.execute(standards.insert(), values)
+        if head is None:
+            conn.execute(standards_chain.insert().values(id=1, n_records=1, head=values["chain_hash"]))
+        else:
+            conn.execute(standards_chain.update().where(standards_chain.c.id == 1)
+                         .values(n_records=n + 1, head=values["chain_hash"]))
+        return conn.execute(sa.select(standards).where(standards.c.uid == values["uid"])).mappings().one()
+
+    def _current_standard(self, conn, ident: str, *, missing_ok: bool = False):
+        """The newest certificate (row mapping) of a standard: the row no other row supersedes."""
+        st, later = standards.c, standards.alias("later")
+        row = conn.execute(sa.select(standards).outerjoin(later, later.c.supersedes == st.uid)
+                           .where(st.ident == ident, later.c.id.is_(None))
+                           .order_by(st.id.desc())).mappings().first()
+        if row is None and not missing_ok:
+            raise UnknownStandardError(self._unknown_standard_message(conn, ident))
+        return row
+
+    def _unknown_standard_message(self, conn, ident: str) -> str:
+        known = sorted(set(conn.execute(sa.select(standards.c.ident)).scalars()))
+        listed = (f"registered: {', '.join(known[:8])}{', ...' if len(known) > 8 else ''}" if known
+                  else "none registered")
+        return (f"unknown reference standard {ident!r} in {self.url} ({listed}); add it with 'senscal registry "
+                f"standard add {ident} --certificate CERT --due YYYY-MM-DD --u-relative U'")
+
+    @_db_errors
+    def standards(self, *, include_superseded: bool = False) -> list[ReferenceStandard]:
+        """The registered standards: each one's current certificate (every certificate on request), by ID."""
+        st = standards.c
+        with db.read_connection(self.engine) as conn:
+            rows = conn.execute(sa.select(standards).order_by(st.ident, st.id)).mappings().all()
+        later = {r["supersedes"]: r["uid"] for r in rows if r["supersedes"]}
+        out = [_standard_from(r, later.get(r["uid"])) for r in rows]
+        return out if include_superseded else [s for s in out if s.superseded_by is None]
+
+    @_db_errors
+    def standard(self, ident: str) -> ReferenceStandard:
+        """The current certificate of one standard (UnknownStandardError if absent)."""
+        ident = check_ident(ident)
+        with db.read_connection(self.engine) as conn:
+            return _standard_from(self._current_standard(conn, ident))
+
+    @_db_errors
+    def standard_history(self, ident: str) -> list[ReferenceStandard]:
+        """Every certificate of one standard, oldest first."""
+        ident = check_ident(ident)
+        with db.read_connection(self.engine) as conn:
+            rows = conn.execute(sa.select(standards).where(standards.c.ident == ident)
+                                .order_by(standards.c.id)).mappings().all()
+            if not rows:
+                raise UnknownStandardError(self._unknown_standard_message(conn, ident))
+        later = {r["supersedes"]: r["uid"] for r in rows if r["supersedes"]}
+        return [_standard_from(r, later.get(r["uid"])) for r in rows]
+
+    @_db_errors
+    def impact(self, ident: str, *, since: str | datetime | None = None) -> ImpactReport:
+        """Every calibration that used a standard (any of its certificates): the out-of-tolerance impact report.
+
+        One indexed range scan of ``calibration_standards`` per certificate of
+        the standard (index on standard, calibration), joined to the records
+        and their sensors by primary key; the records' result JSON is not read.
+
+        Parameters
+        ----------
+        ident : str
+            The standard's ID.
+        since : str or datetime, optional
+            Only calibrations performed at or after this date (ISO 8601; no offset = UTC).
+
+        Raises
+        ------
+        UnknownStandardError
+        """
+        ident = check_ident(ident)
+        t0 = parse_date(since, what="--since") if since is not None else None
+        c, cs, st = calibrations.c, calibration_standards.c, standards.c
+        later = calibrations.alias("later")
+        with db.read_connection(self.engine) as conn:
+            srows = conn.execute(sa.select(standards).where(st.ident == ident).order_by(st.id)).mappings().all()
+            if not srows:
+                raise UnknownStandardError(self._unknown_standard_message(conn, ident))
+            by_id = {r["id"]: r for r in srows}
+            stmt = (sa.select(c.uid, c.performed_at, c.utc_offset_s, c.job, c.method, c.certificate, c.operator,
+                              sensors.c.serial, cs.standard_id, later.c.uid.label("superseded_by"))
+                    .select_from(calibration_standards)
+                    .join(calibrations, c.id == cs.calibration_id)
+                    .join(sensors, sensors.c.id == c.sensor_id)
+                    .outerjoin(later, later.c.supersedes == c.uid)
+                    .where(cs.standard_id.in_(list(by_id)))
+                    .order_by(c.performed_at, c.id))
+            if t0 is not None:
+                stmt = stmt.where(c.performed_at >= t0)
+            rows = conn.execute(stmt).all()
+        later_std = {r["supersedes"]: r["uid"] for r in srows if r["supersedes"]}
+        dues = {i: _as_date(r["due"]) for i, r in by_id.items()}
+        out = []
+        for r in rows:
+            when = _localise(r.performed_at, r.utc_offset_s)
+            due = dues[r.standard_id]
+            out.append(ImpactRow(calibration=r.uid, serial=r.serial, performed_at=when.isoformat(), job=r.job,
+                                 method=r.method, certificate=r.certificate, operator=r.operator,
+                                 standard_certificate=by_id[r.standard_id]["certificate"],
+                                 standard_due=due.isoformat(), overdue=overdue_on(due, when),
+                                 superseded_by=r.superseded_by))
+        return ImpactReport(ident=ident, since=t0.isoformat() if t0 is not None else None,
+                            standards=tuple(_standard_from(r, later_std.get(r["uid"])) for r in srows),
+                            rows=tuple(out), n_calibrations=len(out), n_sensors=len({r.serial for r in out}),
+                            n_certificates=sum(1 for r in out if r.certificate), n_overdue=sum(r.overdue for r in out))
+
     # integrity -----------------------------------------------------------------
 
     @_db_errors
@@ -798,11 +1077,29 @@ class Registry:
                                                                q["k"]))
             head = conn.execute(sa.select(registry_chain.c.n_records, registry_chain.c.head)
                                 .where(registry_chain.c.id == 1)).first()
-        problems: list[str] = []
+            srows = conn.execute(sa.select(standards).order_by(standards.c.id)).mappings().all()
+            s_head = conn.execute(sa.select(standards_chain.c.n_records, standards_chain.c.head)
+                                  .where(standards_chain.c.id == 1)).first()
+            refs = {r["id"]: _standard_ref(r) for r in srows}
+            links: dict[int, list] = {}
+            dangling = 0
+            for cid, sid in conn.execute(sa.select(calibration_standards.c.calibration_id,
+                                                   calibration_standards.c.standard_id)):
+                if sid in refs:
+                    links.setdefault(cid, []).append(refs[sid])
+                else:
+                    dangling += 1
+                    links.setdefault(cid, []).append(("?", "?"))
+        problems: list[str] = self._verify_standards(srows, s_head)
+        if dangling:
+            problems.append(f"{dangling} link(s) from calibrations to reference standards point to standard rows "
+                            "that were deleted")
         first = None
         prev = GENESIS
         changed: dict[int, bool] = {}
         for r in rows:
+            if r["id"] in links:
+                r = dict(r, standards=links[r["id"]])
             # Recompute from the stored hash of the predecessor, so one edit names one record.
             expected = link(prev, canonical_content(r, r["serial"], r["kind"], qs.get(r["id"], ())))
             if r["chain_hash"] != expected:
@@ -836,7 +1133,24 @@ class Registry:
                                 f"{len(rows)} records ending in {(prev[:16] if rows else '-')}: records were deleted "
                                 "(the newest ones or all of them) or the history was rebuilt")
         return ChainReport(intact=not problems, n_records=len(rows), head=prev if rows else None,
-                           first_broken=first, problems=tuple(problems))
+                           first_broken=first, problems=tuple(problems), n_standards=len(srows))
+
+    @staticmethod
+    def _verify_standards(srows: Sequence[Mapping[str, Any]], head) -> list[str]:
+        """Findings of the standards' own chain (one per changed, deleted or inserted row, and the head)."""
+        problems = []
+        prev = GENESIS
+        for r in srows:
+            if r["chain_hash"] != link(prev, standard_content(r)):
+                problems.append(f"reference standard {r['ident']!r} (certificate {r['certificate']}, row {r['uid']}) "
+                                "does not match its hash: its content or the row before it was changed, deleted or "
+                                "inserted")
+            prev = r["chain_hash"]
+        n_head, h_head = (head.n_records, head.head) if head is not None else (0, GENESIS)
+        if n_head != len(srows) or (srows and h_head != srows[-1]["chain_hash"]):
+            problems.append(f"the standards' chain head says {n_head} rows, the table holds {len(srows)}: reference "
+                            "standards were deleted or added behind senscal's back")
+        return problems
 
     # export / import ---------------------------------------------------------
 
@@ -854,8 +1168,16 @@ class Registry:
                 rd.pop("already_recorded")
                 d["calibrations"].append(rd)
             out_sensors.append(d)
+        with db.read_connection(self.engine) as conn:
+            srows = conn.execute(sa.select(standards).order_by(standards.c.id)).mappings().all()
+        out_standards = []
+        for r in srows:
+            d = _standard_from(r).to_dict()
+            for key in ("superseded_by", "chain_hash"):  # derived, or recomputed on import
+                d.pop(key)
+            out_standards.append(d)
         return {"format": EXPORT_FORMAT, "version": EXPORT_VERSION, "schema": db.HEAD_REVISION,
-                "sensors": out_sensors}
+                "standards": out_standards, "sensors": out_sensors}
 
     @_db_errors
     def import_(self, doc: Mapping[str, Any]) -> dict[str, int]:
@@ -878,6 +1200,8 @@ class Registry:
         try:
             with self.engine.begin() as conn:
                 self._lock_chain(conn)
+                for st in doc.get("standards", []):
+                    self._import_standard(conn, st, added)
                 for s in doc.get("sensors", []):
                     self._import_sensor(conn, s, added)
         except (KeyError, TypeError, ValueError) as exc:
@@ -885,6 +1209,18 @@ class Registry:
                 raise
             raise FileFormatError(f"malformed registry export: {type(exc).__name__}: {exc}") from None
         return added
+
+    def _import_standard(self, conn, st: Mapping[str, Any], added: dict[str, int]) -> None:
+        if conn.execute(sa.select(standards.c.id).where(standards.c.uid == st["uid"])).first() is not None:
+            return
+        values = dict(uid=st["uid"], ident=check_ident(st["ident"]), name=st.get("name"), serial=st.get("serial"),
+                      certificate=str(st["certificate"]),
+                      certificate_sha256=check_sha256(st["certificate_sha256"]) if st.get("certificate_sha256") else None,
+                      traceability=st.get("traceability"), due=parse_due(st["due"]),
+                      u_relative=check_u_relative(st["u_relative"]), recorded_at=parse_date(st["recorded_at"]),
+                      operator=st.get("operator"), note=st.get("note"), supersedes=st.get("supersedes"))
+        self._insert_standard(conn, values)
+        added["standards"] = added.get("standards", 0) + 1
 
     def _import_sensor(self, conn, s: Mapping[str, Any], added: dict[str, int]) -> None:
         serial = s["serial"]
@@ -915,12 +1251,19 @@ class Registry:
                     continue
                 when = parse_date(r["performed_at"])
                 qs = [Quantity(q["name"], q["value"], q["uncertainty"], q["unit"], q["k"]) for q in r["quantities"]]
+                used = []
+                for u in r.get("standards") or ():
+                    row = conn.execute(sa.select(standards).where(standards.c.uid == u["uid"])).mappings().first()
+                    if row is None:
+                        raise FileFormatError(f"record {r['uid']} uses reference standard {u.get('ident')!r} "
+                                              f"(row {u['uid']}), which the export does not hold")
+                    used.append(row)
                 self._insert_calibration(conn, sid, dict(
                     uid=r["uid"], performed_at=when, utc_offset_s=_offset_s(when),
                     recorded_at=parse_date(r["recorded_at"]), job=r["job"], method=r.get("method"),
                     conditions=r.get("conditions") or {}, result=r.get("result"), certificate=r.get("certificate"),
                     input_files=list(r.get("input_files") or ()), senscal_version=r.get("senscal_version"),
-                    operator=r.get("operator"), note=r.get("note"), supersedes=r.get("supersedes")), qs)
+                    operator=r.get("operator"), note=r.get("note"), supersedes=r.get("supersedes")), qs, used)
                 present.add(r["uid"])
                 added["calibrations"] += 1
             pending = [r for r in pending if r not in ready]
