@@ -385,3 +385,8 @@ def simulate_registry_cmd(
     p = write_json(doc, out / "history.json")
     q = write_truth(truth, out / "history_truth.json")
     console.print(f"wrote {p} and {q}; try: senscal registry import {p}")
+
+# `registry serve` (the web view) lives in its own module; importing it registers the command.
+from senscal.cli import registry_serve as _registry_serve  # noqa: E402,F401
+# `registry standard ...` and `registry impact` (reference standards) live in their own module.
+from senscal.cli import registry_standards as _registry_standards  # noqa: E402,F401

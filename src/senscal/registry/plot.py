@@ -12,7 +12,7 @@ from senscal.registry.drift import DAYS_PER_YEAR
 from senscal.registry.store import DriftReport, HistoryPoint
 from senscal.report.plots import new_figure, save_figure
 
-__all__ = ["plot_history"]
+__all__ = ["plot_history", "history_figure"]
 
 
 def _literal(text: str) -> str:
@@ -28,6 +28,11 @@ def plot_history(points: Sequence[HistoryPoint], path: str | Path, *, report: Dr
     quantity) the fitted drift line, its k=2 band, the tolerance limits and
     the due date are drawn as well.
     """
+    return save_figure(history_figure(points, report=report, title=title), path)
+
+
+def history_figure(points: Sequence[HistoryPoint], *, report: DriftReport | None = None, title: str | None = None):
+    """The figure of :func:`plot_history` (a matplotlib Figure, not saved; the web view inlines it as SVG)."""
     names = list(dict.fromkeys(p.quantity for p in points))
     fig, axes = new_figure(len(names), 1, height=2.2 + 2.3 * len(names), squeeze=False, sharex=True)
     for ax, name in zip(axes[:, 0], names):
@@ -47,7 +52,7 @@ def plot_history(points: Sequence[HistoryPoint], path: str | Path, *, report: Dr
         ax.legend(loc="best", fontsize=8)
     axes[0, 0].set_title(_literal(title or f"Calibration history of {points[0].quantity if len(names) == 1 else 'sensor'}"))
     axes[-1, 0].set_xlabel("calibration date")
-    return save_figure(fig, path)
+    return fig
 
 
 def _draw_drift(ax, report: DriftReport) -> None:
