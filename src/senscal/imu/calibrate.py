@@ -39,8 +39,10 @@ from senscal._result import ResultMixin
 from senscal.diagnostics import named
 from senscal.errors import ConvergenceError, DataError, InputError
 from senscal.imu.static import MULTIPLES, PoseSweep, sweep_static
+from senscal.imu.terms import (MIN_SWING_K, BiasDesign, accel_temperature_correct, accel_temperature_degree, fit_bias,
+                               press_degree)
 
-__all__ = ["GyroCalibration", "ImuResult", "calibrate_imu", "GYRO_ANGLES", "ACCEL_NAMES"]
+__all__ = ["GyroCalibration", "ImuResult", "TemperatureTerms", "calibrate_imu", "GYRO_ANGLES", "ACCEL_NAMES"]
 
 ACCEL_NAMES = ("Kx", "Ky", "Kz", "alpha", "beta", "gamma", "Bx", "By", "Bz")
 #: Gyro misalignment angles: ``"xy"`` is the tilt of the gyro's X axis towards the accelerometer frame's Y.
@@ -69,11 +71,15 @@ class GyroCalibration(ResultMixin):
     angles, u_angles : ndarray, shape (6,)
         Misalignment angles in rad (:data:`GYRO_ANGLES`).
     bias, u_bias : ndarray, shape (3,)
-        Reading at zero rate at ``t_ref`` (gyro units).
-    bias_rate, u_bias_rate : ndarray, shape (3,)
-        Bias change per second during the session.
+        Reading at zero rate at ``t_ref`` (gyro units); with a temperature channel at the reference
+        temperature, with ``g_sensitivity`` at zero specific force.
+    bias_rate, u_bias_rate : ndarray, shape (3,) or None
+        Bias change per second during the session (None when temperature terms model the change instead).
     t_ref : float
         Time of ``bias`` (s from the recording's first sample): the weighted centre of the static poses.
+    g_sensitivity, u_g_sensitivity : ndarray, shape (3, 3) or None
+        ``G``: gyro reading per m/s^2 of specific force (row: gyro axis, column: accelerometer-frame axis);
+        None unless asked for.
     """
 
     matrix: np.ndarray
@@ -84,13 +90,56 @@ class GyroCalibration(ResultMixin):
     u_angles: np.ndarray
     bias: np.ndarray
     u_bias: np.ndarray
-    bias_rate: np.ndarray
-    u_bias_rate: np.ndarray
+    bias_rate: np.ndarray | None
+    u_bias_rate: np.ndarray | None
     t_ref: float
+    g_sensitivity: np.ndarray | None = None
+    u_g_sensitivity: np.ndarray | None = None
 
     def apply(self, gyro: np.ndarray) -> np.ndarray:
-        """True rate in rad/s (accelerometer frame) from readings, shape (3, N)."""
+        """True rate in rad/s (accelerometer frame) from readings, shape (3, N), at the reference conditions."""
         return np.linalg.solve(self.matrix, np.asarray(gyro, float) - self.bias[:, None])
+
+
+@dataclass(frozen=True)
+class TemperatureTerms(ResultMixin):
+    """Bias and scale against temperature (``dT = T - reference``; coefficient ``j`` multiplies ``dT^(j+1)``).
+
+    Attributes
+    ----------
+    reference : float
+        Temperature at which the calibration's biases and scales hold (sample-weighted mean over the poses).
+    unit : str
+        The temperature channel's unit.
+    swing, low, high : float
+        Range of the pose temperatures.
+    degree_accel, degree_gyro : int
+        Polynomial degrees chosen on held-out poses (0: no temperature dependence detected).
+    accel_bias, u_accel_bias : ndarray, shape (degree_accel, 3)
+        Accelerometer bias change, reading per unit^j.
+    accel_scale, u_accel_scale : ndarray, shape (degree_accel, 3)
+        Relative accelerometer scale change per unit^j.
+    gyro_bias, u_gyro_bias : ndarray, shape (degree_gyro, 3)
+        Gyro bias change, reading per unit^j.
+    scores_accel, scores_gyro : tuple of float
+        Held-out chi-square per degree tried (the smallest wins).
+    """
+
+    reference: float
+    unit: str
+    swing: float
+    low: float
+    high: float
+    degree_accel: int
+    degree_gyro: int
+    accel_bias: np.ndarray
+    u_accel_bias: np.ndarray
+    accel_scale: np.ndarray
+    u_accel_scale: np.ndarray
+    gyro_bias: np.ndarray
+    u_gyro_bias: np.ndarray
+    scores_accel: tuple = ()
+    scores_gyro: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -125,6 +174,8 @@ class ImuResult(ResultMixin):
     gyro_noise : ndarray, shape (3,)
         Per-sample standard deviation of the gyro at rest (gyro units).
     gravity : float
+    temperature : TemperatureTerms or None
+        With a temperature channel.
     warnings : tuple of str
     """
 
@@ -144,6 +195,7 @@ class ImuResult(ResultMixin):
     excitation_rad: np.ndarray
     gyro_noise: np.ndarray
     gravity: float
+    temperature: TemperatureTerms | None = None
     warnings: tuple[str, ...] = field(default=())
 
 
@@ -164,9 +216,13 @@ def _tangent_bases(a: np.ndarray) -> np.ndarray:
 
 
 class _GyroProblem:
-    """The rotations between consecutive poses as a function of the gyro model and the nuisance parameters."""
+    """The rotations between consecutive poses as a function of the gyro model and the nuisance parameters.
 
-    def __init__(self, t, gyro, starts, stops, means, gravity):
+    ``nu`` = the accelerometer's 9 parameters, then the gyro bias coefficients (``design`` columns x 3 axes,
+    row-major); ``design_rot`` is the bias design at every sample of the rotations.
+    """
+
+    def __init__(self, t, gyro, starts, stops, means, gravity, design_of):
         from senscal.imu._kernels import rotations_rk4
 
         self._rk4 = rotations_rk4
@@ -186,28 +242,29 @@ class _GyroProblem:
         self.last = np.asarray(last, np.int64)
         self.t = np.ascontiguousarray(t[self.idx])
         self.w = np.ascontiguousarray(gyro[:, self.idx])
+        self.design = design_of(self.idx)
         self.n_steps = self.last - self.first
         self.duration = self.t[self.last] - self.t[self.first]
         self.bases = None
         self.white = None
 
-    def directions(self, accel_theta):
+    def directions(self, accel_theta, means=None):
         from senscal.triaxial.estimators import unpack
 
         m, b, _ = unpack("full", accel_theta, self.gravity)
-        return _unit_rows(np.linalg.solve(m, self.means - b[:, None]))
+        return _unit_rows(np.linalg.solve(m, (self.means if means is None else means) - b[:, None]))
 
-    def rates(self, mg, bias_c, bias_s, t_ref):
-        b = bias_c[:, None] + bias_s[:, None] * (self.t - t_ref)[None, :]
+    def rates(self, mg, coef):
+        b = (self.design @ np.asarray(coef, float).reshape(-1, 3)).T
         return np.ascontiguousarray(np.linalg.inv(mg) @ (self.w - b))
 
-    def rotations(self, mg, bias_c, bias_s, t_ref):
-        return self._rk4(self.rates(mg, bias_c, bias_s, t_ref), self.t, self.first, self.last)
+    def rotations(self, mg, coef):
+        return self._rk4(self.rates(mg, coef), self.t, self.first, self.last)
 
-    def raw(self, mg, nu, t_ref):
+    def raw(self, mg, nu, means=None):
         """Residuals (2 per rotation, rad) before whitening."""
-        a = self.directions(nu[:9])
-        rot = self.rotations(mg, nu[9:12], nu[12:15], t_ref)
+        a = self.directions(nu[:9], means)
+        rot = self.rotations(mg, nu[9:])
         pred = np.einsum("kji,jk->ki", rot, a[:, :-1])  # R_k^T a_k
         if self.bases is None:
             self.bases = _tangent_bases(a)
@@ -215,41 +272,28 @@ class _GyroProblem:
         # direction moves with the accelerometer's parameters.
         return np.einsum("kcj,kj->kc", self.bases[1:], pred - a[:, 1:].T).ravel()
 
-    def angles_deg(self, mg, nu, t_ref):
-        a = self.directions(nu[:9])
-        rot = self.rotations(mg, nu[9:12], nu[12:15], t_ref)
+    def angles_deg(self, mg, nu, means=None):
+        a = self.directions(nu[:9], means)
+        rot = self.rotations(mg, nu[9:])
         pred = np.einsum("kji,jk->ki", rot, a[:, :-1])
         c = np.clip(np.einsum("ki,ik->k", pred, a[:, 1:]), -1.0, 1.0)
         return np.degrees(np.arccos(c))
 
-    def whitened(self, mg, nu, t_ref):
-        r = self.raw(mg, nu, t_ref)
+    def whitened(self, mg, nu, means=None):
+        r = self.raw(mg, nu, means)
         return r if self.white is None else linalg.solve_triangular(self.white, r, lower=True)
 
 
-def _bias_model(t, gyro, starts, stops):
-    """Gyro bias constant + slope over the static poses (weighted by samples), per axis, with u."""
+def _pose_stats(t, gyro, temp, starts, stops):
+    """Per pose: mean time, mean temperature (or None), gyro means (K, 3), counts; pooled gyro noise per axis."""
     k_n = starts.size
     tm = np.array([t[a:b].mean() for a, b in zip(starts, stops)])
-    mk = np.array([gyro[:, a:b].mean(axis=1) for a, b in zip(starts, stops)])  # (K, 3)
+    tk = None if temp is None else np.array([temp[a:b].mean() for a, b in zip(starts, stops)])
+    mk = np.array([gyro[:, a:b].mean(axis=1) for a, b in zip(starts, stops)])
     nk = (stops - starts).astype(float)
     var = np.array([gyro[:, a:b].var(axis=1, ddof=1) * (b - a - 1) for a, b in zip(starts, stops)]).sum(axis=0)
     noise = np.sqrt(var / max(float(nk.sum() - k_n), 1.0))
-    t_ref = float(np.sum(nk * tm) / nk.sum())
-    dt = tm - t_ref
-    sw, swt2 = nk.sum(), np.sum(nk * dt * dt)
-    c = (nk[:, None] * mk).sum(axis=0) / sw
-    s = (nk[:, None] * dt[:, None] * mk).sum(axis=0) / swt2 if swt2 > 0 else np.zeros(3)
-    resid = mk - c[None, :] - dt[:, None] * s[None, :]
-    dof = k_n - 2
-    # Window means scatter more than sigma/sqrt(n) under coloured noise: when their chi-square exceeds its
-    # 99.9 % point their own scatter scales the u (always scaling up by max(1, chi2/dof) over-covered: 98 %).
-    chi2 = (nk[:, None] * resid ** 2).sum(axis=0) / noise ** 2
-    scale = (np.where(chi2 > stats.chi2.ppf(0.999, dof), np.sqrt(chi2 / dof), 1.0) if dof > 0
-             else np.ones(3))
-    u_c = noise / math.sqrt(sw) * scale
-    u_s = (noise / math.sqrt(swt2) if swt2 > 0 else np.full(3, np.inf)) * scale
-    return c, u_c, s, u_s, t_ref, noise, chi2, dof
+    return tm, tk, mk, nk, noise
 
 
 def _saturated_axes(gyro: np.ndarray, idx: np.ndarray) -> list[str]:
@@ -322,7 +366,9 @@ def _delta(fun, x, cov, step):
 def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity: float = 9.80665,
                   window_s: float = 1.0, min_pose_s: float = 1.0, init_s: float | None = None,
                   multiples: Sequence[float] = MULTIPLES, accel_unit: str = "", gyro_unit: str = "",
-                  accel_channels: Sequence[str] = ("ax", "ay", "az"), source: str = "the recording") -> ImuResult:
+                  accel_channels: Sequence[str] = ("ax", "ay", "az"), source: str = "the recording",
+                  temperature: np.ndarray | None = None, temp_unit: str = "", g_sensitivity: bool = False
+                  ) -> ImuResult:
     """Calibrate accelerometer and gyroscope from one multi-pose session.
 
     Parameters
@@ -339,6 +385,14 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         Static detection (:func:`senscal.imu.static.sweep_static`).
     accel_unit, gyro_unit : str
         Units of the readings (for the reports).
+    temperature : ndarray, shape (N,), optional
+        The IMU's temperature: accelerometer bias and scale and gyro bias are then fitted against it
+        (polynomials, degree chosen on held-out poses) at the poses' mean temperature, which replaces the gyro
+        bias's time slope.
+    temp_unit : str
+        Its unit (K or degC: the swing check counts in it).
+    g_sensitivity : bool
+        Fit the gyro's sensitivity to specific force (3x3, from the static poses' bias against orientation).
 
     Returns
     -------
@@ -355,6 +409,9 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     t = np.asarray(t, float)
     accel = np.asarray(accel, float)
     gyro = np.asarray(gyro, float)
+    temp = None if temperature is None else np.asarray(temperature, float)
+    if temp is not None and (temp.shape != t.shape or not np.isfinite(temp).all()):
+        raise InputError(f"{source}: the temperature channel must hold one finite value per sample")
     if accel.shape != gyro.shape or accel.ndim != 2 or accel.shape[0] != 3 or t.shape != accel.shape[1:]:
         raise InputError(f"IMU calibration needs three accelerometer and three gyroscope channels sample for "
                          f"sample, got shapes {accel.shape} and {gyro.shape}")
@@ -386,20 +443,97 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     fa = fit_ml(st.means, "full", field=gravity, start=np.array([ra.value(n) for n in ACCEL_NAMES]))
     warnings.extend(ra.warnings)
     _, _, _, var_a = _accel_covariance(st, fa.values, gravity)
+    sd_a = np.sqrt(var_a)
+    tm, tk, mk, nk, gnoise = _pose_stats(t, gyro, temp, st.starts, st.stops)
+    t_ref = float(np.sum(nk * tm) / nk.sum())
 
-    c, u_c, s, u_s, t_ref, gnoise, _, _ = _bias_model(t, gyro, st.starts, st.stops)
-    if np.any(np.abs(s) > stats.norm.ppf(1 - 0.0005) * u_s):
-        ax = ", ".join("xyz"[i] for i in np.flatnonzero(np.abs(s) > 3.29 * u_s))
-        warnings.append(named("gyro-bias-drift", f"the gyro bias of axis {ax} changes during the session "
-                              f"({', '.join(f'{v:.3g}' for v in s)} per s); it is modelled linear in time over the "
-                              "static poses: keep poses short and the session steady"))
-    prob = _GyroProblem(t, gyro, st.starts, st.stops, st.means, gravity)
-    nu = np.concatenate([fa.values, c, s])
-    cov_b = np.diag(np.concatenate([u_c, u_s]) ** 2)
+    # Temperature: the reference is the poses' sample-weighted mean temperature; the accelerometer's degree by
+    # cross-validation over the poses, the gyro bias's by leave-one-pose-out prediction error.
+    temp_ref = None
+    deg_a, scores_a = 0, []
+    dtk = np.zeros(st.n_poses)
+    if temp is not None:
+        temp_ref = float(np.sum(nk * tk) / nk.sum())
+        dtk = tk - temp_ref
+        swing = float(tk.max() - tk.min())
+        tvar = sum(float(np.var(temp[a:b], ddof=1)) * (b - a - 1) for a, b in zip(st.starts, st.stops))
+        tnoise = math.sqrt(tvar / max(float(nk.sum() - st.n_poses), 1.0))
+        # A swing within ten times the channel's own per-sample noise is no temperature change at all.
+        if not swing > 10.0 * tnoise or swing == 0.0:
+            raise InputError(f"{source}: the temperature channel spans {swing:.3g} {temp_unit or 'units'} over the "
+                             f"static poses (its noise {tnoise:.3g}): no temperature terms can be fitted; drop "
+                             "--temperature-channel, or record the session over a temperature ramp")
+        if swing < MIN_SWING_K:
+            warnings.append(named("temperature-swing-small", f"the static poses span only {swing:.3g} "
+                                  f"{temp_unit or 'units'} of temperature (reference {temp_ref:.4g}); temperature "
+                                  f"terms from less than {MIN_SWING_K:g} K extrapolate poorly: use the calibration "
+                                  f"within {tk.min():.4g} .. {tk.max():.4g}"))
+        deg_a, scores_a = accel_temperature_degree(st.means, sd_a, dtk, fa.values, gravity)
+    n_tc = 6 * deg_a
+
+    def means_c(tc):
+        return accel_temperature_correct(st.means, dtk, tc, deg_a) if deg_a else st.means
+
+    tc0 = np.zeros(n_tc)
+    theta0 = np.asarray(fa.values, float)
+    if deg_a:
+        def accel_t(ph):
+            return residuals("full", ph[:9], means_c(ph[9:]), gravity) / sd_a
+
+        sol_a = optimize.least_squares(accel_t, np.concatenate([theta0, tc0]), method="lm", x_scale="jac")
+        theta0, tc0 = sol_a.x[:9], sol_a.x[9:]
+        ra = calibrate(means_c(tc0), field=gravity, method="ml", model="full", outlier_sigma=None, unit=accel_unit,
+                       channels=tuple(accel_channels), time_terms=False)
+
+    # Gyro bias over the static poses: constant, time slope (or temperature polynomial), optional g-sensitivity.
+    ma0, ba0, _ = unpack("full", theta0, gravity)
+    f_pose = np.linalg.solve(ma0, means_c(tc0) - ba0[:, None])
+
+    def design(d, gs):
+        return BiasDesign(t_ref=t_ref, temp_ref=temp_ref, degree=d, g_sensitivity=gs)
+
+    deg_g, scores_g = 0, []
+    if temp is not None:
+        deg_g, scores_g = press_degree(lambda d: design(d, g_sensitivity).matrix(tm, tk, f_pose), mk, nk, gnoise)
+    bd = design(deg_g, g_sensitivity)
+    xk = bd.matrix(tm, tk, f_pose)
+    coef, cov_ax, chi2_b, dof_b = fit_bias(xk, mk, nk, gnoise)
+    p_b = bd.n_cols
+    u_coef = np.sqrt(np.clip(np.array([np.diag(c_) for c_ in cov_ax]).T, 0, None))  # (p, 3)
+    if temp is None:
+        s, u_s = coef[1], u_coef[1]
+        if np.any(np.abs(s) > stats.norm.ppf(1 - 0.0005) * u_s):
+            ax = ", ".join("xyz"[i] for i in np.flatnonzero(np.abs(s) > 3.29 * u_s))
+            warnings.append(named("gyro-bias-drift", f"the gyro bias of axis {ax} changes during the session "
+                                  f"({', '.join(f'{v:.3g}' for v in s)} per s); it is modelled linear in time over "
+                                  "the static poses: keep poses short and the session steady"))
+    if not g_sensitivity:
+        # Does the bias depend on the orientation? F-test of three specific-force columns (robust to a noise
+        # level the within-pose scatter misstates).
+        x1 = design(deg_g, True).matrix(tm, tk, f_pose)
+        _, _, chi2_1, dof_1 = fit_bias(x1, mk, nk, gnoise)
+        if dof_1 > 0:
+            fstat = (chi2_b - chi2_1) / 3.0 / (chi2_1 / dof_1)
+            hit = np.flatnonzero(fstat > stats.f.ppf(0.999, 3, dof_1))
+            if hit.size:
+                warnings.append(named("gyro-g-sensitivity", f"the gyro bias of axis {', '.join('xyz'[i] for i in hit)} "
+                                      "changes with the orientation (F-test at 99.9 %): the gyro is sensitive to "
+                                      "acceleration; add --g-sensitivity to fit and remove it"))
+
+    def design_rot(idx):
+        f_rot = np.linalg.solve(ma0, accel[:, idx] - ba0[:, None])
+        return bd.matrix(t[idx], None if temp is None else temp[idx], f_rot)
+
+    prob = _GyroProblem(t, gyro, st.starts, st.stops, means_c(tc0), gravity, design_rot)
+    nu = np.concatenate([theta0, coef.ravel()])
+    cov_b = np.zeros((3 * p_b, 3 * p_b))
+    for i in range(3):
+        ix = np.arange(p_b) * 3 + i
+        cov_b[np.ix_(ix, ix)] = cov_ax[i]
 
     # Nominal scale: a one-parameter search (readings may be counts of unknown scale).
     def cost(lg):
-        return float(np.mean(prob.raw(10.0 ** lg * np.eye(3), nu, t_ref) ** 2))
+        return float(np.mean(prob.raw(10.0 ** lg * np.eye(3), nu) ** 2))
 
     grid = np.arange(-3.0, 6.0001, 0.1)
     lg0 = float(grid[int(np.argmin([cost(g) for g in grid]))])
@@ -409,22 +543,22 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     n_r = st.n_poses - 1
 
     def gyro_only(th):
-        return prob.whitened(th.reshape(3, 3) * s0, nu, t_ref)
+        return prob.whitened(th.reshape(3, 3) * s0, nu)
 
     sol = optimize.least_squares(gyro_only, np.eye(3).ravel(), method="lm", x_scale="jac", xtol=1e-12,
                                  ftol=1e-12)
     mg1 = sol.x.reshape(3, 3) * s0
     # The noise model at the first estimate: integrated gyro noise per rotation, pose-mean direction noise.
     a = prob.directions(nu[:9])
-    rot = prob.rotations(mg1, c, s, t_ref)
+    rot = prob.rotations(mg1, coef)
     minv = np.linalg.inv(mg1)
     var_w = float(np.mean(np.diag(minv @ np.diag(gnoise ** 2) @ minv.T)))
     dtm = prob.duration / np.maximum(prob.n_steps, 1)
     var_th = var_w * dtm ** 2 * (prob.n_steps + 1)
-    ma, ba, _ = unpack("full", nu[:9], gravity)
+    ma, ba = ma0, ba0
     mai = np.linalg.inv(ma)
     cf = np.array([mai @ np.diag(st.stds[:, k] ** 2 / st.counts[k]) @ mai.T for k in range(st.n_poses)])
-    fn = np.linalg.norm(mai @ (st.means - ba[:, None]), axis=0)
+    fn = np.linalg.norm(mai @ (prob.means - ba[:, None]), axis=0)
     proj = np.array([np.eye(3) - np.outer(a[:, k], a[:, k]) for k in range(st.n_poses)])
     ca = np.array([proj[k] @ cf[k] @ proj[k] / fn[k] ** 2 for k in range(st.n_poses)])
     bases = prob.bases
@@ -438,29 +572,30 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
             sig[2 * k:2 * k + 2, 2 * k + 2:2 * k + 4] = cross
             sig[2 * k + 2:2 * k + 4, 2 * k:2 * k + 2] = cross.T
     # The gyro bias (fixed in the fit) errs alike for all rotations: correlated residual noise J_b C_b J_b^T.
-    u_b = np.sqrt(np.diag(cov_b))
-    jb = np.empty((sig.shape[0], 6))
-    for i in range(6):
+    u_b = np.sqrt(np.clip(np.diag(cov_b), 0, None))
+    jb = np.empty((sig.shape[0], u_b.size))
+    for i in range(u_b.size):
         h = np.zeros_like(nu)
         hi = u_b[i] if u_b[i] > 0 else 1e-12
         h[9 + i] = hi
-        jb[:, i] = (prob.raw(mg1, nu + h, t_ref) - prob.raw(mg1, nu - h, t_ref)) / (2 * hi)
+        jb[:, i] = (prob.raw(mg1, nu + h) - prob.raw(mg1, nu - h)) / (2 * hi)
     prob.white = linalg.cholesky(sig + jb @ cov_b @ jb.T, lower=True)
     # Joint maximum likelihood: the pose means' magnitude (radial noise) and the rotations' predicted
-    # directions (tangential noise) share the accelerometer's parameters; fitting them together carries the
-    # accelerometer's error into the gyro's u with its correlations (a two-step fit understated it).
-    sd_a = np.sqrt(var_a)
+    # directions (tangential noise) share the accelerometer's parameters (and its temperature terms); fitting
+    # them together carries the accelerometer's error into the gyro's u with its correlations (a two-step fit
+    # understated it).
     inflate = np.ones(2)
 
     def joint(phi):
-        nu_j = np.concatenate([phi[:9], nu[9:]])
-        ra_ = residuals("full", phi[:9], st.means, gravity) / sd_a
-        rg_ = prob.whitened(phi[9:].reshape(3, 3) * s0, nu_j, t_ref)
+        th, tc, mgv = phi[:9], phi[9:9 + n_tc], phi[9 + n_tc:]
+        m = means_c(tc)
+        ra_ = residuals("full", th, m, gravity) / sd_a
+        rg_ = prob.whitened(mgv.reshape(3, 3) * s0, np.concatenate([th, nu[9:]]), m)
         return np.concatenate([ra_ / inflate[0], rg_ / inflate[1]])
 
-    phi = np.concatenate([fa.values, sol.x])
+    phi = np.concatenate([theta0, tc0, sol.x])
     n_a = st.n_poses
-    dof_a, dof = n_a - 9, 2 * n_r - 9
+    dof_a, dof = n_a - 9 - n_tc, 2 * n_r - 9
     q_a, q_g = stats.chi2.ppf(0.999, max(dof_a, 1)), stats.chi2.ppf(0.999, dof)
     # A block whose residuals exceed its noise model (chi-square above the 99.9 % point) gets its noise scaled
     # by its excess and the fit is repeated: a misfitting gyro must not drag the accelerometer's parameters.
@@ -494,13 +629,17 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     ns = math.sqrt(chi2 / dof)
     cov_a = cov_phi[:9, :9]
     fa_values = phi[:9]
-    nu = np.concatenate([fa_values, c, s])
-    mg = phi[9:].reshape(3, 3) * s0
-    cov_m = cov_phi[9:, 9:] * s0 * s0
-    der, cov_d = _delta(_derived, mg.ravel(), cov_m, np.maximum(np.sqrt(np.diag(cov_m)), 1e-12 * abs(s0)))
+    tc_f = phi[9:9 + n_tc]
+    cov_tc = cov_phi[9:9 + n_tc, 9:9 + n_tc]
+    means_f = means_c(tc_f)
+    nu = np.concatenate([fa_values, coef.ravel()])
+    mg = phi[9 + n_tc:].reshape(3, 3) * s0
+    cov_m = cov_phi[9 + n_tc:, 9 + n_tc:] * s0 * s0
+    u_m = np.sqrt(np.clip(np.diag(cov_m), 0, None))
+    der, cov_d = _delta(_derived, mg.ravel(), cov_m, np.maximum(u_m, 1e-12 * abs(s0)))
     u_d = np.sqrt(np.clip(np.diag(cov_d), 0, None))
     # Identifiability: how much each axis was turned about.
-    rates = prob.rates(mg, c, s, t_ref)
+    rates = prob.rates(mg, coef)
     dtv = np.gradient(prob.t)
     exc = np.abs(rates * dtv[None, :]).sum(axis=1)
     low = [i for i in range(3) if exc[i] < MIN_EXCITATION * exc.max()]
@@ -519,12 +658,28 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         warnings.append(named("gyro-saturated", f"gyro axis {', '.join(sat)} sits at its extreme reading for 3 or "
                               "more samples in a row during the rotations: the rate was clipped and the rotation "
                               "under-counted; rotate slower or use a wider gyro range"))
-    before = prob.angles_deg(nominal * np.eye(3), nu, t_ref)
-    after = prob.angles_deg(mg, nu, t_ref)
+    before = prob.angles_deg(nominal * np.eye(3), nu, means_f)
+    after = prob.angles_deg(mg, nu, means_f)
+    gs = coef[-3:].T.copy() if g_sensitivity else None
+    u_gs = u_coef[-3:].T.copy() if g_sensitivity else None
+    tsl = slice(1, 1 + deg_g)
     gyro_cal = GyroCalibration(matrix=mg, covariance=cov_m, scale=der[:3], u_scale=u_d[:3], angles=der[3:],
-                               u_angles=u_d[3:], bias=c, u_bias=u_c, bias_rate=s, u_bias_rate=u_s, t_ref=t_ref)
+                               u_angles=u_d[3:], bias=coef[0].copy(), u_bias=u_coef[0].copy(),
+                               bias_rate=None if temp is not None else coef[1].copy(),
+                               u_bias_rate=None if temp is not None else u_coef[1].copy(), t_ref=t_ref,
+                               g_sensitivity=gs, u_g_sensitivity=u_gs)
+    temperature = None
+    if temp is not None:
+        u_tc = np.sqrt(np.clip(np.diag(cov_tc), 0, None))
+        temperature = TemperatureTerms(
+            reference=temp_ref, unit=temp_unit, swing=float(tk.max() - tk.min()), low=float(tk.min()),
+            high=float(tk.max()), degree_accel=deg_a, degree_gyro=deg_g,
+            accel_bias=tc_f[:3 * deg_a].reshape(deg_a, 3), u_accel_bias=u_tc[:3 * deg_a].reshape(deg_a, 3),
+            accel_scale=tc_f[3 * deg_a:].reshape(deg_a, 3), u_accel_scale=u_tc[3 * deg_a:].reshape(deg_a, 3),
+            gyro_bias=coef[tsl].copy(), u_gyro_bias=u_coef[tsl].copy(),
+            scores_accel=tuple(scores_a), scores_gyro=tuple(scores_g))
     return ImuResult(accelerometer=ra, accel_values=np.asarray(fa_values, float), accel_covariance=cov_a,
                      accel_chi2=chi2_a, accel_dof=dof_a, gyroscope=gyro_cal, poses=sweep,
                      residual_before_deg=before, residual_after_deg=after, nominal_scale=nominal, chi2=chi2, dof=dof,
                      noise_scale=ns, excitation_rad=exc, gyro_noise=gnoise, gravity=float(gravity),
-                     warnings=tuple(dict.fromkeys(warnings)))
+                     temperature=temperature, warnings=tuple(dict.fromkeys(warnings)))

@@ -6,7 +6,9 @@ exact).  The accelerometer reads ``Ma f + Ba + noise`` (``Ma`` the triaxial
 engine's upper-triangular ``K S``), the gyroscope ``Mg w + b(t) + noise``
 (``Mg`` full: scales and misalignment to the accelerometer's frame).
 Departures are options: a drifting gyro bias, coloured gyro noise, short
-poses, fast rotations, few poses, rotations that leave an axis unturned.
+poses, fast rotations, few poses, rotations that leave an axis unturned, a
+temperature warm-up with bias and scale temperature coefficients, a gyro
+sensitive to specific force (g-sensitivity).
 """
 
 from __future__ import annotations
@@ -48,7 +50,12 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
                  gyro_misalignment_deg: tuple[float, ...] = (0.3, -0.5, 0.4, 0.2, -0.3, 0.6),
                  gyro_bias: tuple[float, float, float] = (0.01, -0.02, 0.015),
                  gyro_bias_drift: tuple[float, float, float] = (0.0, 0.0, 0.0), gyro_ar1: float = 0.0,
-                 exclude_axis: int | None = None, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
+                 exclude_axis: int | None = None, temperature: tuple[float, float] | None = None,
+                 temp_nominal: float = 25.0, temp_noise: float = 0.01,
+                 accel_bias_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 accel_scale_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 gyro_bias_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 gyro_g_sensitivity: Any = None, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
     """Simulate an IMU calibration session.
 
     Parameters
@@ -81,6 +88,20 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
         AR(1) coefficient of the gyro noise (departure: coloured noise).
     exclude_axis : int, optional
         Never rotate about this body axis (0, 1, 2): the departure that leaves a gyro axis unexcited.
+    temperature : (float, float), optional
+        Warm-up from the first to the second temperature (degC) over the session, ``1 - exp(-3 t / T)``
+        shaped; adds the channel ``temp``.  None: no temperature channel, no temperature effects.
+    temp_nominal : float
+        Temperature at which the accelerometer and gyro parameters above hold, degC.
+    temp_noise : float
+        Per-sample noise of the temperature channel, K.
+    accel_bias_tc, accel_scale_tc : 3 floats
+        Accelerometer bias change (m/s^2 per K) and relative scale change (per K):
+        ``a = (1 + s dT) (Ma f + Ba) + c dT``, ``dT = T - temp_nominal``.
+    gyro_bias_tc : 3 floats
+        Gyro bias change, rad/s per K.
+    gyro_g_sensitivity : array_like (3, 3), optional
+        Gyro reading per m/s^2 of specific force (rad/s per m/s^2).
     seed : int, optional
 
     Returns
@@ -130,15 +151,30 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
 
         e = lfilter([math.sqrt(1 - gyro_ar1 ** 2)], [1.0, -gyro_ar1], e, axis=1)
     g_meas = mg @ w + b + gyro_noise * e
-    rec = Recording({**{c: a_meas[i] for i, c in enumerate(CHANNELS[:3])},
-                     **{c: g_meas[i] for i, c in enumerate(CHANNELS[3:])}}, t=t,
-                    units={**{c: "m/s^2" for c in CHANNELS[:3]}, **{c: "rad/s" for c in CHANNELS[3:]}},
-                    source="<simulated imu>")
+    chans = {**{c: a_meas[i] for i, c in enumerate(CHANNELS[:3])}, **{c: g_meas[i] for i, c in enumerate(CHANNELS[3:])}}
+    units = {**{c: "m/s^2" for c in CHANNELS[:3]}, **{c: "rad/s" for c in CHANNELS[3:]}}
+    if gyro_g_sensitivity is not None:
+        g_meas += np.asarray(gyro_g_sensitivity, float) @ f
+    if temperature is not None:
+        span = max(t[-1] - t[0], 1e-9)
+        temp = temperature[0] + (temperature[1] - temperature[0]) * (1 - np.exp(-3 * (t - t[0]) / span)) / (1 - math.exp(-3))
+        dtn = temp - temp_nominal
+        noise_a = a_meas - (ma @ f + ba[:, None])
+        a_meas[:] = ((1 + np.asarray(accel_scale_tc, float)[:, None] * dtn[None, :]) * (ma @ f + ba[:, None])
+                     + np.asarray(accel_bias_tc, float)[:, None] * dtn[None, :] + noise_a)
+        g_meas += np.asarray(gyro_bias_tc, float)[:, None] * dtn[None, :]
+        chans["temp"] = temp + temp_noise * rng.normal(size=n)
+        units["temp"] = "degC"
+    rec = Recording(chans, t=t, units=units, source="<simulated imu>")
     truth = {"gravity": gravity, "fs": fs, "n_poses": n_poses, "t_mid": t_mid,
              "accelerometer": {"Kx": accel_gains[0], "Ky": accel_gains[1], "Kz": accel_gains[2],
                                "alpha": math.radians(accel_angles_deg[0]), "beta": math.radians(accel_angles_deg[1]),
                                "gamma": math.radians(accel_angles_deg[2]), "Bx": ba[0], "By": ba[1], "Bz": ba[2]},
              "gyroscope": {"matrix": mg.tolist(), **gyro_truth(mg), "bias": list(map(float, gyro_bias)),
                            "bias_drift": list(map(float, gyro_bias_drift)), "noise": gyro_noise, "ar1": gyro_ar1},
-             "accel_noise": accel_noise}
+             "accel_noise": accel_noise,
+             "temperature": None if temperature is None else {
+                 "range": list(map(float, temperature)), "nominal": temp_nominal, "accel_bias_tc": list(accel_bias_tc),
+                 "accel_scale_tc": list(accel_scale_tc), "gyro_bias_tc": list(gyro_bias_tc)},
+             "g_sensitivity": None if gyro_g_sensitivity is None else np.asarray(gyro_g_sensitivity, float).tolist()}
     return rec, truth
