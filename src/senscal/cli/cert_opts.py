@@ -149,6 +149,8 @@ def cert_fields(params: Mapping[str, Any]) -> dict[str, Any]:
     out["decision_rule"] = params.get("decision_rule")
     out["sign_key"] = params.get("sign_key")
     out["sign_cert"] = params.get("sign_cert")
+    # --standard IDs looked up in the registry (senscal.cli.registry_opts.use_standards), when the command has them
+    out["standards"] = params.get("used_standards")
     return out
 
 
@@ -244,7 +246,10 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
         The certificate options: ``lab``, ``run_file``, ``customer``, ``item``, ``manufacturer``, ``model``,
         ``serial``, ``location``, ``certificate_id``, ``env``, ``calibration_date``, ``conformity`` (a
         specification), ``decision_rule`` (see :func:`certificate_info`); ``sign_key``, ``sign_cert`` (PEM files:
-        the DCC is signed, :func:`senscal.report.signing.sign_dcc`).
+        the DCC is signed, :func:`senscal.report.signing.sign_dcc`); ``standards``
+        (:class:`~senscal.cli.registry_opts.UsedStandards` from ``--standard``: the certificate lists those
+        registry standards instead of the profile's, and prints their ``standard-overdue`` warnings, which the
+        command emits itself).
 
     Returns
     -------
@@ -256,6 +261,7 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     fields["conformity"], fields["decision_rule"] = decide_conformity(doc, fields.get("conformity"),
                                                                        fields.get("decision_rule"))
     signing = _signing_material(fields.pop("sign_key", None), fields.pop("sign_cert", None), dcc)
+    used = fields.pop("standards", None)
     conf_warns = _conformity_warnings(doc)
     if report is None and dcc is None:
         return conf_warns
@@ -268,11 +274,20 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     if dcc is not None:
         dcc = check_output(dcc, suffixes=(".xml",), what="--dcc")
     info = certificate_info(**fields)
+    if used is not None:
+        # The standards of this calibration, as the registry holds them (certificate, due date, u, SHA-256).
+        info = replace(info, lab=replace(info.lab, standards=used.lab_standards(info.lab.standards)))
+        warnings = [*warnings, *used.warnings]
     now = _dt.datetime.now(_dt.timezone.utc)
     # The PDF/HTML and the DCC carry the same id and issue date.
     run = replace(info.run, issue_date=info.run.issue_date or now.date().isoformat())
     info = replace(info, run=replace(run, certificate_id=certificate_id(kind, result, replace(info, run=run), now)))
     warns = list(certificate_warnings(kind, result, info))
+    cert_day = info.run.calibration_date.split("/")[-1][:10]
+    if used is not None and cert_day in ("", used.on.isoformat()):
+        # Judged on the same day, an overdue registry standard is named standard-overdue (in `warnings`), not twice;
+        # a run file's other calibration date keeps the certificate's own reference-standard-due.
+        warns = [w for w in warns if not w.startswith("reference-standard-due:")]
     shown = [*warnings, *warns]
     # Both are built (and checked) before either is written.
     data = None if report is None else certificate_bytes(report.suffix, kind, result, info=info, unit=unit,

@@ -23,8 +23,10 @@ Nothing happens without ``--save``; the confirmation goes to stderr so
 
 from __future__ import annotations
 
+import datetime as _dt
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Optional, Sequence
+from typing import Any, Iterable, List, Mapping, Optional, Sequence
 
 import typer
 from typing_extensions import Annotated
@@ -32,8 +34,8 @@ from typing_extensions import Annotated
 from senscal.cli.common import err_console
 from senscal.errors import InputError
 
-__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "open_named_registry", "print_head",
-           "save_if_requested"]
+__all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "StandardOpt",
+           "open_named_registry", "print_head", "save_if_requested", "UsedStandards", "use_standards"]
 
 _PANEL = "Sensor registry"
 
@@ -52,6 +54,98 @@ DateOpt = Annotated[Optional[str], typer.Option(
     rich_help_panel=_PANEL)]
 OperatorOpt = Annotated[Optional[str], typer.Option("--operator", help="Who calibrated (default: login name).",
                                                     rich_help_panel=_PANEL)]
+StandardOpt = Annotated[Optional[List[str]], typer.Option(
+    "--standard", metavar="ID", help="Reference standard used, by its ID in the registry (repeatable; see 'senscal "
+                                     "registry standard add'): recorded with --save, listed on the certificate; one "
+                                     "past its due date on the calibration date gives the warning standard-overdue.",
+    rich_help_panel=_PANEL)]
+
+
+@dataclass(frozen=True)
+class UsedStandards:
+    """The reference standards a calibration command was told it used (``--standard``), as the registry holds them.
+
+    Attributes
+    ----------
+    standards : tuple of ReferenceStandard
+        Their current certificates.
+    on : datetime.date
+        The calibration date they were judged on.
+    warnings : tuple of str
+        ``standard-overdue`` for each one past its due date on ``on``.
+    """
+
+    standards: tuple
+    on: _dt.date
+    warnings: tuple[str, ...]
+
+    @property
+    def idents(self) -> tuple[str, ...]:
+        return tuple(s.ident for s in self.standards)
+
+    def lab_standards(self, profile: Sequence[Any] = ()) -> tuple:
+        """The standards as the certificate lists them (:class:`senscal.report.lab.Standard`).
+
+        A profile entry with the same ``id`` (or ``serial``) lends what the
+        registry does not hold (its name or traceability statement); the
+        certificate, due date, uncertainty and SHA-256 are the registry's.
+        """
+        from senscal.report.lab import Standard
+
+        by_key = {(p.id or p.serial): p for p in profile if (p.id or p.serial)}
+        out = []
+        for s in self.standards:
+            p = by_key.get(s.ident)
+            out.append(Standard(name=s.name or (p.name if p else "") or s.ident, serial=s.serial or (p.serial if p else ""),
+                                certificate=s.certificate,
+                                traceability=s.traceability or (p.traceability if p else ""),
+                                due=s.due.isoformat(), u_relative=s.u_relative, id=s.ident,
+                                certificate_sha256=s.certificate_sha256 or ""))
+        return tuple(out)
+
+
+def _judging_date(date: str | None, calibration_date: str | None) -> _dt.date:
+    """The calibration date a standard's due date is judged on: --calibration-date, else --date, else today."""
+    from senscal.registry import parse_date
+
+    if calibration_date:
+        text = calibration_date.split("/")[-1].strip()  # a calibration over several days: its last day
+        try:
+            return _dt.date.fromisoformat(text[:10])
+        except ValueError:
+            raise InputError(f"--calibration-date must be a date YYYY-MM-DD, got {calibration_date!r}") from None
+    if date:
+        return parse_date(date).date()  # the date in the offset it was given in
+    return _dt.date.today()
+
+
+def use_standards(idents: Sequence[str] | None, *, db: str | None, date: str | None = None,
+                  calibration_date: str | None = None) -> UsedStandards | None:
+    """Look up ``--standard`` IDs in the registry before the job runs; None without any.
+
+    Raises
+    ------
+    InputError
+        A malformed or unknown ID (one line listing the registered ones), a
+        bad date, or a ``--db`` file that does not exist.
+    """
+    if not idents:
+        return None
+    from senscal.diagnostics import named
+    from senscal.registry.standards import check_ident
+
+    wanted = list(dict.fromkeys(check_ident(i, "--standard") for i in idents))
+    on = _judging_date(date, calibration_date)
+    with open_named_registry(db, create=False, read_only=True,
+                             remedy="'senscal registry standard add ID ...' first (--standard names a registered "
+                                    "standard)") as reg:
+        found = tuple(reg.standard(i) for i in wanted)
+    warns = tuple(named("standard-overdue", (
+        f"reference standard {s.ident}{' (' + s.name + ')' if s.name else ''}: its certificate {s.certificate} was "
+        f"due {s.due.isoformat()}, before the calibration date {on.isoformat()}; its values may have drifted beyond "
+        f"its stated u: recalibrate it (then 'senscal registry standard add {s.ident} ... --renew') or use another "
+        "standard")) for s in found if s.overdue(on))
+    return UsedStandards(standards=found, on=on, warnings=warns)
 
 
 def open_named_registry(db: str | None, *, create: bool, remedy: str, read_only: bool = False):
@@ -88,7 +182,8 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
                       create_sensor: str | None = None, date: str | None = None, operator: str | None = None,
                       job: str | None = None, method: str | None, quantities: Sequence[Any] | None = None,
                       input_files: Iterable[str | Path] = (), conditions: Mapping[str, Any] | None = None,
-                      certificate: str | Path | None = None, note: str | None = None):
+                      certificate: str | Path | None = None, note: str | None = None,
+                      standards: UsedStandards | None = None):
     """Record a calibration command's result if ``--save`` was given.
 
     Parameters
@@ -102,6 +197,9 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
     quantities : sequence of Quantity or callable, optional
         Overrides ``result.quantities()``; a callable is only called when
         saving.
+    standards : UsedStandards, optional
+        The ``--standard`` IDs looked up by :func:`use_standards`: the record
+        links their certificates (under its hash).
 
     Returns
     -------
@@ -116,8 +214,10 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
         Serial not registered and no ``--create-sensor``.
     """
     if not save:
-        given = [opt for opt, v in (("--sensor", sensor), ("--db", db), ("--create-sensor", create_sensor),
-                                    ("--date", date), ("--operator", operator)) if v is not None]
+        # --db also names where --standard IDs are looked up; --date the day their due dates are judged on.
+        given = [opt for opt, v in (("--sensor", sensor), ("--db", None if standards else db),
+                                    ("--create-sensor", create_sensor), ("--date", None if standards else date),
+                                    ("--operator", operator)) if v is not None]
         if given:
             raise InputError(f"{', '.join(given)} only apply when saving; add --save to record the result in the registry")
         return None
@@ -135,7 +235,7 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
                              remedy="--create-sensor KIND to start a new registry there with this sensor") as reg:
         rec = reg.record(sensor, qs, performed_at=when, job=job, method=method, conditions=conditions,
                          result=doc, certificate=certificate, input_files=input_files, operator=operator,
-                         note=note, create_kind=create_sensor)
+                         note=note, create_kind=create_sensor, standards=standards.idents if standards else ())
         if rec.already_recorded and date is not None and rec.performed_at != when:
             # The same evidence is one calibration whatever date it is given (a second record would count
             # twice in the drift fit), so the new date is not recorded: say so instead of keeping it silently.
@@ -148,7 +248,8 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
             err_console.print(f"already saved as calibration {rec.uid[:8]} of sensor {sensor} in {reg.url} "
                               "(same input files and result); nothing added")
         else:
-            err_console.print(f"saved calibration {rec.uid[:8]} of sensor {sensor} ({len(qs)} quantities) "
+            used = f" with standard(s) {', '.join(standards.idents)}" if standards else ""
+            err_console.print(f"saved calibration {rec.uid[:8]} of sensor {sensor} ({len(qs)} quantities){used} "
                               f"to {reg.url}")
         print_head(reg)
     return rec

@@ -719,6 +719,14 @@ def _measurement(b: _Builder, root: ET.Element, kind: str, result: Any, info: Ce
                     f"Calibration due: {s.due}" if s.due else ""]
             if any(desc):
                 b.text(eq, "description", "; ".join(d for d in desc if d), where)
+            sha = getattr(s, "certificate_sha256", "")
+            if sha:
+                # hashType: a link to the standard's own DCC that a reader can check byte for byte.
+                link = b.el(eq, "certificate")
+                b.text(link, "referral", f"Calibration certificate of the reference standard {s.name}", where)
+                b.el(link, "referralID", s.certificate or s.name, field=f"{where}.certificate")
+                b.el(link, "procedure", "SHA256 of the certificate file", field=where)
+                b.el(link, "value", sha, field=f"{where}.certificate_sha256")
             ids = [("manufacturer", s.serial, "Serial number"), ("other", s.certificate, "Calibration certificate")]
             if any(v for _, v, _ in ids):
                 il = b.el(eq, "identifications")

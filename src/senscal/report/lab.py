@@ -59,6 +59,14 @@ class Standard(ResultMixin):
     u_relative : float or None
         Its own relative standard uncertainty (k=1) where it applies, used by
         the budget sanity check (a result cannot be better than its reference).
+    id : str
+        The lab's ID of the standard in the registry (``senscal registry
+        standard add ID``), may be empty; ``senscal registry standard check
+        --lab-profile`` compares the profile with the registry by it (else by
+        ``serial``).
+    certificate_sha256 : str
+        SHA-256 of the standard's own certificate file (its DCC), may be empty:
+        the DCC links to it (``hashType``).
     """
 
     name: str
@@ -67,6 +75,8 @@ class Standard(ResultMixin):
     traceability: str = ""
     due: str = ""
     u_relative: float | None = None
+    id: str = ""
+    certificate_sha256: str = ""
 
     @property
     def traceable(self) -> bool:
@@ -300,6 +310,14 @@ def _lab_from(doc: Mapping[str, Any], where: str, source: str) -> LabProfile:
                              f"standard uncertainty, k=1), got {s['u_relative']!r}")
         if std.due:
             _iso_date(std.due, f"{where}: standard {s['name']!r} due")
+        if std.certificate_sha256:
+            import re
+
+            sha = std.certificate_sha256.lower().removeprefix("sha256:")
+            if not re.fullmatch(r"[0-9a-f]{64}", sha):
+                raise InputError(f"{where}: standard {s['name']!r} certificate_sha256 must be the SHA-256 of its own "
+                                 f"certificate file (64 hex digits), got {std.certificate_sha256!r}")
+            std = replace(std, certificate_sha256=sha)
         standards.append(std)
     logo = _text(doc, "logo", where)
     if logo and source and not Path(logo).is_absolute():
