@@ -8,9 +8,11 @@ from typing import Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt,
-                                TimeUnitOpt, console, emit_warnings, print_json, progress_bar, table)
+from senscal.cli.common import JsonOpt, StrictOpt, console, emit_warnings, print_json, progress_bar, table
+from senscal.cli.option_groups import READ, REGISTRY, command_params, save_registered, with_options
+from senscal.errors import InputError
 from senscal.jobs._base import with_read_options
 
 imu_app = typer.Typer(help="IMU calibration: accelerometer and gyroscope together from one multi-pose session.",
@@ -20,19 +22,45 @@ app.add_typer(imu_app, name="imu")
 
 @with_read_options
 def _imu_options(*, accel_channels: str = "ax,ay,az", gyro_channels: str = "gx,gy,gz", gravity: float = 9.80665,
-                 static_window: float = 1.0, min_pose: float = 1.0, init_static: float | None = None, **_):
+                 static_window: float = 1.0, min_pose: float = 1.0, init_static: float | None = None,
+                 temperature_channel: str | None = None, g_sensitivity: bool = False, **_):
     """``ImuOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.imu import ImuOptions
 
     return ImuOptions(accel_channels=accel_channels, gyro_channels=gyro_channels, gravity=gravity,
-                      static_window=static_window, min_pose=min_pose, init_static=init_static)
+                      static_window=static_window, min_pose=min_pose, init_static=init_static,
+                      temperature_channel=temperature_channel, g_sensitivity=g_sensitivity)
+
+
+@with_read_options
+def _apply_options(*, params: Path | str | None = None, accel_channels: str | None = None,
+                   gyro_channels: str | None = None, temperature_channel: str | None = None, **_):
+    """``ImuApplyOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.jobs.imu import ImuApplyOptions
+
+    return ImuApplyOptions(params=params, accel_channels=accel_channels, gyro_channels=gyro_channels,
+                           temperature_channel=temperature_channel)
 
 
 # What `senscal batch` turns the job's option words into (see senscal.jobs).
-JOB_OPTIONS = {"imu-calibrate": _imu_options}
+JOB_OPTIONS = {"imu-calibrate": _imu_options, "imu-apply": _apply_options}
+
+TempChannelOpt = Annotated[Optional[str], typer.Option(
+    "--temperature-channel", help="The IMU's temperature channel: bias and scale against temperature (degree chosen "
+                                  "on held-out poses), quoted at the poses' mean temperature.")]
+
+
+def _triad_rows(sec: dict, label: str) -> list[list]:
+    """Table rows of one triad: scale and bias per axis, then the misalignment angles (U = 2u)."""
+    rows = [[f"{label} {what} {ax}", sec[what][i], 2 * sec[f"u_{what}"][i], sec[f"{what}_unit"]]
+            for what in ("scale", "bias") for i, ax in enumerate("xyz")]
+    name = "" if label == "accel" else "misalignment "
+    rows += [[f"{label} {name}{n}", p["value"], p["U_k2"], "deg"] for n, p in sec["misalignment_deg"].items()]
+    return rows
 
 
 @imu_app.command("calibrate")
+@with_options(READ, REGISTRY)
 def imu_calibrate_cmd(
     file: Annotated[Path, typer.Argument(help="Recording with three accelerometer and three gyroscope channels (a still start, then static poses joined by rotations).")],
     accel_channels: Annotated[str, typer.Option("--accel-channels", help="Accelerometer X,Y,Z channel names.")] = "ax,ay,az",
@@ -41,40 +69,55 @@ def imu_calibrate_cmd(
     static_window: Annotated[float, typer.Option("--static-window", help="Moving-variance window of the static detection, s.")] = 1.0,
     min_pose: Annotated[float, typer.Option("--min-pose", help="Shortest static pose kept, s.")] = 1.0,
     init_static: Annotated[Optional[float], typer.Option("--init-static", help="Length of the still start, s (reference variance of the threshold sweep; default: estimated).")] = None,
+    temperature_channel: TempChannelOpt = None,
+    g_sensitivity: Annotated[bool, typer.Option("--g-sensitivity", help="Fit the gyro's sensitivity to specific force (3x3, from the bias against orientation).")] = False,
+    out: Annotated[Optional[Path], typer.Option("--out", help="Write the calibration for 'senscal imu apply' (JSON, or HDF5 for .h5; - for stdout).")] = None,
+    plot: Annotated[Optional[Path], typer.Option("--plot", help="|f| - g per pose and gravity-direction error per rotation, before/after (PNG, SVG, PDF).")] = None,
+    noise_yaml: Annotated[Optional[Path], typer.Option("--noise-yaml", help="Write the still start's Allan noise as a kalibr imu.yaml block (ROS covariances in --json).")] = None,
     strict: StrictOpt = False,
-    time_column: TimeColumnOpt = "t",
-    fs: FsOpt = None,
-    names: NamesOpt = None,
-    skip_rows: SkipRowsOpt = None,
-    time_unit: TimeUnitOpt = None,
-    start: StartOpt = None,
-    stop: StopOpt = None,
     json_out: JsonOpt = False,
+    **opts,
 ) -> None:
     """Accelerometer and gyroscope scale, misalignment and bias from one multi-pose session."""
     from senscal.jobs.imu import imu_calibrate
 
+    params = command_params(locals(), opts)
     with progress_bar("calibrating", None):
-        res = imu_calibrate(file, _imu_options(**locals()))
+        res = imu_calibrate(file, _imu_options(**params))
     doc = res.to_dict()
+    warnings = list(res.warnings)
+    if out is not None:
+        res.calibration.save(out, extra=doc)  # type + format_version; JSON, or HDF5 for .h5 (senscal.persist)
+    if noise_yaml is not None:
+        if res.noise is None:
+            raise InputError("--noise-yaml: the still start is too short for an Allan deviation; record a longer "
+                             "still start (30-50 s) or drop --noise-yaml")
+        from senscal.io.guard import write_text
+
+        write_text(noise_yaml, res.noise.kalibr_yaml(), what="noise YAML")
+    conditions = None
+    if doc["temperature"] is not None:
+        te = doc["temperature"]
+        conditions = {"reference_temperature": te["reference"], "temperature_unit": te["unit"]}
+    save_registered(res, opts, job="imu", method="multi-pose (IMU-TK protocol), joint ML", input_files=[file],
+                    conditions=conditions)
+    if plot is not None:
+        from senscal.imu.plots import plot_imu
+
+        r = res.result
+        plot_imu(res.g_before, res.g_after, r.residual_before_deg, r.residual_after_deg, plot,
+                 temperature=res.pose_temperature, temp_unit=res.temp_unit,
+                 title=f"{file.name}: IMU calibration ({r.poses.static.n_poses} poses)")
     if json_out:
         print_json(doc)
-        emit_warnings(res.warnings, strict)
+        emit_warnings(warnings, strict)
         return
     a, g = doc["accelerometer"], doc["gyroscope"]
-    rows = []
-    for i, ax in enumerate("xyz"):
-        rows.append([f"accel scale {ax}", a["scale"][i], 2 * a["u_scale"][i], a["scale_unit"]])
-    for i, ax in enumerate("xyz"):
-        rows.append([f"accel bias {ax}", a["bias"][i], 2 * a["u_bias"][i], a["bias_unit"]])
-    for n, p in a["misalignment_deg"].items():
-        rows.append([f"accel {n}", p["value"], p["U_k2"], "deg"])
-    for i, ax in enumerate("xyz"):
-        rows.append([f"gyro scale {ax}", g["scale"][i], 2 * g["u_scale"][i], g["scale_unit"]])
-    for i, ax in enumerate("xyz"):
-        rows.append([f"gyro bias {ax}", g["bias"][i], 2 * g["u_bias"][i], g["bias_unit"]])
-    for n, p in g["misalignment_deg"].items():
-        rows.append([f"gyro misalignment {n}", p["value"], p["U_k2"], "deg"])
+    rows = _triad_rows(a, "accel") + _triad_rows(g, "gyro")
+    if g["g_sensitivity"] is not None:
+        gs = g["g_sensitivity"]
+        rows += [[f"gyro g-sensitivity {ax}{fx}", gs["value"][i][j], 2 * gs["u"][i][j], gs["unit"]]
+                 for i, ax in enumerate("xyz") for j, fx in enumerate("xyz")]
     console.print(table(f"IMU calibration of {file} (U = expanded uncertainty, k=2)", ["parameter", "value", "U",
                                                                                         "unit"], rows))
     st, gd = doc["static"], doc["gravity_direction_residual_deg"]
@@ -82,19 +125,57 @@ def imu_calibrate_cmd(
                   f"|g| spread after {a['g_spread']['std']:.3g} m/s^2")
     console.print(f"gravity-direction residual per rotation: rms {gd['rms_before']:.3g} deg before, "
                   f"{gd['rms_after']:.3g} deg after the gyroscope calibration")
-    emit_warnings(res.warnings, strict)
+    te = doc["temperature"]
+    if te is not None:
+        console.print(f"temperature: reference {te['reference']:.4g} {te['unit']} (poses {te['range'][0]:.4g} .. "
+                      f"{te['range'][1]:.4g}); degree {te['accelerometer']['degree']} (accelerometer), "
+                      f"{te['gyroscope']['degree']} (gyro bias), chosen on held-out poses")
+    emit_warnings(warnings, strict)
+
+
+@imu_app.command("apply")
+@with_options(READ)
+def imu_apply_cmd(
+    file: Annotated[Path, typer.Argument(help="Recording to correct (never modified).")],
+    params: Annotated[Path, typer.Option("--params", help="Calibration file written by 'imu calibrate --out'.")],
+    out: Annotated[Path, typer.Option("--out", help="Corrected recording (CSV, Parquet, HDF5, NPZ): m/s^2 and rad/s.")],
+    accel_channels: Annotated[Optional[str], typer.Option("--accel-channels", help="Accelerometer X,Y,Z channels (default: the calibration's).")] = None,
+    gyro_channels: Annotated[Optional[str], typer.Option("--gyro-channels", help="Gyroscope X,Y,Z channels (default: the calibration's).")] = None,
+    temperature_channel: Annotated[Optional[str], typer.Option("--temperature-channel", help="The IMU's temperature (default: the calibration's, when it has temperature terms).")] = None,
+    strict: StrictOpt = False,
+    json_out: JsonOpt = False,
+    **opts,
+) -> None:
+    """Correct accelerometer and gyroscope channels with a saved IMU calibration; other channels are copied."""
+    from senscal.io import write_recording
+    from senscal.jobs.imu import imu_apply
+
+    result = imu_apply(file, _apply_options(**command_params(locals(), opts)))
+    if Path(out).resolve() == Path(file).resolve():
+        raise InputError("--out must differ from the input file; input files are never modified")
+    p = write_recording(result.recording, out)
+    summary = result.to_dict()
+    summary["out"] = str(p)
+    if json_out:
+        print_json(summary)
+    else:
+        console.print(f"wrote {p}: {summary['n_samples']} samples, accelerometer in m/s^2 (|f| mean "
+                      f"{summary['specific_force_norm_mean']:.6g}) and gyroscope in rad/s")
+    emit_warnings(result.warnings, strict)
 
 
 @simulate_app.command("imu")
+@units(fs='Hz', init_s='s', pose_s='s', rotation_s='s', accel_noise='m/s^2', gyro_noise='rad/s',
+       bias_drift=ListOf('rad/s^2'))
 def simulate_imu_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     poses: Annotated[int, typer.Option("--poses", help="Static poses after the still start.")] = 30,
-    fs: Annotated[float, typer.Option("--fs", help="Sample rate, Hz.")] = 100.0,
-    init_s: Annotated[float, typer.Option("--init", help="Still start, s.")] = 20.0,
-    pose_s: Annotated[float, typer.Option("--pose", help="Each static pose, s.")] = 3.0,
-    rotation_s: Annotated[float, typer.Option("--rotation", help="Each rotation, s (small: fast motion).")] = 1.5,
-    accel_noise: Annotated[float, typer.Option("--accel-noise", help="Accelerometer noise per sample, m/s^2.")] = 0.02,
-    gyro_noise: Annotated[float, typer.Option("--gyro-noise", help="Gyro noise per sample, rad/s.")] = 0.002,
+    fs: Annotated[str, typer.Option("--fs", help="Sample rate, Hz.")] = "100.0",
+    init_s: Annotated[str, typer.Option("--init", help="Still start, s.")] = "20.0",
+    pose_s: Annotated[str, typer.Option("--pose", help="Each static pose, s.")] = "3.0",
+    rotation_s: Annotated[str, typer.Option("--rotation", help="Each rotation, s (small: fast motion).")] = "1.5",
+    accel_noise: Annotated[str, typer.Option("--accel-noise", help="Accelerometer noise per sample, m/s^2.")] = "0.02",
+    gyro_noise: Annotated[str, typer.Option("--gyro-noise", help="Gyro noise per sample, rad/s.")] = "0.002",
     gyro_ar1: Annotated[float, typer.Option("--gyro-ar1", help="AR(1) coefficient of the gyro noise (coloured noise).")] = 0.0,
     bias_drift: Annotated[Optional[str], typer.Option("--bias-drift", help="Gyro bias change per s, x,y,z (rad/s/s).")] = None,
     exclude_axis: Annotated[Optional[int], typer.Option("--exclude-axis", help="Never rotate about this axis (0, 1, 2).")] = None,

@@ -9,10 +9,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from senscal._result import to_jsonable
-from senscal.errors import InputError
+from senscal.errors import InputError, SenscalError
 from senscal.jobs._base import JobResult, Quantity, ReadOptions, source_name
 
-__all__ = ["ImuOptions", "ImuCalibrateResult", "imu_calibrate"]
+__all__ = ["ImuOptions", "ImuCalibrateResult", "imu_calibrate", "ImuApplyOptions", "ImuApplyResult", "imu_apply"]
 
 _ANG_RATE = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "dps": math.pi / 180.0, "°/s": math.pi / 180.0}
 
@@ -40,6 +40,10 @@ class ImuOptions(ReadOptions):
         Shortest static pose kept, s.
     init_static : float or None
         Length of the still start, s (its variance is the sweep's reference); None: estimated.
+    temperature_channel : str or None
+        The IMU's temperature: bias and scale are fitted against it (:func:`senscal.imu.calibrate_imu`).
+    g_sensitivity : bool
+        Fit the gyro's sensitivity to specific force.
     """
 
     accel_channels: str | tuple[str, str, str] = ("ax", "ay", "az")
@@ -48,6 +52,8 @@ class ImuOptions(ReadOptions):
     static_window: float = 1.0
     min_pose: float = 1.0
     init_static: float | None = None
+    temperature_channel: str | None = None
+    g_sensitivity: bool = False
 
 
 def _pq(v: float, u: float, unit: str) -> dict[str, Any]:
@@ -65,6 +71,14 @@ class ImuCalibrateResult(JobResult):
     accel_channels, gyro_channels : tuple of 3 str
     accel_unit, gyro_unit : str
         Units of the readings (the gyro's after conversion to rad/s when it named an angular-rate unit).
+    calibration : senscal.imu.model.ImuCalibration
+        What ``--out`` saves and ``senscal imu apply`` uses.
+    noise : senscal.imu.noise.ImuNoise or None
+        Allan noise levels of the still start (None when it is too short).
+    g_before, g_after : ndarray, shape (K,)
+        ``|f| - g`` per pose, nominal and calibrated accelerometer, m/s^2.
+    pose_temperature : ndarray (K,) or None
+    temperature_channel, temp_unit : str or None
     warnings : tuple of str
     """
 
@@ -76,6 +90,13 @@ class ImuCalibrateResult(JobResult):
     gyro_channels: tuple[str, str, str]
     accel_unit: str
     gyro_unit: str
+    calibration: Any = field(default=None, repr=False)
+    noise: Any = field(default=None, repr=False)
+    g_before: Any = field(default=None, repr=False)
+    g_after: Any = field(default=None, repr=False)
+    pose_temperature: Any = field(default=None, repr=False)
+    temperature_channel: str | None = None
+    temp_unit: str = ""
     warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
@@ -111,7 +132,34 @@ class ImuCalibrateResult(JobResult):
                                  for n, v, u in zip(GYRO_ANGLES, g.angles, g.u_angles)},
             "noise_per_sample": r.gyro_noise, "excitation_deg": np.degrees(r.excitation_rad),
             "chi2": r.chi2, "dof": r.dof,
+            "g_sensitivity": None if g.g_sensitivity is None else {
+                "value": g.g_sensitivity, "u": g.u_g_sensitivity, "unit": f"{gunit} per m/s^2",
+                "rows": "gyro axis x, y, z", "columns": "specific force along the accelerometer frame's x, y, z"},
         }
+        te = r.temperature
+        temperature = None
+        if te is not None:
+            tu = self.temp_unit or "unit"
+            temperature = {
+                "channel": self.temperature_channel, "reference": te.reference, "unit": self.temp_unit,
+                "range": [te.low, te.high], "swing": te.swing,
+                "note": "biases and scales above hold at the reference temperature; coefficient j multiplies "
+                        "(T - reference)^j",
+                "accelerometer": {"degree": te.degree_accel, "heldout_chi2": list(te.scores_accel),
+                                  "bias": te.accel_bias, "u_bias": te.u_accel_bias, "bias_unit": f"{aunit} per {tu}^j",
+                                  "scale": te.accel_scale, "u_scale": te.u_accel_scale,
+                                  "scale_unit": f"relative per {tu}^j"},
+                "gyroscope": {"degree": te.degree_gyro, "heldout_chi2": list(te.scores_gyro),
+                              "bias": te.gyro_bias, "u_bias": te.u_gyro_bias, "bias_unit": f"{gunit} per {tu}^j"}}
+        nz = self.noise
+        noise = None if nz is None else {
+            "still_start_s": nz.duration_s, "accel_noise_density": nz.accel_density,
+            "accel_random_walk": nz.accel_random_walk, "accel_random_walk_is_bound": nz.accel_rw_bound,
+            "gyro_noise_density": nz.gyro_density, "gyro_random_walk": nz.gyro_random_walk,
+            "gyro_random_walk_is_bound": nz.gyro_rw_bound,
+            "units": {"accel_noise_density": "m/s^2/sqrt(Hz)", "accel_random_walk": "m/s^3/sqrt(Hz)",
+                      "gyro_noise_density": "rad/s/sqrt(Hz)", "gyro_random_walk": "rad/s^2/sqrt(Hz)"},
+            "ros": nz.ros_covariance(), "kalibr_yaml": nz.kalibr_yaml()}
         before, after = r.residual_before_deg, r.residual_after_deg
         return to_jsonable({
             "file": self.source, "gravity": r.gravity,
@@ -123,6 +171,7 @@ class ImuCalibrateResult(JobResult):
                 "before": before, "after": after,
                 "rms_before": float(np.sqrt(np.mean(before ** 2))), "rms_after": float(np.sqrt(np.mean(after ** 2))),
                 "nominal_gyro_scale": r.nominal_scale},
+            "temperature": temperature, "noise": noise,
             "warnings": list(self.warnings)})
 
     def quantities(self) -> tuple[Quantity, ...]:
@@ -142,6 +191,21 @@ class ImuCalibrateResult(JobResult):
         for n in GYRO_ANGLES:
             p = g["misalignment_deg"][n]
             out.append(Quantity(f"gyro_misalignment_{n}", p["value"], p["u"], "deg"))
+        gs = g["g_sensitivity"]
+        if gs is not None:
+            for i, ax in enumerate("xyz"):
+                for j, fx in enumerate("xyz"):
+                    out.append(Quantity(f"gyro_g_sensitivity_{ax}{fx}", gs["value"][i][j], gs["u"][i][j], gs["unit"]))
+        te = d["temperature"]
+        if te is not None:
+            for sec, key, unit in (("accelerometer", "bias", te["accelerometer"]["bias_unit"]),
+                                   ("accelerometer", "scale", te["accelerometer"]["scale_unit"]),
+                                   ("gyroscope", "bias", te["gyroscope"]["bias_unit"])):
+                blk = te[sec]
+                for j in range(blk["degree"]):
+                    for i, ax in enumerate("xyz"):
+                        out.append(Quantity(f"{sec[:5] if sec == 'accelerometer' else 'gyro'}_{key}_tc{j + 1}_{ax}",
+                                            blk[key][j][i], blk[f"u_{key}"][j][i], unit.replace("^j", f"^{j + 1}")))
         return tuple(out)
 
 
@@ -171,7 +235,11 @@ def imu_calibrate(source, options: ImuOptions = ImuOptions()) -> ImuCalibrateRes
     gc = _three(o.gyro_channels, "--gyro-channels")
     if set(ac) & set(gc):
         raise InputError("--accel-channels and --gyro-channels must name six different channels")
-    rec = o.read(source, channels=list(ac) + list(gc), job="imu")
+    tch = o.temperature_channel or None
+    if tch is not None and tch in set(ac) | set(gc):
+        raise InputError(f"--temperature-channel {tch} is one of the accelerometer or gyroscope channels; give the "
+                         "IMU's temperature channel")
+    rec = o.read(source, channels=list(ac) + list(gc) + ([tch] if tch else []), job="imu")
     units_a = {rec.units.get(c, "") for c in ac}
     units_g = {rec.units.get(c, "") for c in gc}
     if len(units_a) > 1 or len(units_g) > 1:
@@ -183,9 +251,183 @@ def imu_calibrate(source, options: ImuOptions = ImuOptions()) -> ImuCalibrateRes
     if key in _ANG_RATE:
         gyro = gyro * _ANG_RATE[key]
         gunit = "rad/s"
-    res = calibrate_imu(rec.time, rec.data(list(ac)), gyro, gravity=o.gravity, window_s=o.static_window,
+    temp = rec.data([tch])[0] if tch else None
+    tunit = rec.units.get(tch, "") if tch else ""
+    accel = rec.data(list(ac))
+    res = calibrate_imu(rec.time, accel, gyro, gravity=o.gravity, window_s=o.static_window,
                         min_pose_s=o.min_pose, init_s=o.init_static, accel_unit=aunit, gyro_unit=gunit,
-                        accel_channels=ac, source=source_name(source))
-    warnings = merge_time_warnings(res.warnings, rec.warnings)
+                        accel_channels=ac, source=source_name(source), temperature=temp, temp_unit=tunit,
+                        g_sensitivity=o.g_sensitivity)
+    warnings = list(merge_time_warnings(res.warnings, rec.warnings))
+    cal = calibration_of(res, accel_unit=aunit, gyro_unit=gunit, accel_channels=ac, gyro_channels=gc,
+                         temp_channel=tch, temp_unit=tunit)
+    st = res.poses.static
+    temp_pose = None if temp is None else np.array([temp[a:b].mean() for a, b in zip(st.starts, st.stops)])
+    f_pose = cal.apply_accel(st.means, temp_pose)
+    g_after = np.linalg.norm(f_pose, axis=0) - res.gravity
+    from senscal.triaxial.calibrate import nominal_raw
+
+    raw, _ = nominal_raw(st.means, res.gravity)
+    g_before = np.linalg.norm(raw, axis=0) - res.gravity
+    noise = None
+    a0, b0 = int(st.starts[0]), int(st.stops[0])
+    try:
+        from senscal.imu.noise import noise_parameters
+
+        f0, w0 = cal.apply(accel[:, a0:b0], gyro[:, a0:b0], None if temp is None else temp[a0:b0])
+        noise = noise_parameters(f0, w0, rec.sample_rate)
+    except SenscalError:
+        from senscal.diagnostics import named
+
+        warnings.append(named("imu-noise-unavailable", f"the still start holds {b0 - a0} samples, too few for an "
+                              "Allan deviation: no noise densities (kalibr YAML, ROS covariance); record a longer "
+                              "still start (IMU-TK: 30-50 s)"))
     return ImuCalibrateResult(result=res, source=source_name(source), accel_channels=ac, gyro_channels=gc,
-                              accel_unit=aunit, gyro_unit=gunit, warnings=tuple(warnings))
+                              accel_unit=aunit, gyro_unit=gunit, calibration=cal, noise=noise, g_before=g_before,
+                              g_after=g_after, pose_temperature=temp_pose, temperature_channel=tch, temp_unit=tunit,
+                              warnings=tuple(warnings))
+
+
+def calibration_of(res, *, accel_unit: str = "", gyro_unit: str = "", accel_channels=("ax", "ay", "az"),
+                   gyro_channels=("gx", "gy", "gz"), temp_channel: str | None = None, temp_unit: str = ""):
+    """The saved calibration (:class:`senscal.imu.model.ImuCalibration`) of an engine result."""
+    from senscal.imu.model import ImuCalibration
+    from senscal.triaxial.estimators import unpack
+
+    ma, ba, _ = unpack("full", res.accel_values, res.gravity)
+    g, te = res.gyroscope, res.temperature
+    z = np.zeros((0, 3))
+    return ImuCalibration(
+        accel_matrix=ma, accel_bias=ba, gyro_matrix=g.matrix, gyro_bias=g.bias, gravity=res.gravity,
+        accel_unit=accel_unit, gyro_unit=gyro_unit, accel_channels=tuple(accel_channels),
+        gyro_channels=tuple(gyro_channels), g_sensitivity=g.g_sensitivity,
+        temp_reference=None if te is None else te.reference, temp_unit=temp_unit,
+        temp_channel=temp_channel if te is not None else None,
+        accel_bias_tc=z if te is None else te.accel_bias, accel_scale_tc=z if te is None else te.accel_scale,
+        gyro_bias_tc=z if te is None else te.gyro_bias)
+
+
+# ---------------------------------------------------------------------------
+# imu-apply
+# ---------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ImuApplyOptions(ReadOptions):
+    """Options of :func:`imu_apply` (the ``senscal imu apply`` options).
+
+    Attributes
+    ----------
+    params : str, Path or senscal.imu.model.ImuCalibration
+        The file of ``senscal imu calibrate --out`` (or a calibration in memory).
+    accel_channels, gyro_channels : str, tuple of 3 str or None
+        Channels to correct (default: the names the calibration was made from).
+    temperature_channel : str or None
+        The IMU's temperature (default: the calibration's, when it has temperature terms).
+    """
+
+    params: Any = None
+    accel_channels: str | tuple[str, str, str] | None = None
+    gyro_channels: str | tuple[str, str, str] | None = None
+    temperature_channel: str | None = None
+
+
+@dataclass(frozen=True)
+class ImuApplyResult(JobResult):
+    """A recording with both triads corrected (m/s^2, rad/s); the other channels are copied.
+
+    Attributes
+    ----------
+    calibration : senscal.imu.model.ImuCalibration
+    recording : senscal.io.Recording
+    source, params_source : str
+    accel_channels, gyro_channels : tuple of 3 str
+    warnings : tuple of str
+    """
+
+    job: ClassVar[str] = "imu-apply"
+
+    calibration: Any = field(repr=False)
+    recording: Any = field(repr=False)
+    source: str
+    params_source: str
+    accel_channels: tuple[str, str, str]
+    gyro_channels: tuple[str, str, str]
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``senscal imu apply --json`` document (``out`` is set by the writer)."""
+        rec = self.recording
+        f = rec.data(list(self.accel_channels))
+        norm = np.linalg.norm(f, axis=0)
+        return to_jsonable({"file": self.source, "out": None, "params": self.params_source,
+                            "n_samples": int(norm.size), "accel_channels": list(self.accel_channels),
+                            "gyro_channels": list(self.gyro_channels),
+                            "specific_force_norm_mean": float(norm.mean()), "unit_accel": "m/s^2",
+                            "unit_gyro": "rad/s", "warnings": list(self.warnings)})
+
+
+def imu_apply(source, options: ImuApplyOptions = ImuApplyOptions()) -> ImuApplyResult:
+    """Correct an IMU recording's accelerometer and gyroscope with a saved calibration.
+
+    Parameters
+    ----------
+    source : str, Path or Recording
+        The recording to correct (never modified).
+    options : ImuApplyOptions
+        ``params`` is required.
+
+    Returns
+    -------
+    ImuApplyResult
+
+    Raises
+    ------
+    SenscalError
+        Missing or unreadable calibration, unknown channel, a unit of another dimension (one line, with the fix).
+    """
+    from senscal.diagnostics import named
+    from senscal.imu.model import ImuCalibration, load_calibration
+    from senscal.io import Recording
+    from senscal.jobs._base import given_or_loaded
+    from senscal.persist.units import unit_factor
+
+    o = options
+    if o.params is None:
+        raise InputError("imu apply needs the calibration: give --params CAL.json from "
+                         "'senscal imu calibrate --out CAL.json'")
+    cal, params_source = given_or_loaded(o.params, ImuCalibration, load_calibration, label="<calibration>",
+                                         what="the calibration", path="calibration file")
+    ac = _three(o.accel_channels or cal.accel_channels, "--accel-channels")
+    gc = _three(o.gyro_channels or cal.gyro_channels, "--gyro-channels")
+    tch = o.temperature_channel or (cal.temp_channel if cal.has_temperature else None)
+    warnings: list[str] = []
+    rec = o.read(source)
+    names = list(ac) + list(gc)
+    if tch is not None and tch not in rec.channels and not o.temperature_channel:
+        warnings.append(named("imu-temperature-missing", f"the calibration has temperature terms about "
+                              f"{cal.temp_reference:.4g} {cal.temp_unit} but {source_name(source)} has no channel "
+                              f"'{tch}': corrected as at the reference temperature; give --temperature-channel"))
+        tch = None
+    rec.data(names + ([tch] if tch else []))  # unknown channel -> one-line error listing the channels
+    src = source_name(source)
+    fa = [unit_factor(rec.units.get(c, ""), cal.accel_unit, what=f"channel '{c}' of {src}",
+                      fix="convert the data or calibrate again") for c in ac]
+    fg = []
+    for c in gc:
+        u = rec.units.get(c, "")
+        k = _ANG_RATE.get(u.strip().lower())
+        fg.append(k if k is not None and cal.gyro_unit == "rad/s" else
+                  unit_factor(u, cal.gyro_unit, what=f"channel '{c}' of {src}", fix="convert the data or calibrate again"))
+    a = rec.data(list(ac)) * np.asarray(fa)[:, None]
+    g = rec.data(list(gc)) * np.asarray(fg)[:, None]
+    temp = rec.data([tch])[0] if tch else None
+    f, w = cal.apply(a, g, temp)
+    new, units = dict(rec.channels), dict(rec.units)
+    for i, c in enumerate(ac):
+        new[c], units[c] = f[i], "m/s^2"
+    for i, c in enumerate(gc):
+        new[c], units[c] = w[i], "rad/s"
+    out = Recording(channels=new, t=rec.t, fs=rec.fs, t0=rec.t0, units=units,
+                    metadata={**rec.metadata, "imu_calibration": f"from {params_source}"})
+    return ImuApplyResult(calibration=cal, recording=out, source=src, params_source=params_source,
+                          accel_channels=ac, gyro_channels=gc, warnings=tuple(warnings))

@@ -45,6 +45,8 @@ TYPES: dict[str, tuple[str, str, str, str]] = {
                                              "triaxial calibration", "senscal triaxial calibrate ... --out FILE"),
     "senscal.vibration.FrequencyResponse": ("senscal.vibration.response", "FrequencyResponse", "frequency response",
                                             "senscal response ... --save-response FILE"),
+    "senscal.imu.ImuCalibration": ("senscal.imu.model", "ImuCalibration", "IMU calibration",
+                                   "senscal imu calibrate ... --out FILE"),
 }
 
 # Version-1 files told their type through other keys.
