@@ -48,7 +48,7 @@ _WORDS = {
     "LSB": "count", "lsb": "count", "counts": "count", "digit": "count", "digits": "count",
     "℃": "degC", "°C": "degC", "°F": "degF", "℉": "degF",
     "sec": "s", "secs": "s", "msec": "ms", "usec": "us", "hr": "hour", "hrs": "hour",
-    "dps": "deg/s",
+    "dps": "deg/s", "rev": "revolution", "revs": "revolution",
 }
 _WORD = re.compile(r"(?<![\w°µμ])(°[CF]|[A-Za-z_°µμ℃℉][\w°µμ]*)")
 # "m s-2", "s-1": a signed integer straight after a symbol is its power.
@@ -261,9 +261,16 @@ def parse_quantity(text: str | float | None, unit: str, *, option: str) -> float
         raise InputError(f"{option} must be a number, optionally with a unit (e.g. 0.05 or '50 mV/(m/s^2)'), "
                          f"got {text!r}")
     value, given = float(m.group(1)), m.group(2)
+    if given.startswith("/"):
+        given = "1" + given  # '1e-4 /h', '2/day': a rate per unit of time
     if given:
-        value = float(convert(value, given, unit, what=f"{option} {text}",
-                              fix=f"give {option} in {unit} or a unit convertible to it"))
+        fix = f"give {option} in {unit} or a unit convertible to it"
+        ua = parse_unit(given, what=f"the unit of {option} {text}")
+        if compatible(given, unit) and _offset(ua, parse_unit(unit)) == 0.0:
+            with np.errstate(over="ignore"):
+                value = value * _scale(ua, parse_unit(unit))  # the factor as written: '50 uT' is 50000 nT exactly
+        else:
+            value = float(convert(value, given, unit, what=f"{option} {text}", fix=fix))  # offsets, or the refusal
     if not math.isfinite(value):
         raise InputError(f"{option} {text} is beyond the range of a float ({value} {unit}); give a finite value")
     return value

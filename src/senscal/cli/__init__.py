@@ -157,8 +157,10 @@ def _with_common_checks(group, path: str = "senscal"):
             _with_common_checks(cmd, sub)
         elif cmd.callback is not None and not getattr(cmd.callback, "_senscal_checked", False):
             def checked(*args, __f=cmd.callback, __p=sub, **kw):
+                from senscal.cli._quantities import convert_options
                 from senscal.cli.common import check_command_outputs
 
+                kw = convert_options(__f, kw)  # '80 mm' -> 0.08 for --radius in m (senscal.cli._quantities)
                 check_common_options(__p, kw)
                 check_command_outputs(__p, kw)  # every output, before any work (see senscal.io.guard)
                 return __f(*args, **kw)
@@ -166,7 +168,25 @@ def _with_common_checks(group, path: str = "senscal"):
             functools.update_wrapper(checked, cmd.callback)
             checked._senscal_checked = True  # type: ignore[attr-defined]
             cmd.callback = checked
+            _say_units(cmd)
     return group
+
+
+def _say_units(cmd) -> None:
+    """Each quantity option's help says that a unit may be given (see senscal.cli._quantities)."""
+    from senscal.cli._quantities import ListOf, option_units
+
+    table = option_units(cmd.callback, {p.name: None for p in cmd.params})
+    for p in cmd.params:
+        unit = table.get(p.name)
+        if unit is None:
+            continue
+        if isinstance(unit, ListOf):
+            unit, p.metavar = unit.unit, p.metavar or "<qty,...>"
+        else:
+            p.metavar = p.metavar or "<qty>"
+        if "with a unit" not in (p.help or ""):
+            p.help = f"{(p.help or '').rstrip()} [number in {unit}, or with a unit]"
 
 
 class _LazyGroup:

@@ -10,6 +10,7 @@ import numpy as np
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app
 from senscal.cli.common import (JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt,
                                 console, emit_warnings, load, parse_floats, print_json, table)
@@ -120,10 +121,11 @@ def table_csv(doc: dict) -> str:
 
 
 @app.command("allan")
+@units(fs='Hz', taus=ListOf('s'))
 def allan_cmd(
     file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ) of a sensor at rest.")],
     channel: Annotated[str, typer.Option("--channel", "-c", help="Channel to analyse.")],
-    fs: Annotated[Optional[float], typer.Option(
+    fs: Annotated[Optional[str], typer.Option(
         "--fs", help="Sample rate in Hz (default: the time column's mean rate over the record, the rule of "
                      "every command).")] = None,
     taus: Annotated[Optional[str], typer.Option("--taus", help="Cluster times in s, comma separated "

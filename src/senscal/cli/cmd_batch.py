@@ -8,6 +8,7 @@ from typing import Any, Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import units
 from senscal.cli.app import app
 from senscal.cli.common import console, err_console, print_json, progress_bar, table
 from senscal.errors import InputError
@@ -99,7 +100,10 @@ def job_options(job: str, first_file: str, words: list[str]) -> tuple[Any, bool]
             # Silently dropping it would run the job differently from what was asked.
             raise InputError(f"{opt} of '{spelled}' is not an option of the '{job}' job that senscal batch runs "
                              f"on each recording; leave it out, or run '{spelled}' per file")
-    return builder(**ctx.params), bool(ctx.params.get("strict"))
+    from senscal.cli._quantities import convert_options
+
+    # Quantity options ('80 mm') as the command itself converts them (senscal.cli._quantities).
+    return builder(**convert_options(cmd.callback, ctx.params)), bool(ctx.params.get("strict"))
 
 
 @app.command(
@@ -162,13 +166,14 @@ def batch_cmd(
 
 
 @app.command("fit-array")
+@units(fs='Hz', freq='Hz')
 def fit_array_cmd(
     file: Annotated[Path, typer.Argument(help="HDF5 file or Zarr store holding a 2-D dataset (channels x samples).")],
     dataset: Annotated[str, typer.Option("--dataset", help="Name of the 2-D dataset.")],
     out: Annotated[Path, typer.Option("--out", help="Per-channel results: .parquet or .csv.")],
-    fs: Annotated[Optional[float], typer.Option("--fs", help="Sample rate in Hz (default: the dataset's 'fs' attribute).")] = None,
+    fs: Annotated[Optional[str], typer.Option("--fs", help="Sample rate in Hz (default: the dataset's 'fs' attribute).")] = None,
     time_dataset: Annotated[Optional[str], typer.Option("--time-dataset", help="1-D dataset of time stamps (s).")] = None,
-    freq: Annotated[Optional[float], typer.Option("--freq", help="Known frequency in Hz; estimated per channel when omitted.")] = None,
+    freq: Annotated[Optional[str], typer.Option("--freq", help="Known frequency in Hz; estimated per channel when omitted.")] = None,
     harmonics: Annotated[int, typer.Option("--harmonics", help="Number of harmonics.")] = 1,
     chunk: Annotated[int, typer.Option("--chunk", help="Channels per task.")] = 256,
     workers: Annotated[int, typer.Option("--workers", help="Worker processes of a local cluster (0: threads in this process).")] = 0,

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, load,
                                 print_json, progress_bar, split_names, table)
@@ -61,6 +62,7 @@ JOB_OPTIONS = {"drift": _batch_options}
 
 
 @app.command("drift")
+@units(signal_tau='s', false_alarm_rate='1/h')
 def drift_cmd(
     file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ), or - for CSV on standard input (read whole; with --state in chunks as it arrives, corrected CSV on standard output).")],
     preset: Annotated[str, typer.Option("--preset", help="redundant | covariate | known (true value known, e.g. a gyro at rest) | model.")],
@@ -72,9 +74,9 @@ def drift_cmd(
     smooth: Annotated[bool, typer.Option("--smooth", help="Offline: use all data (RTS smoother).")] = False,
     out: Annotated[Optional[Path], typer.Option("--out", help="CSV of t, NAME_corrected, NAME_bias, NAME_bias_std.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="PNG of raw, corrected and bias with its band.")] = None,
-    false_alarm_rate: Annotated[float, typer.Option("--false-alarm-rate", help="Drift detector false alarms per hour per channel.")] = 1e-4,
+    false_alarm_rate: Annotated[str, typer.Option("--false-alarm-rate", help="Drift detector false alarms per hour per channel.")] = "1e-4",
     signal: Annotated[str, typer.Option("--signal", help="Model of the quantity: random_walk | gauss_markov.")] = "random_walk",
-    signal_tau: Annotated[Optional[float], typer.Option("--signal-tau", help="Time constant of a gauss_markov quantity in s.")] = None,
+    signal_tau: Annotated[Optional[str], typer.Option("--signal-tau", help="Time constant of a gauss_markov quantity in s.")] = None,
     signal_mean: Annotated[float, typer.Option("--signal-mean", help="Known mean of a gauss_markov quantity.")] = 0.0,
     covariate_reference: Annotated[Optional[float], typer.Option("--covariate-reference", help="Covariate value of zero bias (default: its mean, with a warning when that fixes the offset).")] = None,
     bias_dynamics: Annotated[str, typer.Option("--bias-dynamics", help="random_walk | ramp (bias plus a wandering slope: a linear drift without lag).")] = "random_walk",
@@ -297,20 +299,21 @@ def _write_rows(write, out) -> None:
 
 
 @simulate_app.command("drift")
+@units(days='day', dt='s', ramp_start_day='day', signal_tau='s', ramp_start_s='s')
 def simulate_drift_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
-    days: Annotated[float, typer.Option("--days", help="Record length in days.")] = 10.0,
-    dt: Annotated[float, typer.Option("--dt", help="Sample interval in s.")] = 300.0,
+    days: Annotated[str, typer.Option("--days", help="Record length in days.")] = "10.0",
+    dt: Annotated[str, typer.Option("--dt", help="Sample interval in s.")] = "300.0",
     noise: Annotated[float, typer.Option("--noise", help="Sensor noise standard deviation (kPa).")] = 0.05,
-    ramp_start_day: Annotated[float, typer.Option("--ramp-start-day", help="Drift onset of channel 'drift' (day).")] = 4.0,
+    ramp_start_day: Annotated[str, typer.Option("--ramp-start-day", help="Drift onset of channel 'drift' (day).")] = "4.0",
     ramp_rate: Annotated[float, typer.Option("--ramp-rate", help="Ramp slope of channel 'drift' (kPa/day).")] = 0.3,
     temperature_coefficient: Annotated[float, typer.Option("--temperature-coefficient", help="Thermal bias coefficient of channel 'thermal' (kPa/degC).")] = 0.04,
     layout: Annotated[str, typer.Option("--layout", help="three (ref/drift/thermal over days) | pair (s1 trusted, s2 biased) | known (one sensor g whose true value is 0) | covariate (one sensor x with a temperature-linked bias).")] = "three",
     samples: Annotated[int, typer.Option("--samples", help="Samples of the pair/known/covariate layouts.")] = 600,
-    signal_tau: Annotated[Optional[float], typer.Option("--signal-tau", help="pair/covariate: the quantity is Gauss-Markov with this time constant in s (std 1) instead of a random walk (0.1/sqrt(s)).")] = None,
+    signal_tau: Annotated[Optional[str], typer.Option("--signal-tau", help="pair/covariate: the quantity is Gauss-Markov with this time constant in s (std 1) instead of a random walk (0.1/sqrt(s)).")] = None,
     bias: Annotated[str, typer.Option("--bias", help="pair/known: random_walk (0.01/sqrt(s)) | ramp | none.")] = "random_walk",
-    ramp_start_s: Annotated[Optional[float], typer.Option("--ramp-start-s", help="pair/known with --bias ramp: onset in s (default: mid-record).")] = None,
+    ramp_start_s: Annotated[Optional[str], typer.Option("--ramp-start-s", help="pair/known with --bias ramp: onset in s (default: mid-record).")] = None,
     ramp_slope: Annotated[float, typer.Option("--ramp-slope", help="pair/known with --bias ramp: slope per s.")] = 4e-3,
     covariate_offset: Annotated[float, typer.Option("--covariate-offset", help="covariate layout: the sensor's offset at 20 degC.")] = 0.0,
 ) -> None:

@@ -8,6 +8,7 @@ from typing import List, Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import units
 from senscal.cli.app import app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings,
                                 print_json, table)
@@ -29,10 +30,11 @@ JOB_OPTIONS = {"fit": fit_options}
 
 
 @app.command("fit")
+@units(freq='Hz')
 def fit_cmd(
     file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ).")],
     channel: Annotated[Optional[List[str]], typer.Option("--channel", "-c", help="Channel to fit (repeatable); default: all.")] = None,
-    freq: Annotated[Optional[float], typer.Option("--freq", help="Known frequency in Hz; estimated when omitted.")] = None,
+    freq: Annotated[Optional[str], typer.Option("--freq", help="Known frequency in Hz; estimated when omitted.")] = None,
     harmonics: Annotated[int, typer.Option("--harmonics", help="Number of harmonics K (1 = fundamental).")] = 1,
     noise_model: Annotated[str, typer.Option(
         "--noise-model", help="auto: test the residual for whiteness and use the noise spectrum at the fitted "

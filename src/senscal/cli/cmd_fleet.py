@@ -8,6 +8,7 @@ from typing import Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import JsonOpt, StrictOpt, console, emit_warnings, fmt, print_json, progress_bar, table
 
@@ -65,12 +66,13 @@ def drift_fleet_cmd(
 
 
 @simulate_app.command("fleet")
+@units(fs='Hz')
 def simulate_fleet_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
     channels: Annotated[int, typer.Option("--channels", help="Number of sensors.")] = 20,
     samples: Annotated[int, typer.Option("--samples", help="Samples per sensor (all segments).")] = 2000,
-    fs: Annotated[float, typer.Option("--fs", help="Sample rate in Hz.")] = 1.0,
+    fs: Annotated[str, typer.Option("--fs", help="Sample rate in Hz.")] = "1.0",
     kind: Annotated[str, typer.Option("--kind", help="known (true reading zero, random-walk bias) or covariate (temperature-linked bias).")] = "known",
     segments: Annotated[int, typer.Option("--segments", help="Consecutive datasets (seg-000, seg-001, ...: one a day, say).")] = 1,
     channels_per_file: Annotated[int, typer.Option("--channels-per-file", help="Channels per Parquet file.")] = 500,

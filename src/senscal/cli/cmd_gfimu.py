@@ -9,6 +9,7 @@ import numpy as np
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console,
                                 emit_warnings, err_console, parse_floats, print_json, table)
@@ -49,10 +50,11 @@ JOB_OPTIONS = {"gfimu": _options}
 
 
 @app.command("gfimu")
+@units(distance='m', noise_std='m/s^2', bias_std='m/s^2', differential_max_u='rad/s', initial_omega=ListOf('rad/s'))
 def gfimu_cmd(
     file: Annotated[Path, typer.Argument(help="Recording of the array's channels (m/s^2).")],
     layout_file: Annotated[Optional[Path], typer.Option("--layout", help="Layout table CSV: name,x,y,z,nx,ny,nz (m).")] = None,
-    distance: Annotated[Optional[float], typer.Option("--distance", help="Mounting distance L of the paper's layout, m (default 0.04).")] = None,
+    distance: Annotated[Optional[str], typer.Option("--distance", help="Mounting distance L of the paper's layout, m (default 0.04).")] = None,
     method: Annotated[str, typer.Option("--method", help="kalman, integration, sqrt, differential or all.")] = "kalman",
     observation: Annotated[str, typer.Option("--observation", help="Kalman observation: quadratic (EKF on the quadratic terms), sqrt or differential.")] = "quadratic",
     initial_omega: Annotated[Optional[str], typer.Option("--initial-omega", help="Angular velocity at the first sample WX,WY,WZ in rad/s (default 0,0,0).")] = None,
@@ -61,11 +63,11 @@ def gfimu_cmd(
     out: Annotated[Optional[Path], typer.Option("--out", help="Write t, w, alpha, f (and q) to this CSV.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Plot the rates (and errors with --truth) to a PNG.")] = None,
     lag: Annotated[int, typer.Option("--lag", help="Span of the differential method in samples (1 = the paper's).")] = 1,
-    noise_std: Annotated[Optional[float], typer.Option("--noise-std", help="Channel white-noise std in m/s^2 (default: estimated).")] = None,
-    bias_std: Annotated[Optional[float], typer.Option("--bias-std", help="Standard uncertainty of each channel's constant error (bias) in m/s^2 (default 0.1): the quadratic filter estimates the constant errors of alpha and W, and u(w) includes them.")] = None,
+    noise_std: Annotated[Optional[str], typer.Option("--noise-std", help="Channel white-noise std in m/s^2 (default: estimated).")] = None,
+    bias_std: Annotated[Optional[str], typer.Option("--bias-std", help="Standard uncertainty of each channel's constant error (bias) in m/s^2 (default 0.1): the quadratic filter estimates the constant errors of alpha and W, and u(w) includes them.")] = None,
     plain: Annotated[bool, typer.Option("--plain", help="The paper's plain filter without constant-error states: u(w) is white noise only and does NOT cover biased channels (warning constant-errors-ignored).")] = False,
     rest: Annotated[Optional[str], typer.Option("--rest", help="START:END in s of a segment where the body is at rest (e.g. 0:2): the constant errors of alpha and W are measured there and start the filter.")] = None,
-    differential_max_u: Annotated[Optional[float], typer.Option("--differential-max-u", help="Differential method: reject samples whose standard uncertainty exceeds this many rad/s (absolute; the 3x-median rule alone passes gross errors on axes that hardly turn).")] = None,
+    differential_max_u: Annotated[Optional[str], typer.Option("--differential-max-u", help="Differential method: reject samples whose standard uncertainty exceeds this many rad/s (absolute; the 3x-median rule alone passes gross errors on axes that hardly turn).")] = None,
     strict: StrictOpt = False,
     time_column: TimeColumnOpt = "t",
     fs: FsOpt = None,
@@ -140,24 +142,26 @@ def gfimu_cmd(
 
 
 @simulate_app.command("gfimu")
+@units(fs='Hz', duration='s', distance='m', bias_g='g', noise_g='g', position_error='m', direction_error='rad',
+       rest='s', offset=ListOf('m'), amplitudes=ListOf('deg'), freqs=ListOf('Hz'), linear_amplitude='m/s^2')
 def simulate_gfimu_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     paper: Annotated[bool, typer.Option("--paper", help="The paper's set-up: 10 kHz, 10 s, 30 deg / 2 Hz about z, 1e-4 g bias, 1e-3 g noise, L = 0.04 m.")] = False,
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
-    fs: Annotated[Optional[float], typer.Option("--fs", help="Sample rate in Hz (default 10000 with --paper, else 1000).")] = None,
-    duration: Annotated[Optional[float], typer.Option("--duration", help="Record length in s (default 10).")] = None,
-    distance: Annotated[float, typer.Option("--distance", help="Mounting distance L, m.")] = 0.04,
-    bias_g: Annotated[float, typer.Option("--bias-g", help="Per-channel constant error magnitude, g.")] = 1e-4,
-    noise_g: Annotated[float, typer.Option("--noise-g", help="White-noise standard deviation, g.")] = 1e-3,
-    position_error: Annotated[float, typer.Option("--position-error", help="Mounting position error std, m.")] = 0.0,
-    direction_error: Annotated[float, typer.Option("--direction-error", help="Mounting direction error std, rad.")] = 0.0,
+    fs: Annotated[Optional[str], typer.Option("--fs", help="Sample rate in Hz (default 10000 with --paper, else 1000).")] = None,
+    duration: Annotated[Optional[str], typer.Option("--duration", help="Record length in s (default 10).")] = None,
+    distance: Annotated[str, typer.Option("--distance", help="Mounting distance L, m.")] = "0.04",
+    bias_g: Annotated[str, typer.Option("--bias-g", help="Per-channel constant error magnitude, g.")] = "1e-4",
+    noise_g: Annotated[str, typer.Option("--noise-g", help="White-noise standard deviation, g.")] = "1e-3",
+    position_error: Annotated[str, typer.Option("--position-error", help="Mounting position error std, m.")] = "0.0",
+    direction_error: Annotated[str, typer.Option("--direction-error", help="Mounting direction error std, rad.")] = "0.0",
     direction_error_deg: Annotated[Optional[float], typer.Option("--direction-error-deg", help="Mounting direction error std, deg (instead of --direction-error).")] = None,
-    rest: Annotated[float, typer.Option("--rest", help="Rest before the motion starts, s (mark it with 'senscal gfimu --rest 0:REST').")] = 0.0,
+    rest: Annotated[str, typer.Option("--rest", help="Rest before the motion starts, s (mark it with 'senscal gfimu --rest 0:REST').")] = "0.0",
     scale_error: Annotated[str, typer.Option("--scale-error", help="Per-channel scale-factor error, random sign, as a fraction or percentage (0.05%); the layout assumes unit gains.")] = "0",
     offset: Annotated[Optional[str], typer.Option("--offset", help="Array origin relative to the rotation centre X,Y,Z in m (default 0.1,0,0 with --paper, else 0.05,-0.03,0.02).")] = None,
     amplitudes: Annotated[Optional[str], typer.Option("--amplitudes", help="Roll, pitch, yaw amplitudes R,P,Y in deg (default 0,0,30 with --paper, else 10,15,30).")] = None,
     freqs: Annotated[Optional[str], typer.Option("--freqs", help="Roll, pitch, yaw frequencies in Hz (default 1,1,2 with --paper, else 1.3,0.7,2).")] = None,
-    linear_amplitude: Annotated[Optional[float], typer.Option("--linear-amplitude", help="Linear vibration of the rotation centre per axis, m/s^2 (default 0 with --paper, else 2).")] = None,
+    linear_amplitude: Annotated[Optional[str], typer.Option("--linear-amplitude", help="Linear vibration of the rotation centre per axis, m/s^2 (default 0 with --paper, else 2).")] = None,
 ) -> None:
     """An accelerometer array on a moving rigid body: gfimu.csv, gfimu_truth.csv/.json, layout.csv."""
     from senscal.gfimu import paper_layout, write_layout

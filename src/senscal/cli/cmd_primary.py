@@ -8,6 +8,7 @@ from typing import List, Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt,
                                 TimeUnitOpt, console, emit_warnings, print_json, progress_bar, table)
@@ -33,12 +34,13 @@ JOB_OPTIONS = {"primary": _primary_options}
 
 
 @app.command("primary")
+@units(wavelength_nm='nm', freq='Hz')
 def primary_cmd(
     files: Annotated[List[Path], typer.Argument(help="Recordings, one per frequency, with the interferometer's I and Q outputs and the accelerometer's output.")],
     quadrature: Annotated[str, typer.Option("--quadrature", help="Channels of the quadrature outputs, I,Q.")] = "I,Q",
     output: Annotated[str, typer.Option("--output", help="Channel of the accelerometer's output.")] = "out",
-    wavelength_nm: Annotated[float, typer.Option("--wavelength-nm", help="Laser wavelength in nm (632.8: HeNe).")] = 632.8,
-    freq: Annotated[Optional[float], typer.Option("--freq", help="Excitation frequency, Hz (default: estimated per file).")] = None,
+    wavelength_nm: Annotated[str, typer.Option("--wavelength-nm", help="Laser wavelength in nm (632.8: HeNe).")] = "632.8",
+    freq: Annotated[Optional[str], typer.Option("--freq", help="Excitation frequency, Hz (default: estimated per file).")] = None,
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (exciter distortion).")] = 3,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear drift of the offsets.")] = True,
     slices: Annotated[int, typer.Option("--slices", help="Per-period (sliced) fits for the type A term of what the model lacks.")] = 10,
@@ -79,13 +81,14 @@ def primary_cmd(
 
 
 @simulate_app.command("interferometer")
+@units(freqs=ListOf('Hz'), fs='Hz', duration='s', sensitivity='V/(m/s^2)', phase_deg='deg')
 def simulate_interferometer_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     freqs: Annotated[str, typer.Option("--freqs", help="Excitation frequencies, Hz, comma separated.")] = "10,160,1000,5000",
-    fs: Annotated[float, typer.Option("--fs", help="Sample rate, Hz.")] = 200_000.0,
-    duration: Annotated[float, typer.Option("--duration", help="Record length per frequency, s.")] = 1.0,
-    sensitivity: Annotated[float, typer.Option("--sensitivity", help="Accelerometer sensitivity, V per m/s^2.")] = 0.01,
-    phase_deg: Annotated[float, typer.Option("--phase-deg", help="Output phase minus acceleration phase, deg.")] = -2.0,
+    fs: Annotated[str, typer.Option("--fs", help="Sample rate, Hz.")] = "200000.0",
+    duration: Annotated[str, typer.Option("--duration", help="Record length per frequency, s.")] = "1.0",
+    sensitivity: Annotated[str, typer.Option("--sensitivity", help="Accelerometer sensitivity, V per m/s^2.")] = "0.01",
+    phase_deg: Annotated[str, typer.Option("--phase-deg", help="Output phase minus acceleration phase, deg.")] = "-2.0",
     laser_noise: Annotated[float, typer.Option("--laser-noise", help="Noise on I and Q relative to their amplitude.")] = 2e-3,
     harmonic_distortion: Annotated[float, typer.Option("--harmonic-distortion", help="Exciter's 2nd harmonic acceleration relative to the fundamental's.")] = 0.0,
     output_drift: Annotated[float, typer.Option("--output-drift", help="Linear output drift over the record, relative.")] = 0.0,

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings,
                                 print_json, progress_bar, table)
@@ -26,7 +27,7 @@ AngleOpt = Annotated[str, typer.Option("--angle", help="Encoder angle channel.")
 AccelOpt = Annotated[str, typer.Option("--accel", help="Accelerometer channel (tangential).")]
 AngleUnitOpt = Annotated[Optional[str], typer.Option(
     "--angle-unit", help="deg or rad; default: the channel's unit in the file, else rad.")]
-WindowOpt = Annotated[Optional[float], typer.Option(
+WindowOpt = Annotated[Optional[str], typer.Option(
     "--window", help="Savitzky-Golay window of the encoder derivatives, s.")]
 PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Before/after compensation against angle (PNG).")]
 
@@ -63,6 +64,7 @@ JOB_OPTIONS = {"shaft-calibrate": _calibrate_options, "shaft-compensate": _compe
 
 
 @shaft_app.command("calibrate")
+@units(radius='m', g='m/s^2', window='s')
 def calibrate_cmd(
     file: Annotated[Path, typer.Argument(help="Constant-speed run: encoder angle and accelerometer.")],
     angle: AngleOpt,
@@ -70,12 +72,12 @@ def calibrate_cmd(
     angle_unit: AngleUnitOpt = None,
     sensitivity: Annotated[float, typer.Option("--sensitivity", help="Output per m/s^2 (1: output in m/s^2).")] = 1.0,
     u_sensitivity: Annotated[float, typer.Option("--u-sensitivity", help="Standard uncertainty of --sensitivity.")] = 0.0,
-    radius: Annotated[Optional[float], typer.Option(
+    radius: Annotated[Optional[str], typer.Option(
         "--radius", help="Sensor radius (m): subtract S*r*alpha_encoder before the fit (ripple locked to the turn).")] = None,
     ripple_correction: Annotated[bool, typer.Option(
         "--ripple-correction/--no-ripple-correction",
         help="Estimate the response to encoder angular acceleration with the fit (off: the paper's plain fit).")] = True,
-    g: Annotated[float, typer.Option("--g", help="Local gravity, m/s^2.")] = 9.80665,
+    g: Annotated[str, typer.Option("--g", help="Local gravity, m/s^2.")] = "9.80665",
     window: WindowOpt = None,
     max_speed_variation: Annotated[str, typer.Option(
         "--max-speed-variation", help="Warn above this speed std/mean (e.g. 10% or 0.1).")] = "10%",
@@ -134,12 +136,13 @@ def calibrate_cmd(
 
 
 @shaft_app.command("compensate")
+@units(radius='m', window='s')
 def compensate_cmd(
     file: Annotated[Path, typer.Argument(help="Any run: encoder angle and accelerometer.")],
     model_path: Annotated[Path, typer.Option("--model", help="MODEL.json from 'shaft calibrate --out'.")],
     angle: AngleOpt,
     accel: AccelOpt,
-    radius: Annotated[float, typer.Option("--radius", help="Sensor distance from the axis, m.")],
+    radius: Annotated[str, typer.Option("--radius", help="Sensor distance from the axis, m.")],
     angle_unit: AngleUnitOpt = None,
     window: WindowOpt = None,
     centripetal: Annotated[bool, typer.Option(
@@ -207,34 +210,36 @@ def _smoothed(x, res):
 
 
 @simulate_app.command("shaft")
+@units(tilt='deg', radius='m', misalignment='deg', fs='Hz', speed='rev/s', ripple_freq='Hz', cal_duration='s',
+       test_speed='rev/s', modulation_freq='Hz', test_duration='s', angle_ripple_phase='deg')
 def simulate_shaft_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
-    tilt: Annotated[float, typer.Option("--tilt", help="Shaft tilt from horizontal, deg.")] = 20.0,
-    radius: Annotated[float, typer.Option("--radius", help="Sensor radius, m.")] = 0.1,
+    tilt: Annotated[str, typer.Option("--tilt", help="Shaft tilt from horizontal, deg.")] = "20.0",
+    radius: Annotated[str, typer.Option("--radius", help="Sensor radius, m.")] = "0.1",
     sensitivity: Annotated[float, typer.Option("--sensitivity", help="Output per m/s^2 (1: output in m/s^2).")] = 1.0,
     bias: Annotated[float, typer.Option("--bias", help="Sensor bias, output unit.")] = 0.05,
-    misalignment: Annotated[float, typer.Option("--misalignment", help="Sensitive axis toward the centre, deg.")] = 0.5,
+    misalignment: Annotated[str, typer.Option("--misalignment", help="Sensitive axis toward the centre, deg.")] = "0.5",
     noise: Annotated[float, typer.Option("--noise", help="Output noise standard deviation.")] = 0.02,
     noise_rho: Annotated[float, typer.Option(
         "--noise-rho", help="Lag-one correlation of the output noise, 0 <= rho < 1 (AR(1); 0: white).")] = 0.0,
     encoder_counts: Annotated[int, typer.Option("--encoder-counts", help="Encoder counts per revolution.")] = 4096,
-    fs: Annotated[float, typer.Option("--fs", help="Sample rate, Hz.")] = 1000.0,
-    speed: Annotated[float, typer.Option("--speed", help="Calibration speed, rev/s.")] = 1.0,
+    fs: Annotated[str, typer.Option("--fs", help="Sample rate, Hz.")] = "1000.0",
+    speed: Annotated[str, typer.Option("--speed", help="Calibration speed, rev/s.")] = "1.0",
     ripple: Annotated[float, typer.Option("--ripple", help="Relative speed ripple of the calibration run.")] = 0.03,
-    ripple_freq: Annotated[float, typer.Option("--ripple-freq", help="Ripple frequency, Hz.")] = 2.7,
+    ripple_freq: Annotated[str, typer.Option("--ripple-freq", help="Ripple frequency, Hz.")] = "2.7",
     sync_ripple: Annotated[float, typer.Option(
         "--sync-ripple", help="Relative speed ripple locked to the turn (once per revolution, an unbalanced rotor).")] = 0.0,
-    cal_duration: Annotated[float, typer.Option("--cal-duration", help="Calibration run, s.")] = 20.0,
-    test_speed: Annotated[float, typer.Option("--test-speed", help="Test run mean speed, rev/s.")] = 2.0,
+    cal_duration: Annotated[str, typer.Option("--cal-duration", help="Calibration run, s.")] = "20.0",
+    test_speed: Annotated[str, typer.Option("--test-speed", help="Test run mean speed, rev/s.")] = "2.0",
     modulation: Annotated[float, typer.Option("--modulation", help="Test run relative speed modulation.")] = 0.5,
-    modulation_freq: Annotated[float, typer.Option("--modulation-freq", help="Its frequency, Hz.")] = 0.5,
-    test_duration: Annotated[float, typer.Option("--test-duration", help="Test run, s.")] = 10.0,
+    modulation_freq: Annotated[str, typer.Option("--modulation-freq", help="Its frequency, Hz.")] = "0.5",
+    test_duration: Annotated[str, typer.Option("--test-duration", help="Test run, s.")] = "10.0",
     wrap: Annotated[bool, typer.Option("--wrap/--no-wrap", help="Encoder angle wrapped to 0..360 deg.")] = True,
     angle_ripple: Annotated[float, typer.Option(
         "--angle-ripple", help="Calibration speed ripple as a function of the angle, w0 (1 + m sin(theta + p)) "
                                "(replaces --ripple/--sync-ripple).")] = 0.0,
-    angle_ripple_phase: Annotated[float, typer.Option("--angle-ripple-phase", help="Its phase p, deg.")] = 0.0,
+    angle_ripple_phase: Annotated[str, typer.Option("--angle-ripple-phase", help="Its phase p, deg.")] = "0.0",
     eccentricity: Annotated[float, typer.Option(
         "--eccentricity", help="Once-per-turn encoder angle error (eccentric disc), deg.")] = 0.0,
 ) -> None:

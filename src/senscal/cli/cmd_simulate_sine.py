@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import units
 from senscal.cli.app import simulate_app
 from senscal.cli.common import console, err_console
 from senscal.io import write_recording
@@ -18,24 +19,25 @@ from senscal.simulate import simulate_sine, write_truth
 
 
 @simulate_app.command("sine")
+@units(fs='Hz', duration='s', freq='Hz', t0='s', jitter='s')
 def simulate_sine_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder; - writes the recording (CSV) to stdout.")],
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
     channels: Annotated[int, typer.Option("--channels", help="Number of channels.")] = 4,
-    fs: Annotated[float, typer.Option("--fs", help="Sample rate in Hz.")] = 1000.0,
-    duration: Annotated[float, typer.Option("--duration", help="Record length in s.")] = 2.0,
-    freq: Annotated[float, typer.Option("--freq", help="Frequency in Hz.")] = 12.5,
+    fs: Annotated[str, typer.Option("--fs", help="Sample rate in Hz.")] = "1000.0",
+    duration: Annotated[str, typer.Option("--duration", help="Record length in s.")] = "2.0",
+    freq: Annotated[str, typer.Option("--freq", help="Frequency in Hz.")] = "12.5",
     noise: Annotated[float, typer.Option("--noise", help="Noise standard deviation.")] = 0.05,
-    t0: Annotated[float, typer.Option(
-        "--t0", help="Time of the first sample in s (a record far from t = 0: phase at t = 0 vs at the centre).")] = 0.0,
+    t0: Annotated[str, typer.Option(
+        "--t0", help="Time of the first sample in s (a record far from t = 0: phase at t = 0 vs at the centre).")] = "0.0",
     noise_rho: Annotated[float, typer.Option(
         "--noise-rho", help="Coloured noise: lag-one correlation of AR(1) noise, -1 < rho < 1 (0 = white).")] = 0.0,
     full_scale: Annotated[Optional[float], typer.Option(
         "--full-scale", help="ADC input range +/-FS (channel unit): samples beyond it are clipped.")] = None,
     adc_bits: Annotated[Optional[int], typer.Option(
         "--adc-bits", help="ADC resolution in bits over +/- --full-scale: samples quantised to 2 FS / 2^bits.")] = None,
-    jitter: Annotated[float, typer.Option(
-        "--jitter", help="Sample-clock/aperture jitter, RMS in s (each sample taken at t + delta, stamped t).")] = 0.0,
+    jitter: Annotated[str, typer.Option(
+        "--jitter", help="Sample-clock/aperture jitter, RMS in s (each sample taken at t + delta, stamped t).")] = "0.0",
     flicker: Annotated[float, typer.Option(
         "--flicker", help="1/f noise: amplitude spectral density at 1 Hz (channel unit/sqrt(Hz)).")] = 0.0,
 ) -> None:

@@ -8,6 +8,7 @@ from typing import Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (
     FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, TimeColumnOpt, console, emit_warnings, err_console, print_json, progress_bar,
@@ -52,18 +53,19 @@ JOB_OPTIONS = {"triaxial-calibrate": _calibrate_options, "triaxial-apply": _appl
 
 
 @triaxial_app.command("calibrate")
+@units(static_window='s', min_pose='s')
 def calibrate_cmd(
     file: Annotated[Path, typer.Argument(help="Recording with three field channels.")],
     channels: Annotated[str, typer.Option("--channels", help="The X,Y,Z channel names, comma separated.")],
-    field: Annotated[Optional[float], typer.Option("--field", help="Field magnitude (50000 nT, 9.80665 m/s^2 ...); estimated when omitted (scale then arbitrary).")] = None,
+    field: Annotated[Optional[str], typer.Option("--field", metavar="<qty>", help="Field magnitude in the readings' unit (50000 for nT data), or with a unit converted to theirs ('50 uT', '1 g'); estimated when omitted (scale then arbitrary).")] = None,
     method: Annotated[str, typer.Option("--method", help="auto | ml | ellipsoid | linear | lms.")] = "auto",
     model: Annotated[Optional[str], typer.Option("--model", help="Force full | diagonal | offsets | planar (default: richest the data support).")] = None,
     lr: Annotated[float, typer.Option("--lr", help="LMS learning rate (on field-scaled features).")] = 0.01,
     epochs: Annotated[int, typer.Option("--epochs", help="LMS passes over the data.")] = 50,
     strict: Annotated[bool, typer.Option("--strict", help="Insufficient coverage or implausible parameters -> error (exit 3).")] = False,
     static: Annotated[bool, typer.Option("--static", help="Accelerometer session: detect static poses and fit their means.")] = False,
-    static_window: Annotated[float, typer.Option("--static-window", help="Moving-variance window for --static, s.")] = 0.5,
-    min_pose: Annotated[float, typer.Option("--min-pose", help="Shortest static pose kept, s.")] = 1.0,
+    static_window: Annotated[str, typer.Option("--static-window", help="Moving-variance window for --static, s.")] = "0.5",
+    min_pose: Annotated[str, typer.Option("--min-pose", help="Shortest static pose kept, s.")] = "1.0",
     outlier_sigma: Annotated[float, typer.Option("--outlier-sigma", help="Exclude readings this many robust sigma off (0: keep all).")] = 5.0,
     out: Annotated[Optional[Path], typer.Option("--out", help="Write the parameters (for 'triaxial apply') as JSON, or HDF5 for .h5; - for stdout.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Sphere projections and norm error before/after (PNG); a one-axis turn or --accel-channels also writes <name>_heading.png.")] = None,
@@ -204,6 +206,7 @@ def import_cmd(
 
 
 @simulate_app.command("magnetometer")
+@units(tilt_deg='deg')
 def simulate_magnetometer_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     motion: Annotated[str, typer.Option("--motion", help="sphere | planar (the seed's 15-reading turn) | tumble (static poses).")] = "sphere",
@@ -215,7 +218,7 @@ def simulate_magnetometer_cmd(
     gamma_deg: Annotated[float, typer.Option("--gamma-deg")] = 0.6,
     gains: Annotated[str, typer.Option("--gains", help="Kx,Ky,Kz.")] = "1.03,0.98,1.0",
     offsets: Annotated[Optional[str], typer.Option("--offsets", help="Bx,By,Bz (default 300,-200,150 nT scaled to the field).")] = None,
-    tilt_deg: Annotated[float, typer.Option("--tilt-deg", help="Random tilt std of the planar turn, deg.")] = 0.0,
+    tilt_deg: Annotated[str, typer.Option("--tilt-deg", help="Random tilt std of the planar turn, deg.")] = "0.0",
     outliers: Annotated[int, typer.Option("--outliers", help="Gross-error readings.")] = 0,
     clip: Annotated[Optional[float], typer.Option("--clip", help="Saturate each axis at +/- this value.")] = None,
     order: Annotated[str, typer.Option("--order", help="random | tumble (sphere: the Z axis turned from up to down, so slow changes follow the orientation).")] = "random",

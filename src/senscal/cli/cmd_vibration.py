@@ -10,6 +10,7 @@ from typing import List, Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, ConformityOpt, CustomerOpt, DccOpt, DecisionRuleOpt, EnvOpt,
                                    ItemOpt, LabOpt, LocationOpt, ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt,
@@ -160,6 +161,7 @@ JOB_OPTIONS = {"velocity": velocity_options, "response": response_options, "line
 # ---------------------------------------------------------------------------
 
 @app.command("velocity")
+@units(freq=ListOf('Hz'))
 def velocity_cmd(
     files: FilesArg,
     position: Annotated[str, typer.Option("--position", help="Position-reference channel (m).")],
@@ -220,6 +222,7 @@ def velocity_cmd(
 # ---------------------------------------------------------------------------
 
 @app.command("response")
+@units(freq=ListOf('Hz'))
 def response_cmd(
     files: FilesArg,
     output: Annotated[str, typer.Option("--output", help="Accelerometer output channel.")],
@@ -315,11 +318,12 @@ def response_cmd(
 # ---------------------------------------------------------------------------
 
 @app.command("linearity")
+@units(input_amplitudes=ListOf('m/s^2'), freq='Hz')
 def linearity_cmd(
     files: FilesArg,
     output: Annotated[str, typer.Option("--output", help="Accelerometer output channel.")],
     input_amplitudes: Annotated[str, typer.Option("--input-amplitudes", help="Peak input of each file, m/s^2, comma separated.")],
-    freq: Annotated[Optional[float], typer.Option("--freq", help="Known frequency in Hz (estimated per file when omitted).")] = None,
+    freq: Annotated[Optional[str], typer.Option("--freq", help="Known frequency in Hz (estimated per file when omitted).")] = None,
     angle: Annotated[Optional[str], typer.Option("--angle", help="Turntable angle channel (deg): fit against the angle.")] = None,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear offset drift.")] = False,
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (3 for a nonlinear sensor or a distorted excitation).")] = 1,
@@ -390,11 +394,12 @@ def _opt_floats(text: str | None, what: str):
 
 
 @simulate_app.command("hydraulic")
+@units(freqs=ListOf('Hz'), sensitivity='V/(m/s)', noise='V')
 def simulate_hydraulic_cmd(
     out: OutOpt, seed: SeedOpt = None,
     freqs: Annotated[Optional[str], typer.Option("--freqs", help="Frequencies in Hz, comma separated (default 1..5.5 Hz, 10 points).")] = None,
-    sensitivity: Annotated[float, typer.Option("--sensitivity", help="Velocity-sensor sensitivity, V/(m/s).")] = 0.1368,
-    noise: Annotated[float, typer.Option("--noise", help="Velocity-sensor noise, V.")] = 3e-4,
+    sensitivity: Annotated[str, typer.Option("--sensitivity", help="Velocity-sensor sensitivity, V/(m/s).")] = "0.1368",
+    noise: Annotated[str, typer.Option("--noise", help="Velocity-sensor noise, V.")] = "3e-4",
     distortion: Annotated[float, typer.Option("--distortion", help="Third harmonic of the motion, relative.")] = 0.0,
     sensitivity_scatter: Annotated[float, typer.Option("--sensitivity-scatter", help="Departure: relative standard deviation of the sensitivity from record to record.")] = 0.0,
 ) -> None:
@@ -409,20 +414,22 @@ def simulate_hydraulic_cmd(
 
 
 @simulate_app.command("centrifuge")
+@units(freqs=ListOf('Hz'), accelerations=ListOf('m/s^2'), static_sensitivity='V/(m/s^2)', natural_frequency='Hz',
+       noise='V', phase_reference_freq='Hz')
 def simulate_centrifuge_cmd(
     out: OutOpt, seed: SeedOpt = None,
     freqs: Annotated[str, typer.Option("--freqs", help="Turntable frequencies, Hz.")] = "0.1,1,5,10",
     accelerations: Annotated[str, typer.Option("--accelerations", help="Peak accelerations a0, m/s^2 (one record per frequency and a0).")] = "100",
-    static_sensitivity: Annotated[float, typer.Option("--static-sensitivity", help="S0, V/(m/s^2).")] = 0.05,
-    natural_frequency: Annotated[float, typer.Option("--natural-frequency", help="Accelerometer natural frequency, Hz.")] = 40.0,
+    static_sensitivity: Annotated[str, typer.Option("--static-sensitivity", help="S0, V/(m/s^2).")] = "0.05",
+    natural_frequency: Annotated[str, typer.Option("--natural-frequency", help="Accelerometer natural frequency, Hz.")] = "40.0",
     damping: Annotated[float, typer.Option("--damping", help="Damping ratio.")] = 0.6,
-    noise: Annotated[float, typer.Option("--noise", help="Output noise, V.")] = 2e-3,
+    noise: Annotated[str, typer.Option("--noise", help="Output noise, V.")] = "2e-3",
     cubic: Annotated[float, typer.Option("--cubic", help="Cubic nonlinearity, 1/(m/s^2)^2.")] = 0.0,
     encoder_zero_deg: Annotated[float, typer.Option("--encoder-zero-deg", help="Departure: encoder zero this many degrees off the field direction (phi_0 = 90 + offset).")] = 0.0,
     sensitivity_scatter: Annotated[float, typer.Option("--sensitivity-scatter", help="Departure: relative standard deviation of S0 from record to record (remounting).")] = 0.0,
     input_scatter: Annotated[float, typer.Option("--input-scatter", help="Departure: relative standard deviation of the actual a0 about the nominal, per record.")] = 0.0,
     encoder_lines: Annotated[int, typer.Option("--encoder-lines", help="Departure: the angle comes from an encoder with this many counts per revolution, read as a counter (0 = exact angle).")] = 0,
-    phase_reference_freq: Annotated[Optional[float], typer.Option("--phase-reference-freq", help="Also write a start-up run at this turntable frequency (Hz) as phaseref.csv, for --phase-reference.")] = None,
+    phase_reference_freq: Annotated[Optional[str], typer.Option("--phase-reference-freq", help="Also write a start-up run at this turntable frequency (Hz) as phaseref.csv, for --phase-reference.")] = None,
 ) -> None:
     """Double centrifuge: angle (deg) and accelerometer output (V), one CSV per point, truth JSON."""
     from senscal.simulate.vibration import simulate_centrifuge
@@ -449,10 +456,11 @@ def simulate_centrifuge_cmd(
 
 
 @simulate_app.command("shaker")
+@units(freqs=ListOf('Hz'), reference_sensitivity='V/(m/s^2)')
 def simulate_shaker_cmd(
     out: OutOpt, seed: SeedOpt = None,
     freqs: Annotated[Optional[str], typer.Option("--freqs", help="Frequencies in Hz (default 20..1250 Hz).")] = None,
-    reference_sensitivity: Annotated[float, typer.Option("--reference-sensitivity", help="Reference sensitivity, V/(m/s^2).")] = 0.0102,
+    reference_sensitivity: Annotated[str, typer.Option("--reference-sensitivity", help="Reference sensitivity, V/(m/s^2).")] = "0.0102",
 ) -> None:
     """Back-to-back shaker: reference and DUT accelerometers, one CSV per frequency, truth JSON."""
     from senscal.simulate.vibration import simulate_shaker

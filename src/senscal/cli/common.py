@@ -105,7 +105,9 @@ err_console: Console = LazyConsole(_stderr_console)  # type: ignore[assignment]
 
 # Options every command that reads recordings shares (same words everywhere).
 TimeColumnOpt = Annotated[str, typer.Option("--time-column", help="Name of the time column (seconds).")]
-FsOpt = Annotated[Optional[float], typer.Option("--fs", help="Sample rate in Hz for files without a time column.")]
+# --fs, --start and --stop are quantities: a bare number in Hz / s, or '2 kHz', '500 ms' (senscal.cli._quantities).
+FsOpt = Annotated[Optional[str], typer.Option("--fs", help="Sample rate in Hz for files without a time column "
+                                                           "(or with a unit: '2 kHz').")]
 TimeUnitOpt = Annotated[Optional[str], typer.Option(
     "--time-unit", help="Unit of a time column whose header gives none: s, ms, us or min (default s).")]
 NamesOpt = Annotated[Optional[str], typer.Option("--names", help="Column names for a text file without header, comma separated.")]
@@ -113,10 +115,12 @@ SkipRowsOpt = Annotated[Optional[int], typer.Option(
     "--skip-rows", help="Text files: lines before the header to skip (default: a preamble of ';'/'#' comments and "
                         "key,value lines such as 'Fs,50' is detected).")]
 JsonOpt = Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON result on stdout.")]
-StartOpt = Annotated[Optional[float], typer.Option(
-    "--start", help="Drop the samples before this many seconds after the recording's first sample.")]
-StopOpt = Annotated[Optional[float], typer.Option(
-    "--stop", help="Drop the samples after this many seconds after the recording's first sample.")]
+StartOpt = Annotated[Optional[str], typer.Option(
+    "--start", help="Drop the samples before this many seconds after the recording's first sample (or with a "
+                    "unit: '500 ms').")]
+StopOpt = Annotated[Optional[str], typer.Option(
+    "--stop", help="Drop the samples after this many seconds after the recording's first sample (or with a "
+                   "unit: '2 min').")]
 
 
 # --- outputs: one check for every command, before it runs --------------------------------------------------

@@ -89,6 +89,7 @@ for _name, _module, _function, _opts in (
     ("triaxial-calibrate", "senscal.jobs.triaxial", "triaxial_calibrate", "TriaxialCalibrateOptions"),
     ("triaxial-apply", "senscal.jobs.triaxial", "triaxial_apply", "TriaxialApplyOptions"),
     ("imu-calibrate", "senscal.jobs.imu", "imu_calibrate", "ImuOptions"),
+    ("imu-apply", "senscal.jobs.imu", "imu_apply", "ImuApplyOptions"),
     ("primary", "senscal.jobs.primary", "primary", "PrimaryOptions"),
 ):
     register(_name, _module, _function, _opts)

@@ -74,9 +74,10 @@ class TriaxialCalibrateOptions(ReadOptions):
     ----------
     channels : str or tuple of 3 str
         The X, Y, Z field channels (``"x,y,z"`` or a tuple).
-    field : float or None
-        Field magnitude in the channels' unit (50000 nT, 9.80665 m/s^2);
-        None: estimated (scale then arbitrary).
+    field : float, str or None
+        Field magnitude in the channels' unit (50000 for nT data), or a
+        quantity converted to it (``"50 uT"``, ``"1 g"``); None: estimated
+        (scale then arbitrary).
     method : str
         ``auto``, ``ml``, ``ellipsoid``, ``linear`` or ``lms``.
     model : str or None
@@ -104,7 +105,7 @@ class TriaxialCalibrateOptions(ReadOptions):
     """
 
     channels: str | tuple[str, str, str] = ("x", "y", "z")
-    field: float | None = None
+    field: float | str | None = None
     method: str = "auto"
     model: str | None = None
     lr: float = 0.01
@@ -241,6 +242,32 @@ def _one_unit(rec, chans, source) -> tuple[np.ndarray, str]:
     return data * np.asarray(scale)[:, None], unit
 
 
+def _field_in(field: float | str | None, unit: str, chans, source) -> float | None:
+    """``--field`` in the readings' unit: a bare number is in it; ``'50 uT'`` is converted to it.
+
+    A field with a unit is refused when the readings' header gives none or one of another dimension
+    (counts, V): the calibration scales the readings to the field, so the two must be in one unit.
+    """
+    if field is None:
+        return None
+    try:
+        return float(field)
+    except (TypeError, ValueError):
+        pass
+    from senscal.units import parse_quantity
+
+    if unit:
+        return parse_quantity(field, unit, option="--field")  # '50 uT' -> 50000 for nT readings; V refused
+    from senscal.units import _QTY
+
+    m = _QTY.match(str(field))
+    if m is None or not m.group(2):
+        parse_quantity(field, "1", option="--field")  # not a number: the grammar's one-line refusal
+    raise InputError(f"--field {field} has a unit but the header of {source_name(source)} gives none for "
+                     f"{','.join(chans)}; give the unit in the header (e.g. 'x [uT]') or --field as a bare number in "
+                     "the readings' unit")
+
+
 def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalibrateOptions()
                        ) -> TriaxialCalibrateResult:
     """Calibrate a three-axis magnetometer or accelerometer from readings in a constant field.
@@ -270,6 +297,7 @@ def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalib
     # Only static poses use time: a headerless x,y,z file needs no sample rate otherwise.
     rec = o.read(source, channels=list(chans) + list(extra or ()), time_required=o.static, job="triaxial")
     h, unit = _one_unit(rec, chans, source)
+    field = _field_in(o.field, unit, chans, source)
     st = None
     if o.static:
         st = detect_static(h, rec.sample_rate, window_s=o.static_window, min_duration_s=o.min_pose)
@@ -278,7 +306,7 @@ def triaxial_calibrate(source, options: TriaxialCalibrateOptions = TriaxialCalib
                              "(>= 9 for the full model): hold the sensor still longer in more orientations or adjust "
                              "--static-window")
         h = st.means
-    res = calibrate(h, field=o.field, method=o.method, model=o.model, lr=o.lr, epochs=o.epochs, strict=o.strict,
+    res = calibrate(h, field=field, method=o.method, model=o.model, lr=o.lr, epochs=o.epochs, strict=o.strict,
                     outlier_sigma=outlier, unit=unit, channels=chans)
     ra = tilt = None
     if extra is not None:
