@@ -61,14 +61,15 @@ def _triad_rows(sec: dict, label: str) -> list[list]:
 
 @imu_app.command("calibrate")
 @with_options(READ, REGISTRY)
+@units(gravity="m/s^2", static_window="s", min_pose="s", init_static="s")
 def imu_calibrate_cmd(
     file: Annotated[Path, typer.Argument(help="Recording with three accelerometer and three gyroscope channels (a still start, then static poses joined by rotations).")],
     accel_channels: Annotated[str, typer.Option("--accel-channels", help="Accelerometer X,Y,Z channel names.")] = "ax,ay,az",
     gyro_channels: Annotated[str, typer.Option("--gyro-channels", help="Gyroscope X,Y,Z channel names (rad/s, deg/s or counts).")] = "gx,gy,gz",
-    gravity: Annotated[float, typer.Option("--gravity", help="Local g, m/s^2.")] = 9.80665,
-    static_window: Annotated[float, typer.Option("--static-window", help="Moving-variance window of the static detection, s.")] = 1.0,
-    min_pose: Annotated[float, typer.Option("--min-pose", help="Shortest static pose kept, s.")] = 1.0,
-    init_static: Annotated[Optional[float], typer.Option("--init-static", help="Length of the still start, s (reference variance of the threshold sweep; default: estimated).")] = None,
+    gravity: Annotated[str, typer.Option("--gravity", help="Local g, m/s^2.")] = "9.80665",
+    static_window: Annotated[str, typer.Option("--static-window", help="Moving-variance window of the static detection, s.")] = "1.0",
+    min_pose: Annotated[str, typer.Option("--min-pose", help="Shortest static pose kept, s.")] = "1.0",
+    init_static: Annotated[Optional[str], typer.Option("--init-static", help="Length of the still start, s (reference variance of the threshold sweep; default: estimated).")] = None,
     temperature_channel: TempChannelOpt = None,
     g_sensitivity: Annotated[bool, typer.Option("--g-sensitivity", help="Fit the gyro's sensitivity to specific force (3x3, from the bias against orientation).")] = False,
     out: Annotated[Optional[Path], typer.Option("--out", help="Write the calibration for 'senscal imu apply' (JSON, or HDF5 for .h5; - for stdout).")] = None,
