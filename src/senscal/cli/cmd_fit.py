@@ -14,7 +14,7 @@ from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnO
                                 print_json, table)
 from senscal.cli.common import StartOpt, StopOpt, TimeUnitOpt
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
-                                       save_if_requested)
+                                       StandardOpt, note_standards, save_if_requested, use_standards)
 from senscal.jobs._base import with_read_options
 from senscal.jobs.fit import FitOptions, fit
 
@@ -53,14 +53,17 @@ def fit_cmd(
     create_sensor: CreateSensorOpt = None,
     date: DateOpt = None,
     operator: OperatorOpt = None,
+    standard: StandardOpt = None,
 ) -> None:
     """Least-squares sine fit: amplitude, phase, offset, frequency with uncertainties."""
     opts = fit_options(channel=channel, freq=freq, harmonics=harmonics, noise_model=noise_model,
                        time_column=time_column, fs=fs, names=names, time_unit=time_unit, start=start, stop=stop)
+    used_standards = use_standards(standard, db=db, date=date)
     result = fit(file, opts)
     save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
-                      operator=operator, method=opts.method, input_files=[file])
+                      operator=operator, method=opts.method, input_files=[file], standards=used_standards)
     doc = result.to_dict()
+    note_standards(doc, used_standards)  # doc["warnings"] (emitted below) gets standard-overdue
     if json_out:
         print_json(doc)
     else:

@@ -15,7 +15,7 @@ from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnO
                                 print_json, progress_bar, table)
 from senscal.cli.common import StartOpt, StopOpt, TimeUnitOpt
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
-                                       save_if_requested)
+                                       StandardOpt, note_standards, save_if_requested, use_standards)
 from senscal.errors import InputError
 from senscal.jobs._base import with_read_options
 
@@ -95,12 +95,13 @@ def calibrate_cmd(
     stop: StopOpt = None,
     json_out: JsonOpt = False,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None, operator: OperatorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None, standard: StandardOpt = None,
 ) -> None:
     """Identify the gravity sinusoid against the encoder angle: amplitude, phase, offset, tilt, bias."""
     from senscal.jobs.shaft import shaft_calibrate
 
     opts = _calibrate_options(**locals())
+    used_standards = use_standards(standard, db=db, date=date)
     with progress_bar("gravity fit against the encoder angle", None):
         result = shaft_calibrate(file, opts)
     model = result.model
@@ -113,7 +114,9 @@ def calibrate_cmd(
         doc["plot"] = str(plot_compensation(plot, model, result.angle, result.accel, result.compensated(),
                                             unit=result.accel_unit, title=f"gravity calibration: {file.name}"))
     save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
-                      operator=operator, job="shaft", method=result.method, input_files=[file])
+                      operator=operator, job="shaft", method=result.method, input_files=[file],
+                      standards=used_standards)
+    std_warns = note_standards(doc, used_standards)
     if json_out:
         print_json(doc)
     else:
@@ -132,7 +135,7 @@ def calibrate_cmd(
         for k in ("model", "plot"):
             if k in doc:
                 console.print(f"wrote {doc[k]}")
-    emit_warnings(result.warnings, strict)
+    emit_warnings([*result.warnings, *std_warns], strict)
 
 
 @shaft_app.command("compensate")

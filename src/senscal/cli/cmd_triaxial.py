@@ -16,7 +16,8 @@ from senscal.cli.common import (
 )
 from senscal.cli.common import StartOpt, StopOpt, TimeUnitOpt
 from senscal.cli.registry_opts import (
-    CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, save_if_requested,
+    CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, StandardOpt, note_standards, save_if_requested,
+    use_standards,
 )
 from senscal.errors import InputError
 from senscal.jobs._base import with_read_options
@@ -84,10 +85,12 @@ def calibrate_cmd(
     create_sensor: CreateSensorOpt = None,
     date: DateOpt = None,
     operator: OperatorOpt = None,
+    standard: StandardOpt = None,
 ) -> None:
     """Identify non-orthogonality, gains and offsets from readings in a constant field."""
     from senscal.jobs.triaxial import triaxial_calibrate
 
+    used_standards = use_standards(standard, db=db, date=date)
     with progress_bar("calibrating", None):
         result = triaxial_calibrate(file, _calibrate_options(**locals()))
     res, h, unit, tilt = result.calibration, result.readings, result.unit, result.tilt
@@ -96,7 +99,7 @@ def calibrate_cmd(
         res.calibration.save(out, extra=doc)  # type + format_version; JSON, or HDF5 for .h5 (senscal.persist)
     save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
                       operator=operator, job="triaxial", method=result.method, input_files=[file],
-                      conditions=result.conditions)
+                      conditions=result.conditions, standards=used_standards)
     if plot is not None:
         from senscal.triaxial.plots import plot_calibration
 
@@ -116,7 +119,7 @@ def calibrate_cmd(
                               title=f"{file.name}: {'tilt-compensated ' if tilt is not None else ''}heading error "
                                     "before / after")
             err_console.print(f"wrote {hp}")
-    warnings = result.warnings
+    warnings = [*result.warnings, *note_standards(doc, used_standards)]
     if json_out:
         print_json(doc)
         emit_warnings(warnings, strict)

@@ -17,7 +17,7 @@ from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, ConformityOpt, Custome
                                    SensorIdOpt, SignCertOpt, SignKeyOpt, cert_fields, certify,
                                    check_conformity)
 from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt,
-                                       save_if_requested)
+                                       StandardOpt, note_standards, save_if_requested, use_standards)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, TimeUnitOpt, console, emit_warnings,
                                 err_console, parse_floats, parse_relative, print_json, table, track)
 from senscal.cli.common import StartOpt, StopOpt
@@ -98,10 +98,12 @@ def _finish(result, doc: dict, cert_warns: list[str], params: dict, *, method: s
         Prints the table (called only without ``--json``).
     """
     report = params["report"]
+    used = params["used_standards"]
     save_if_requested(result, save=params["save"], sensor=params["sensor"], db=params["db"],
                       create_sensor=params["create_sensor"], date=params["date"], operator=params["operator"],
                       method=method, input_files=params["files"], certificate=report,
-                      conditions=_conditions(params["condition"]))
+                      conditions=_conditions(params["condition"]), standards=used)
+    std_warns = note_standards(doc, used)
     if params["plot"] is not None:
         _save_plot(figure(), params["plot"])
     if params["json_out"]:
@@ -110,7 +112,7 @@ def _finish(result, doc: dict, cert_warns: list[str], params: dict, *, method: s
         show()
         if report is not None:
             console.print(f"certificate written to {report}")
-    emit_warnings([*result.warnings, *cert_warns], params["strict"])
+    emit_warnings([*result.warnings, *std_warns, *cert_warns], params["strict"])
 
 
 @with_read_options
@@ -182,10 +184,11 @@ def velocity_cmd(
     conformity: ConformityOpt = None, decision_rule: DecisionRuleOpt = None,
     sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
+    date: DateOpt = None, operator: OperatorOpt = None, standard: StandardOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Velocity-sensor sensitivity S = A_s / (w A_p) against a position reference, per file and mean."""
     opts = velocity_options(**locals())
+    used_standards = use_standards(standard, db=db, date=date, calibration_date=calibration_date)
     result = velocity_job(files, opts, progress=track)
     cal, unit = result.calibration, result.unit
     doc = result.to_dict()
@@ -254,10 +257,11 @@ def response_cmd(
     sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
     save_response_to: Annotated[Optional[Path], typer.Option("--save-response", help="Save the response (JSON with type and version) for later use.")] = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
+    date: DateOpt = None, operator: OperatorOpt = None, standard: StandardOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Accelerometer frequency response: sensitivity, S_i/S0, phase delay with GUM budgets."""
     opts = response_options(**locals())
+    used_standards = use_standards(standard, db=db, date=date, calibration_date=calibration_date)
     result = response_job(files, opts, progress=track)
     resp, unit = result.response, result.unit
     doc = result.to_dict()
@@ -339,10 +343,11 @@ def linearity_cmd(
     conformity: ConformityOpt = None, decision_rule: DecisionRuleOpt = None,
     sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
     save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None, operator: OperatorOpt = None, strict: StrictOpt = False,
+    date: DateOpt = None, operator: OperatorOpt = None, standard: StandardOpt = None, strict: StrictOpt = False,
 ) -> None:
     """Amplitude linearity at a fixed frequency: best straight line, deviations, linearity in % of full scale."""
     opts = linearity_options(**locals())
+    used_standards = use_standards(standard, db=db, date=date, calibration_date=calibration_date)
     result = linearity_job(files, opts, progress=track)
     lin, unit, out_unit, amps = result.linearity, result.unit, result.output_unit, opts.input_amplitudes
     doc = result.to_dict()

@@ -35,7 +35,8 @@ from senscal.cli.common import err_console
 from senscal.errors import InputError
 
 __all__ = ["SaveOpt", "SensorOpt", "DbOpt", "CreateSensorOpt", "DateOpt", "OperatorOpt", "StandardOpt",
-           "open_named_registry", "print_head", "save_if_requested", "UsedStandards", "use_standards"]
+           "open_named_registry", "print_head", "save_if_requested", "UsedStandards", "use_standards",
+           "note_standards"]
 
 _PANEL = "Sensor registry"
 
@@ -163,6 +164,18 @@ def open_named_registry(db: str | None, *, create: bool, remedy: str, read_only:
     if missing is not None and not create:
         raise InputError(f"registry file {missing} does not exist; check the --db path, or add {remedy}")
     return open_registry(db, read_only=read_only and not create and db is not None, remedy=remedy)
+
+
+def note_standards(doc: dict, used: UsedStandards | None) -> list[str]:
+    """Put the used standards (``standards``) and their ``standard-overdue`` warnings into a command's JSON document.
+
+    Returns the warnings, for the command's :func:`~senscal.cli.common.emit_warnings` (``--strict`` exits 3).
+    """
+    if used is None:
+        return []
+    doc["standards"] = [dict(s.to_dict(), overdue=s.overdue(used.on)) for s in used.standards]
+    doc["warnings"] = [*doc.get("warnings", []), *used.warnings]
+    return list(used.warnings)
 
 
 def print_head(reg) -> None:
