@@ -18,7 +18,7 @@ from senscal.io.guard import atomic_output, check_output, note_input
 # Parameters of a job's command that only make sense for one interactive run: files it writes next to its
 # result, and the registry (a batch row keeps each recording's result; the rows go to batch's own --out).
 _SINGLE_RUN = {"plot", "report", "out", "save_response", "pdf", "dcc", "certificate", "save", "sensor", "db",
-               "create_sensor", "date", "operator"}
+               "create_sensor", "date", "operator", "standard"}
 # Accepted and handled by batch itself: --json (rows are JSON already), --strict (fails the rows with warnings).
 _BATCH_HANDLED = {"json_out", "strict"}
 
