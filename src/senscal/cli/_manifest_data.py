@@ -27,6 +27,8 @@ COMMANDS = {'allan': ('cmd_allan',
  'shaft': ('cmd_shaft',
            'Rotating shaft: gravity identification and compensation (angular acceleration from one tangential '
            'accelerometer).'),
+ 'shock': ('cmd_shock',
+           'Shock sensitivity (peak ratio) and transfer function from half-sine pulses (ISO 16063-22, -13).'),
  'triaxial': ('cmd_triaxial', 'Three-axis magnetometer / accelerometer calibration without a reference.')}
 
 SIMULATORS = {'drift': ('cmd_drift',
@@ -44,6 +46,7 @@ SIMULATORS = {'drift': ('cmd_drift',
               'A calibration history with known drift as a registry export (history.json) and its truth.'),
  'shaft': ('cmd_shaft',
            'A tilted shaft with a tangential accelerometer: shaft_cal.csv, shaft_test.csv, shaft_truth.json.'),
+ 'shock': ('cmd_shock', 'Half-sine shock pulses on an accelerometer with a reference or a laser: shock_NN.csv + truth.'),
  'sine': ('cmd_simulate_sine', 'A noisy multi-channel sine recording (sine.csv) and its truth (sine_truth.json).'),
  'magnetometer': ('cmd_triaxial',
                   'A rotated magnetometer (or tumbled accelerometer) with known errors: magnetometer.csv + truth '

@@ -91,6 +91,7 @@ for _name, _module, _function, _opts in (
     ("imu-calibrate", "senscal.jobs.imu", "imu_calibrate", "ImuOptions"),
     ("imu-apply", "senscal.jobs.imu", "imu_apply", "ImuApplyOptions"),
     ("primary", "senscal.jobs.primary", "primary", "PrimaryOptions"),
+    ("shock", "senscal.jobs.shock", "shock", "ShockOptions"),
 ):
     register(_name, _module, _function, _opts)
 del _name, _module, _function, _opts
