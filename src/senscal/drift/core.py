@@ -330,6 +330,95 @@ def _lag_warnings(noise: Sequence[NoiseParameter]) -> list[str]:
         "give the lag (a model file, lag: SECONDS), or use a longer record with faster covariate changes"))]
 
 
+#: Profile-likelihood interval of a covariate lag: the lags whose likelihood
+#: ratio to the best is not rejected at 95 % (chi-square, 1 dof: 3.84 / 2 nats).
+_LAG_DROP = 0.5 * 3.841458820694124
+#: Lags tried by the sensitivity check: from a third of a sample to a third of
+#: the record, log-spaced (a thermal lag is seconds to minutes).
+_LAG_POINTS = 25
+
+
+def _lag_sensitivity(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, float], cov: Mapping[str, np.ndarray],
+                     x0: np.ndarray, P0: np.ndarray, yy: np.ndarray, method: str, window: int | None,
+                     x: np.ndarray, state_std: np.ndarray, bias: np.ndarray, bias_std: np.ndarray) -> list[str]:
+    """Named warning when a covariate lag the record does not exclude moves a coefficient by more than its u.
+
+    A covariate-linked bias with no lag given assumes the bias follows the
+    recorded covariate at once.  With one sensor the likelihood over a
+    first-order lag is nearly flat (1-3 nats over 0-200 s on 600 samples),
+    so a fitted lag is not a reliable estimate; instead, with the other
+    levels held, the final coefficient is recomputed at lags from a third of
+    a sample to a third of the record, and those inside the 95 %
+    profile-likelihood interval (within :data:`_LAG_DROP` nats of the best,
+    Wilks) are compared with the value at lag 0: a shift beyond the stated
+    u (k=1) is an uncertainty component the result does not include, so it
+    is named; so is a lag that moves the channel's bias by more than its u
+    over more than 5 % of the record (the share a 95 % band may miss).
+
+    Returns
+    -------
+    list of str
+        ``covariate-lag-uncertain`` naming each such coefficient, or nothing.
+    """
+    todo = [b for b in setup.biases if b.covariate is not None and not b.fit_lag and b.lag is None]
+    if not todo:
+        return []
+    span = float(np.sum(dt[1:]))
+    step = float(np.median(dt))
+    if not span > 3.0 * step:
+        return []
+    names = list(setup.state_names)
+    j = {b.name: names.index(b.name) for b in todo}
+    grid = np.geomspace(step / 3.0, span / 3.0, _LAG_POINTS)
+    rows = []
+    try:
+        for L in grid:
+            alt = dataclasses.replace(setup, biases=tuple(dataclasses.replace(b, lag=float(L)) if b in todo else b
+                                                          for b in setup.biases))
+            m = augmented_model(alt, dt, levels, cov, x0=x0, P0=P0)
+            r = kalman_filter(m, yy)
+            e = (rts_smoother(m, r) if method == "smoother" else
+                 fixed_lag_smoother(m, r, int(window)) if method == "window" else r)
+            H = np.broadcast_to(m.H, (yy.shape[1],) + m.H.shape[-2:]) if m.H.ndim == 2 else m.H
+            b_l = channel_bias(alt, H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))[0]
+            rows.append((float(r.loglik), {k: float(e.x[i, -1]) for k, i in j.items()}, b_l))
+        m0 = augmented_model(setup, dt, levels, cov, x0=x0, P0=P0)
+        ll0 = float(kalman_filter(m0, yy).loglik)
+    except Exception:  # a lag the model refuses: nothing to compare
+        return []
+    ll = np.array([ll0] + [r_[0] for r_ in rows])
+    if not np.all(np.isfinite(ll)):
+        return []
+    keep = ll[1:] >= ll.max() - _LAG_DROP
+    bad = []
+    for b in todo:
+        i = j[b.name]
+        v0, u0 = float(x[i, -1]), float(state_std[i, -1])
+        shifts = [(abs(r_[1][b.name] - v0), L) for r_, L, k in zip(rows, grid, keep) if k]
+        if not shifts or not u0 > 0:
+            continue
+        d, L = max(shifts)
+        if d > u0:
+            bad.append(f"{b.name}: a lag of {L:.3g} s moves it by {d / u0:.2g} u")
+            continue
+        # The bias band: a lag that moves the bias by more than its u over more
+        # than 5 % of the record (the share a 95 % band may miss).
+        c = setup.biased_channels.index(b.channel)
+        frac = [(float(np.mean(np.abs(r_[2][c] - bias[c]) > bias_std[c])), L)
+                for r_, L, k in zip(rows, grid, keep) if k]
+        f, L = max(frac)
+        if f > 0.05:
+            bad.append(f"the bias of {b.channel}: a lag of {L:.3g} s moves it by more than its u over "
+                       f"{100 * f:.0f} % of the record")
+    if not bad:
+        return []
+    return [named("covariate-lag-uncertain", (
+        f"the bias may lag the covariate (a first-order lag the record does not exclude at 95 %), and the lag "
+        f"changes the result beyond its stated u: {'; '.join(bad)}; give the lag if it is known (a model file, "
+        "lag: SECONDS, or lag: 0), measure the sensor's own temperature, or use a record with faster covariate "
+        "changes"))]
+
+
 def _reference_warnings(setup: DriftSetup) -> list[str]:
     """Warn when a defaulted covariate reference fixes a channel's offset.
 
@@ -400,9 +489,42 @@ def channel_residuals(innovation: np.ndarray, innovation_cov: np.ndarray, H_sign
     return z.T
 
 
+def _broad_bias_levels(setup: DriftSetup, noise: Sequence[NoiseParameter],
+                       scale: Mapping[str, float]) -> dict[str, float]:
+    """Estimated bias levels whose likelihood does not exclude zero, with a scale to start from.
+
+    A bias level (random-walk rate, Gauss-Markov std, ramp slope rate)
+    whose estimate is within two standard uncertainties of zero, or at a
+    search bound, or without a finite u: there the log-normal approximation
+    of :func:`_level_uncertainty` does not describe the likelihood (a bias
+    rate under AR(1) noise of rho 0.8 on 600 samples is seen through a few
+    of the lowest frequencies only, and its ML value is zero in about one
+    record in eight).  Such levels are integrated over instead
+    (:func:`_level_quadrature`).
+    """
+    out = {}
+    for p in noise:
+        if not p.estimated or p.name not in {b.level_name for b in setup.biases}:
+            continue
+        if p.at_bound or p.std is None or not np.isfinite(p.std) or p.value <= 2.0 * p.std:
+            out[p.name] = max(p.value + (p.std if p.std is not None and np.isfinite(p.std) else 0.0),
+                              1e-3 * float(scale.get(p.name, 0.0)), 1e-300)
+    return out
+
+
+#: Log-likelihood drop [nats] at which the quadrature over a bias level stops:
+#: the likelihood there is e^-8 = 3e-4 of its peak, below the 1e-3 resolution
+#: that a 95 % band's variance needs.
+_QUAD_DROP = 8.0
+#: Points of the quadrature over one level (uniform grid from 0 to the drop):
+#: the 8-nat width spans at least eight of them.
+_QUAD_POINTS = 17
+
+
 def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping[str, float], lcov: Mapping,
                        method: str, window: int | None, Hb: np.ndarray, x: np.ndarray, P: np.ndarray,
-                       bias: np.ndarray, bias_var: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                       bias: np.ndarray, bias_var: np.ndarray, quad: Mapping[str, float] | None = None,
+                       loglik: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """What the noise levels' own uncertainty adds to the variance of the biases and states.
 
     The filter's covariance is that of the states *given* the levels; the
@@ -416,6 +538,11 @@ def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping
     factor of two on 600 samples, and the plug-in band covered 87 % instead
     of 95 % (95.0 % with the true levels).
 
+    Bias levels in ``quad`` (whose likelihood does not exclude zero, see
+    :func:`_broad_bias_levels`) are integrated over instead, one at a time
+    with the others held (:func:`_level_quadrature`), and left out of the
+    normal approximation (their marginal is dropped from ``C``).
+
     Returns
     -------
     extra_bias : ndarray, (mc, T)
@@ -427,9 +554,21 @@ def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping
     J. D. Hamilton, "A standard error for the estimated state vector of a
     state-space model", J. Econometrics 33 (1986) 387-397.
     """
+    quad = dict(quad or {})
     zero_b, zero_s = np.zeros_like(bias_var), np.zeros(x.shape)
-    names = list(lcov.get("names", ()))
+    Ps = np.diagonal(P, axis1=0, axis2=1).T  # (n, T)
+    q_b, q_s = zero_b.copy(), zero_s.copy()
+    for k, s0 in quad.items():
+        qb, qs = _level_quadrature(setup, build, yy, levels, k, s0, method, window, Hb, x, Ps, bias, bias_var,
+                                   loglik)
+        q_b += qb
+        q_s += qs
+    names = [k for k in lcov.get("names", ())]
     C = np.asarray(lcov.get("cov", np.zeros((0, 0))), dtype=float)
+    if quad and names:
+        kept = [i for i, k in enumerate(names) if k not in quad]
+        C = C[np.ix_(kept, kept)]
+        names = [names[i] for i in kept]
     # Levels with a finite u on a log scale below one (known to better than a
     # factor e): a worse-determined level is one that collapsed towards zero
     # (its size, not its effect, is uncertain), and a step of its log-sd would
@@ -437,13 +576,12 @@ def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping
     d = np.diag(C) if names else np.zeros(0)
     ok = [i for i in range(len(names)) if np.isfinite(d[i]) and 0.0 < d[i] <= 1.0]
     if not ok:
-        return zero_b, zero_s
+        return q_b, q_s
     C = np.nan_to_num(C[np.ix_(ok, ok)], nan=0.0, posinf=0.0, neginf=0.0)
     names = [names[i] for i in ok]
     w, V = np.linalg.eigh(0.5 * (C + C.T))
     keep = w > 1e-12 * max(w.max(), 1e-300)
     axes = (V[:, keep] * np.sqrt(w[keep])).T
-    Ps = np.diagonal(P, axis1=0, axis2=1).T  # (n, T)
     e_b, e_s = zero_b.copy(), zero_s.copy()
     v_b, v_s = zero_b.copy(), zero_s.copy()
     for a in axes:
@@ -470,7 +608,69 @@ def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping
         e_s += 0.5 * (sp + sm) - Ps
         v_b += (0.5 * (bp - bm)) ** 2
         v_s += (0.5 * (xp_ - xm)) ** 2
-    return np.maximum(e_b + v_b, 0.0), np.maximum(e_s + v_s, 0.0)
+    return np.maximum(e_b + v_b, 0.0) + q_b, np.maximum(e_s + v_s, 0.0) + q_s
+
+
+def _level_quadrature(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping[str, float], name: str,
+                      scale: float, method: str, window: int | None, Hb: np.ndarray, x: np.ndarray,
+                      Ps: np.ndarray, bias: np.ndarray, bias_var: np.ndarray,
+                      loglik: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """Variance added by a bias level the record does not bound away from zero.
+
+    The level ``s`` (others held at their estimates) is integrated over its
+    likelihood with a flat prior on ``s`` itself (a standard deviation or a
+    rate; Gelman 2006), on a uniform grid from 0 to where the log-likelihood
+    has dropped by :data:`_QUAD_DROP` nats (found by doubling from
+    ``scale``).  With weights ``w_j`` proportional to ``L(s_j)``, the
+    estimate stays the ML one and its variance becomes
+    ``sum_j w_j (P_j + (x_j - x_hat)^2)``, the mean squared error over the
+    levels the data allow; what is returned is that minus the ML ``P``.
+
+    Returns
+    -------
+    extra_bias : ndarray, (mc, T)
+    extra_state : ndarray, (n, T)
+        Added variances (>= 0) [unit^2], [state unit^2].
+
+    References
+    ----------
+    A. Gelman, "Prior distributions for variance parameters in hierarchical
+    models", Bayesian Analysis 1 (2006) 515-534 (a flat prior on the
+    standard deviation); J. D. Hamilton (1986), as :func:`_level_uncertainty`.
+    """
+    zero = (np.zeros_like(bias_var), np.zeros(x.shape))
+
+    def ll_at(v: float) -> float:
+        return float(kalman_filter(build({**levels, name: v}), yy).loglik)
+
+    try:
+        ll0 = ll_at(levels[name]) if loglik is None else float(loglik)
+        hi = float(scale)
+        for _ in range(60):
+            if ll_at(hi) < ll0 - _QUAD_DROP:
+                break
+            hi *= 2.0
+        else:
+            return zero
+        out = []
+        for v in np.linspace(0.0, hi, _QUAD_POINTS):
+            m = build({**levels, name: float(v)})
+            r = kalman_filter(m, yy)
+            e = (rts_smoother(m, r) if method == "smoother" else
+                 fixed_lag_smoother(m, r, int(window)) if method == "window" else r)
+            H = np.broadcast_to(m.H, Hb.shape) if m.H.ndim == 2 else m.H
+            b, bv = channel_bias(setup, H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))
+            out.append((float(r.loglik), b, bv, e.x, np.diagonal(e.P, axis1=0, axis2=1).T))
+    except Exception:  # a level the model refuses: the quadrature adds nothing
+        return zero
+    ll = np.array([o[0] for o in out])
+    if not np.all(np.isfinite(ll)):
+        return zero
+    w = np.exp(ll - ll.max())
+    w /= w.sum()
+    eb = sum(wj * (o[2] + (o[1] - bias) ** 2) for wj, o in zip(w, out)) - bias_var
+    es = sum(wj * (o[4] + (o[3] - x) ** 2) for wj, o in zip(w, out)) - Ps
+    return np.maximum(eb, 0.0), np.maximum(es, 0.0)
 
 
 def _blocks(setup: DriftSetup) -> list[tuple[str, ...]]:
@@ -686,7 +886,7 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
                   false_alarm_rate: float = DEFAULT_FALSE_ALARM_RATE, detect_shift: float = 1.0,
                   estimate: bool = True, compare: bool = True, start: Mapping[str, float] | None = None,
                   progress: Callable[[], None] | None = None, select: bool = True,
-                  level_u: bool = True, _fit_only: bool = False) -> DriftResult:
+                  level_u: bool = True, _fit_only: bool = False, _lag_check: bool = False) -> DriftResult:
     """Estimate and remove slowly drifting biases.
 
     The augmented state ``[signal; biases]`` (patent step a) is filtered
@@ -764,11 +964,11 @@ def correct_drift(setup: DriftSetup, y: Any, t: Any, covariates: Mapping[str, An
         return _correct_drift(setup, y, t, covariates, window=window, smooth=smooth,
                               false_alarm_rate=false_alarm_rate, detect_shift=detect_shift, estimate=estimate,
                               compare=compare, start=start, progress=progress, select=select,
-                              level_u=level_u, _fit_only=_fit_only)
+                              level_u=level_u, _fit_only=_fit_only, _lag_check=_lag_check)
 
 
 def _correct_drift(setup, y, t, covariates, *, window, smooth, false_alarm_rate, detect_shift, estimate, compare,
-                   start, progress, select, level_u, _fit_only):
+                   start, progress, select, level_u, _fit_only, _lag_check=False):
     yy = np.array(y, dtype=float)
     if yy.ndim == 1:
         yy = yy[None]
@@ -884,11 +1084,6 @@ def _correct_drift(setup, y, t, covariates, *, window, smooth, false_alarm_rate,
     chans = setup.biased_channels
     rows = [setup.channels.index(c) for c in chans]
     bias, bias_var = channel_bias(setup, Hb, np.moveaxis(x, -1, 0), np.moveaxis(P, -1, 0))
-    if level_u:
-        extra_b, extra_s = _level_uncertainty(setup, build, yy, levels, lcov, method, window, Hb, x, P, bias,
-                                              bias_var)
-        bias_var = bias_var + extra_b
-        state_std = np.sqrt(state_std**2 + extra_s)
     shift = setup.signal.mean if setup.signal.kind in ("gauss_markov", "known") else 0.0
     y_c = yy[rows] + shift
     corrected = y_c - bias
@@ -915,7 +1110,9 @@ def _correct_drift(setup, y, t, covariates, *, window, smooth, false_alarm_rate,
         if pick is not None and select:
             res2 = correct_drift(alt_setups[pick["model"]], y_raw, tt, covariates, window=window, smooth=smooth,
                                  false_alarm_rate=false_alarm_rate, detect_shift=detect_shift, compare=False,
-                                 start=start, progress=progress, level_u=level_u)
+                                 start=start, progress=progress, level_u=level_u,
+                                 # The model used is checked for a covariate lag as the one asked for would be.
+                                 _lag_check=True)
             w2 = list(res2.warnings)
             rest = [c for c in better if c is not pick and c["aic"] < pick["aic"] - _AIC_MARGIN]
             if rest:
@@ -930,6 +1127,16 @@ def _correct_drift(setup, y, t, covariates, *, window, smooth, false_alarm_rate,
                 f"the data favour {b['model']} over the model used (AIC lower by "
                 f"{asked - b['aic']:.1f}); rerun with it")))
     warnings += _reference_warnings(setup)
+    if level_u:
+        # After the comparison: a model replaced by an alternative needs no band.
+        extra_b, extra_s = _level_uncertainty(setup, build, yy, levels, lcov, method, window, Hb, x, P, bias,
+                                              bias_var, quad=_broad_bias_levels(setup, noise, first_start),
+                                              loglik=float(res.loglik))
+        bias_var = bias_var + extra_b
+        state_std = np.sqrt(state_std**2 + extra_s)
+    if (compare and estimate) or _lag_check:
+        warnings += _lag_sensitivity(setup, dt, levels, cov, x0, P0, yy, method, window, x, state_std, bias,
+                                     np.sqrt(np.maximum(bias_var, 0.0)))
 
     det, onset, alarm = _detect(build, setup, levels, yy, rows, step, false_alarm_rate, detect_shift)
     onset_t = {c: (float(tt[onset[c]]) if onset[c] >= 0 else None) for c in chans}

@@ -85,6 +85,18 @@ def _run(case: str, n_seeds: int, seed0: int, sim: dict, make_setup: Callable, n
         rows.append(coverage_row(JOB, case, k, v, u, levels_truth[k], warned=w, expect=expect, note=note))
     for k, (v, u) in term.items():
         rows.append(coverage_row(JOB, case, k, v, u, terms[k], warned=w, expect=expect, note=note))
+    if expect == "named":
+        # Covered or named, seed by seed (issue 26: ">= 95 % of seeds"): a seed passes when its k=2 interval
+        # holds the truth (the band: over at least 95 % of the record) or a listed warning fired.
+        wa = np.asarray(warned, dtype=bool)
+        zb = np.abs((np.array(est) - truth_b) / np.array(std))
+        ok = {rows[0].quantity: np.mean(np.where(np.isfinite(zb), zb <= 2.0, False), axis=1) >= 0.95,
+              rows[1].quantity: np.abs(np.array(fin) - truth_b[:, -1]) <= 2.0 * np.array(fin_u)}
+        for k, (v, u) in term.items():
+            ok[k] = np.abs(np.array(v) - terms[k]) <= 2.0 * np.array(u)
+        rows = [CoverageRow(**{**r.__dict__, "warned": float(np.mean(ok[r.quantity] | wa)), "expect": "warn",
+                               "note": r.note + "; warned = covered or named, per seed"})
+                if r.quantity in ok else r for r in rows]
     return rows
 
 
@@ -185,7 +197,7 @@ def _run_lag(lag: float):
                     lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0,
                                               covariate_reference=20.0),
                     f"the bias follows the covariate through a first-order lag of {lag:g} s (model chosen by the job)",
-                    warn=("model-inadequate", "better-model", "covariate-lag-uncertain"), expect="cover",
+                    warn=("model-inadequate", "better-model", "covariate-lag-uncertain"), expect="named",
                     compare=True, terms={"x_c_coefficient": 0.2})
     run.__doc__ = (f"Issue 26 item 5: the sensor's temperature lags the recorded probe by a first-order lag of "
                    f"{lag:g} s; the job offers the lag as a model option chosen by AIC.  Before it the "
