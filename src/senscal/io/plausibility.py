@@ -19,7 +19,10 @@ fails. Where something is known about the job, the wrong unit shows:
   seconds): what a clock counting ms or us writes (not for drift, whose
   loggers write whole seconds);
 * a header unit (``t [ms]``) that makes the rate higher than the job's
-  instruments sample (seconds labelled ms);
+  instruments sample, or higher than recorders that stamp in that unit
+  sample (seconds labelled ms: a 1 kHz record becomes 1 MHz);
+* a free sine fit whose frequency and sample rate are both far below a
+  sine calibration's (ms or us read as seconds, also under ``t [s]``);
 * a preamble rate (``Fs,1000``) or ``--fs`` that disagrees with the time
   column: a contradiction, refused (:func:`reconcile_rates`).
 
@@ -40,7 +43,8 @@ __all__ = ["TIME_UNIT_WARNING", "UNIT_FACTORS", "MIN_SAMPLE_RATE_HZ", "MAX_SPAN_
            "check_known_frequency", "check_sample_rate", "check_angular_rate", "check_epoch_ms", "check_logger_interval",
            "check_span", "check_counter_clock", "check_declared_unit", "reconcile_rates", "MAX_SAMPLE_RATE_HZ",
            "SLOW_LOGGER_JOBS", "RATE_TOLERANCE", "time_base_warnings", "check_time", "with_time_warnings",
-           "merge_time_warnings"]
+           "merge_time_warnings", "MAX_SAMPLE_RATE_IN_UNIT", "SLOW_SINE_HZ", "SLOW_SINE_RATE_HZ",
+           "check_fitted_frequency"]
 
 TIME_UNIT_WARNING = "time-unit-suspect"
 
@@ -62,6 +66,18 @@ MIN_SAMPLE_RATE_HZ = {
 #: Seconds labelled ms make a 1 kHz recording 1 MHz. Sine fits (oscilloscopes at MS/s to GS/s) and the
 #: vibration rigs (checked against their known frequency instead) have no such bound.
 MAX_SAMPLE_RATE_HZ = {"gfimu": 1e5, "triaxial": 1e5, "allan": 1e5, "shaft": 1e5, "imu": 1e5}
+
+#: Highest sample rate of a recorder that stamps its time column in this unit (Hz), whatever the job.
+#: Stamps in ms at 200 kHz step by 0.005 ms; digitisers that fast (oscilloscopes, fast DAQ) write seconds
+#: (often in scientific notation) or us, and a time column in seconds labelled ms turns every DAQ rate from
+#: 200 Hz up into 200 kHz and more (1 kHz into 1 MHz). Likewise 200 MHz in us (steps of 5 ns).
+MAX_SAMPLE_RATE_IN_UNIT = {"ms": 2e5, "us": 2e8, "\u00b5s": 2e8, "\u03bcs": 2e8}
+
+#: A free sine fit below SLOW_SINE_HZ on samples below SLOW_SINE_RATE_HZ is what a sine calibration in ms
+#: (or us) read as seconds gives: 100 Hz on a 10 kHz DAQ becomes 0.1 Hz on 10 Hz. Genuine slow sines
+#: (seismometers at 0.01 Hz) are named too; a --freq that the data confirm replaces this check.
+SLOW_SINE_HZ = 0.1
+SLOW_SINE_RATE_HZ = 10.0
 
 #: Jobs whose records come from slow loggers, where whole-second stamps at 1 Hz or slower are normal.
 SLOW_LOGGER_JOBS = frozenset({"drift"})
@@ -304,19 +320,62 @@ def check_declared_unit(t: np.ndarray, unit: str, job: str | None) -> tuple[str,
         Key of :data:`MAX_SAMPLE_RATE_HZ`; other jobs are not checked.
     """
     hi = MAX_SAMPLE_RATE_HZ.get(job or "")
+    unit_hi = MAX_SAMPLE_RATE_IN_UNIT.get(unit.strip())
     t = np.asarray(t, dtype=float)
-    if hi is None or t.size < 2:
+    if (hi is None and unit_hi is None) or t.size < 2:
         return ()
     span = float(t[-1] - t[0])
     if not (math.isfinite(span) and span > 0):
         return ()
     rate = (t.size - 1) / span
-    if rate <= hi:
+    if (hi is None or rate <= hi) and (unit_hi is None or rate <= unit_hi):
         return ()
+    if hi is None or rate <= hi:
+        u = unit.strip()
+        return (named(TIME_UNIT_WARNING,
+                      f"the time column is in {u} by its header or --time-unit, which makes the sample rate "
+                      f"{rate:.4g} Hz; recorders faster than {unit_hi:.3g} Hz stamp in s (or a finer unit), not {u}, "
+                      f"and seconds labelled {u} look like this ({rate * _IN_SECONDS[u]:.4g} Hz in seconds); fix: "
+                      "give the header as 't [s]' if the values are seconds"),)
     return (named(TIME_UNIT_WARNING,
                   f"the time column is in {unit.strip()} by its header or --time-unit, which makes the sample rate "
                   f"{rate:.4g} Hz, above any {job} instrument (<= {hi:g} Hz); seconds labelled {unit.strip()} "
                   f"look like this; fix: give the header as 't [s]' if the values are seconds"),)
+
+
+_IN_SECONDS = {"ms": 1e-3, "us": 1e-6, "\u00b5s": 1e-6, "\u03bcs": 1e-6}
+
+
+def check_fitted_frequency(t: np.ndarray, frequency_hz: float) -> tuple[str, ...]:
+    """Warn when a free sine fit's frequency and the sample rate are both far below a sine calibration's.
+
+    Both scale with the time unit, so their ratio says nothing; their size
+    does: below :data:`SLOW_SINE_HZ` on samples slower than
+    :data:`SLOW_SINE_RATE_HZ` is what a record stamped in ms (or us) read as
+    seconds shows. Not for a fit at a known frequency (``--freq``), which
+    :func:`check_known_frequency` compares with the data instead.
+
+    Parameters
+    ----------
+    t : ndarray
+        Time stamps as read (s).
+    frequency_hz : float
+        The fitted frequency (Hz).
+    """
+    t = np.asarray(t, dtype=float)
+    if t.size < 2 or not (math.isfinite(frequency_hz) and frequency_hz > 0):
+        return ()
+    span = float(t[-1] - t[0])
+    if not (math.isfinite(span) and span > 0):
+        return ()
+    rate = (t.size - 1) / span
+    if frequency_hz >= SLOW_SINE_HZ or rate >= SLOW_SINE_RATE_HZ:
+        return ()
+    return (named(TIME_UNIT_WARNING,
+                  f"the fitted frequency {frequency_hz:.4g} Hz on samples at {rate:.4g} Hz is what a time column in "
+                  f"ms read as seconds gives (in ms: {1e3 * frequency_hz:.4g} Hz at {1e3 * rate:.4g} Hz; in us: "
+                  f"{1e6 * frequency_hz:.4g} Hz); fix: give the header as 't [ms]' or --time-unit ms (us), or "
+                  "--time-unit s (or --freq) if the values are seconds and the frequency is this low"),)
 
 
 def _factor_name(ratio: float) -> str | None:

@@ -324,16 +324,25 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
                      units={c: rec.unit(c) for c in ordered},
                      instrument={c: instrument[c] for c in ordered},
                      consistency={c: consistency[c] for c in ordered if c in consistency},
-                     warnings=_time_warnings(tuple(warnings), rec, y[good[0]] if good else None, freq))
+                     warnings=_time_warnings(tuple(warnings), rec, y[good[0]] if good else None, freq,
+                                             next(iter(ordered.values())).frequency,
+                                             stated=options.time_unit is not None))
 
 
-def _time_warnings(warnings: tuple[str, ...], rec, y, freq: float | None) -> tuple[str, ...]:
-    """The fit's warnings plus the time-base ones: the reading layer's, and a ``--freq`` a unit factor off."""
-    from senscal.io.plausibility import check_known_frequency, dominant_frequency, merge_time_warnings
+def _time_warnings(warnings: tuple[str, ...], rec, y, freq: float | None, fitted_hz: float, *,
+                   stated: bool = False) -> tuple[str, ...]:
+    """The fit's warnings plus the time-base ones: the reading layer's, and a ``--freq`` a unit factor off, or a
+    free fit's frequency and rate both far below a calibration's (ms read as s; not when the user stated the
+    time unit with ``--time-unit``: a file's header can be wrong, the user's own statement is taken)."""
+    from senscal.io.plausibility import (check_fitted_frequency, check_known_frequency, dominant_frequency,
+                                         merge_time_warnings)
 
     own: tuple[str, ...] = ()
     if freq is not None and y is not None:
         own = check_known_frequency(dominant_frequency(y, rec.time), freq)
+    elif freq is None and rec.t is not None and not stated:
+        # Only a time column can be in the wrong unit: --fs and a file's own rate are stated in Hz.
+        own = check_fitted_frequency(rec.time, fitted_hz)
     return merge_time_warnings(merge_time_warnings(warnings, own), rec.warnings)
 
 
