@@ -48,7 +48,7 @@ def test_the_table_names_options_that_exist_and_take_text():
         params = {p.name: p for p in cmd.params}
         assert name in params, (path, name)
         ann = params[name].type_descriptor.annotation
-        assert ann is str or "str" in repr(ann), f"{path} --{name} is {ann!r}: Click would refuse '80 mm'"
+        assert ann is str or "str" in repr(ann), f"{path} --{name} is {ann!r}: Click would refuse '80 mm'; declare it text and name it in @units (senscal.cli._quantities)"
     named = {(path, name) for path, _, name, _ in QUANTITY_OPTIONS}
     for path, cmd in COMMANDS:
         for p in cmd.params:
