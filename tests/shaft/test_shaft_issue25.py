@@ -87,37 +87,59 @@ def test_ripple_at_07hz_gravity_within_u_and_compensation_at_the_noise_floor(see
     assert not res.warnings
 
 
-def test_eccentric_disc_is_named_and_strict_exits_3_without_declared_accuracy(tmp_path):
-    """Item 8: a 0.05 deg once-per-turn angle error moves offset and amplitude by several u: named."""
+def test_eccentric_disc_is_estimated_removed_and_named():
+    """Item 8: a 0.05 deg once-per-turn angle error moves offset and amplitude by several u.
+
+    It is estimated from its twice-per-turn trace (amplitude A e / 2) and removed, its noise in u; the
+    term is named (a nonlinear sensor's would be removed wrongly).  A declared accuracy is the estimate's
+    prior: consistent with the data, no warning, and u no larger than without it.
+    """
     cal, _, truth = simulate_shaft(seed=5, cal_duration=10.0, test_duration=0.5, eccentricity_deg=0.05)
     m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg")
     assert has_warning(m.warnings, "encoder-eccentricity"), m.warnings
-    # Twice-per-turn term of amplitude A e / 2.
     e = math.radians(0.05)
     assert m.twice_per_turn == pytest.approx(truth["gravity"]["amplitude"] * e / 2, abs=4 * m.u_twice_per_turn)
-    # Declared accuracy that explains it (RMS 0.05 / sqrt 2 deg): carried in u, no warning, u larger.
+    assert m.angle_error == pytest.approx(e, abs=4 * m.u_angle_error)
+    g = truth["gravity"]
+    # Uncorrected, this seed's offset is several u off (issue 25 item 8); corrected within 3 u.
+    assert abs(m.offset - g["offset"]) < 3 * m.u_offset and abs(m.amplitude - g["amplitude"]) < 3 * m.u_amplitude
     d = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", u_angle=e / math.sqrt(2))
     assert not has_warning(d.warnings, "encoder-eccentricity")
-    # Type B shares: offset A u_angle / 2, amplitude |b| w^2 u_angle (b: the ripple coefficient, S r cos d).
-    u_ang = e / math.sqrt(2)
-    assert d.u_offset == pytest.approx(math.hypot(m.u_offset, d.amplitude * u_ang / 2), rel=0.02)
-    b_w2 = abs(d.ripple_coefficient) * d.mean_square_speed * u_ang
-    assert d.u_amplitude == pytest.approx(math.hypot(m.u_amplitude, b_w2), rel=0.1)
-    g = truth["gravity"]
-    assert abs(d.offset - g["offset"]) < 2 * d.u_offset and abs(d.amplitude - g["amplitude"]) < 2 * d.u_amplitude
+    assert d.u_offset <= m.u_offset * (1 + 1e-9) and d.u_amplitude <= m.u_amplitude * (1 + 1e-9)
+    assert abs(d.offset - g["offset"]) < 3 * d.u_offset and abs(d.amplitude - g["amplitude"]) < 3 * d.u_amplitude
+    # A declared accuracy the data contradict (0.001 deg against 0.05) is named: the prior would hold the
+    # estimate short of the error.
+    tight = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", u_angle=math.radians(0.001))
+    assert has_warning(tight.warnings, "encoder-eccentricity")
 
 
-def test_once_per_turn_ripple_is_ambiguous_until_the_encoder_accuracy_is_declared():
-    """1 % once-per-turn ripple with 3 % at 2.7 Hz: modelled, but one run cannot tell it from a 0.57 deg disc
-    error, so it is named until --u-angle-deg bounds the disc (then the rest is ripple, removed rightly)."""
+def test_eccentricity_below_its_detection_is_still_covered():
+    """0.01 deg: the twice-per-turn term is about 1.4 sigma, too weak to name, but the offset moves by up to
+    A e / 2 = 8e-4 (about 4 u before the correction).  The correction's u covers it seed by seed: the
+    uncorrected offset (a prior of ~0) misses in some of these seeds, the corrected one is within 2.5 u in all."""
+    zc, zu = [], []
+    for seed in range(8):
+        cal, _, truth = simulate_shaft(seed=seed, cal_duration=10.0, test_duration=0.5, eccentricity_deg=0.01)
+        g = truth["gravity"]
+        m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg")
+        u = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", u_angle=1e-12)
+        zc.append((m.offset - g["offset"]) / m.u_offset)
+        zu.append((u.offset - g["offset"]) / u.u_offset)
+    assert max(map(abs, zc)) < 2.5, zc
+    assert max(map(abs, zu)) > 2.0, zu
+
+
+def test_once_per_turn_ripple_is_told_from_an_eccentric_disc():
+    """1 % once-per-turn ripple with 3 % at 2.7 Hz: the encoder's once-per-turn deviation (0.57 deg) could be
+    ripple or disc, but only a disc leaves a twice-per-turn term in the accelerometer: none here, nothing
+    named, and the ripple is removed rightly, with or without a declared accuracy."""
     cal, _, truth = simulate_shaft(seed=7, cal_duration=10.0, test_duration=0.5, sync_ripple=0.01)
-    m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg")
-    assert [w.split(":")[0] for w in m.warnings] == ["encoder-eccentricity"]
-    assert math.degrees(m.once_per_turn_angle) == pytest.approx(math.degrees(0.01), rel=0.1)
-    d = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", u_angle=math.radians(0.01))
-    assert d.warnings == ()
     g = truth["gravity"]
-    assert abs(d.amplitude - g["amplitude"]) < 3 * d.u_amplitude and abs(d.offset - g["offset"]) < 3 * d.u_offset
+    for u_angle in (0.0, math.radians(0.01)):
+        m = calibrate_gravity(cal["accel"], cal["angle"], cal.time, angle_unit="deg", u_angle=u_angle)
+        assert m.warnings == ()
+        assert math.degrees(m.once_per_turn_angle) == pytest.approx(math.degrees(0.01), rel=0.1)
+        assert abs(m.amplitude - g["amplitude"]) < 3 * m.u_amplitude and abs(m.offset - g["offset"]) < 3 * m.u_offset
 
 
 def test_no_angle_error_warning_on_a_clean_run():

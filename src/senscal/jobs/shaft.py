@@ -105,6 +105,7 @@ def calibration_summary(model) -> dict[str, Any]:
         "u_angle_deg": math.degrees(model.u_angle),
         "once_per_turn_angle_deg": math.degrees(model.once_per_turn_angle),
         "u_once_per_turn_angle_deg": math.degrees(model.u_once_per_turn_angle),
+        "angle_error_deg": math.degrees(model.angle_error), "u_angle_error_deg": math.degrees(model.u_angle_error),
         "twice_per_turn": model.twice_per_turn, "u_twice_per_turn": model.u_twice_per_turn,
         "centripetal_coefficient": model.centripetal_coefficient,
         "u_centripetal_coefficient": model.u_centripetal_coefficient, "diagnostic": list(model.diagnostic),

@@ -150,8 +150,8 @@ class GravityModel(ResultMixin):
         Kept as a field so files from earlier versions load.
     u_angle : float
         Standard uncertainty of the encoder angle (once-per-turn error, RMS
-        over a turn) given as a type B input, rad; its share is in the
-        covariance.
+        over a turn) given as a type B input, rad: the prior of the angle
+        error estimated from the data (0: none).
     once_per_turn_angle, u_once_per_turn_angle : float
         Once-per-turn deviation of the encoder angle from a steady rotation,
         rad (the encoder's once-per-turn angular acceleration over ``w^2``):
@@ -160,6 +160,12 @@ class GravityModel(ResultMixin):
         Amplitude of the accelerometer's twice-per-turn term against the
         angle, output unit (``amplitude e / 2`` for a once-per-turn angle
         error ``e``).
+    angle_error, u_angle_error : float
+        Amplitude ``e`` of the once-per-turn angle error ``e sin(theta + q)``
+        estimated from the twice-per-turn term (with ``u_angle`` as its prior
+        when declared), rad, and its standard uncertainty (per component);
+        amplitude, phase and offset are corrected for it and their
+        covariance holds the estimate's share.
     diagnostic : tuple of str
         Fields reported as diagnostics, without an uncertainty (not to be
         quoted as measurement results).
@@ -169,8 +175,8 @@ class GravityModel(ResultMixin):
     warnings : tuple of str
         Named warnings (``name: sentence``): ``speed-not-constant``,
         ``synchronous-ripple`` (once-per-turn ripple the run cannot tell from
-        gravity), ``encoder-eccentricity`` (an angle error seen, or one the
-        run cannot tell from ripple, beyond ``u_angle``), ``ripple-not-removed``, ``few-turns`` (under 10 turns: k=2
+        gravity), ``encoder-eccentricity`` (a twice-per-turn term beyond noise and
+        ``u_angle``: an angle error, estimated and removed, or a nonlinear sensor), ``ripple-not-removed``, ``few-turns`` (under 10 turns: k=2
         covers less than 95 %), ``amplitude-above-g``, ``sensitivity-missing``.
     source : str or None
         File the calibration came from.
@@ -218,6 +224,8 @@ class GravityModel(ResultMixin):
     u_once_per_turn_angle: float = 0.0
     twice_per_turn: float = 0.0
     u_twice_per_turn: float = 0.0
+    angle_error: float = 0.0
+    u_angle_error: float = 0.0
     diagnostic: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     source: str | None = None
@@ -479,11 +487,16 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         Standard uncertainty of the encoder angle from a once-per-turn
         error (an eccentric or tilted disc: the RMS over a turn of
         ``e sin(theta + q)``, i.e. ``e / sqrt(2)``), rad: the encoder's
-        accuracy specification, a type B input.  It enters the offset
-        (``amplitude * u_angle / 2``) and, through the ripple regressors,
-        amplitude and phase (``|b| w^2 u_angle``).  0 takes the encoder at
-        face value; the data are then checked for an angle error (named
-        warning ``encoder-eccentricity``).
+        accuracy specification, a type B input.  The angle error is always
+        estimated from the accelerometer's twice-per-turn term (amplitude
+        ``amplitude * e / 2``) and removed from the offset (which it moves by
+        ``(amplitude e / 2) sin(q - phase)``) and, through the ripple
+        regressors, from amplitude and phase (``b w^2 e``), its noise carried
+        into u (about 1.9x u(offset) and 1.4x u(amplitude) at 1 rev/s and
+        r = 0.1 m); ``u_angle`` is the estimate's normal prior (0: none).
+        A twice-per-turn term beyond noise (and beyond ``u_angle``) is named
+        ``encoder-eccentricity``: a nonlinear sensor's would be corrected
+        as an angle error.
     source : str, optional
         Where the data came from (stored in the model).
 
@@ -648,12 +661,6 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     # the angle by (amplitude e / 2) sin(q - phase) in the offset, with a twice-per-turn term of the same
     # size, and puts a once-per-turn e w^2 into the encoder's angular acceleration that no speed ripple made:
     # the regressors remove b e w^2 of gravity (b: their coefficients, S r for the radius correction).
-    b_sync = abs(b_of.get("alpha", sensitivity * radius if mode == "radius" else 0.0)) \
-        + 2.0 * abs(b_of.get("speed2", 0.0))
-    ecc_amp_u = b_sync * w_mean2 * u_angle  # per component (amplitude, amplitude * phase): e / sqrt 2 = u_angle
-    ecc_off_u = abs(amp) * u_angle / 2.0  # (A e / 2) sin(q - phase) over q uniform: A e / (2 sqrt 2)
-    cov_g = cov_g + np.diag([ecc_amp_u**2, (ecc_amp_u / amp) ** 2 if amp > 0 else 0.0, ecc_off_u**2])
-    u = np.sqrt(np.maximum(np.diag(cov_g), 0.0))
     # The twice-per-turn term of the accelerometer against the angle: an angle error's signature (or a
     # sensor's own nonlinearity, which the fit does not model either), tested against its noise density.
     res_g = (yk - removed) - fit.amplitude * np.sin(tk + fit.phase) - fit.offset
@@ -662,6 +669,17 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     c2, cov2, _ = iv_fit(res_g, d2, d2, hw, empty2, taper=taper)
     twice = float(math.hypot(c2[0], c2[1]))
     u_twice = math.sqrt(max(float(np.trace(cov2)) / 2.0, 0.0))
+    ecc_est = None
+    if amp > 0:
+        # The angle error is estimated from its twice-per-turn trace, as nuisance parameters, and its
+        # effects removed, with the estimate's noise carried into u; a declared accuracy (u_angle) is its
+        # prior.  Naming it instead would not do: the twice-per-turn term's noise per component is about
+        # sqrt 2 u(offset), so an offset error of 2 u(offset) has only 1.4 sigma of signature.
+        amp, ph, off, cov_g, ecc_est = _correct_angle_error(
+            amp, ph, off, cov_g, c2, cov2, theta, keep, tk, taper, dt, (m7, p7), (m5, p5), x_w[keep],
+            b_of.get("alpha", sensitivity * radius if mode == "radius" else 0.0), b_of.get("speed2", 0.0),
+            u_angle)
+    u = np.sqrt(np.maximum(np.diag(cov_g), 0.0))
     rms = float(np.sqrt(np.mean(res**2)))
     noise = white_noise_std(a, kin.window_samples)
     # What removing the ripple changed (or, without the correction, what it would have changed).
@@ -713,7 +731,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
             f"the speed varies once per turn ({100 * sync_rel:.3g}% ripple, angular acceleration "
             f"{info['alpha']['sync']:.3g} rad/s^2 locked to the rotation) and the run holds too little other speed "
             "variation to tell its effect from gravity: amplitude, phase and tilt are off by S r times that, "
-            "beyond their u; give the sensor radius (--radius) or calibrate at a steadier speed")))
+            "and the offset by its second harmonic read as an angle error, beyond their u; give the sensor radius (--radius) or calibrate at a steadier speed")))
     if mode == "none" and "alpha" not in lost and abs(leak) > 2.0 * u[0] and math.isfinite(leak):
         warnings.append(named("ripple-not-removed", (
             f"angular acceleration during the run moved the gravity amplitude by about {leak:.3g} "
@@ -730,25 +748,25 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     e_once = info["alpha"]["sync"] / w_mean2 if w_mean2 > 0 else 0.0
     u_e_once = info["alpha"]["u_sync"] / w_mean2 if w_mean2 > 0 else math.inf
     e_twice = 2.0 * twice / abs(amp) if amp else 0.0
-    e_un = max(e_once - e_max, 0.0)
+    # The estimate and its removal assume the twice-per-turn term is an angle error's; a nonlinear sensor's
+    # would be corrected wrongly, so a term beyond noise is named (chi-square, 2 dof, false alarm ECC_ALPHA),
+    # beyond what a declared accuracy explains (a once-per-turn error of RMS u_angle has amplitude sqrt(2)
+    # u_angle; k=2: 2 sqrt(2) u_angle), where the prior would pull the estimate short of it.
     twice_seen = twice - abs(amp) * e_max / 2.0 > crit * u_twice
-    # A declared accuracy bounds the disc's share of a once-per-turn deviation (the rest is ripple, which the
-    # regressors remove rightly); without one, any of it could be the disc.
-    once_seen = u_angle == 0.0 and e_un > crit * u_e_once \
-        and (b_sync * w_mean2 * e_un > 0.3 * u[0] or abs(amp) * e_un / 2.0 > 0.3 * u[2])
     # Ripple locked to the turn that the run could not model is named by synchronous-ripple already, and its
     # unmodelled harmonics (S r alpha has m^2 / 2 of second harmonic) are twice-per-turn too: one warning a cause.
-    if (twice_seen or once_seen) and not lost:
-        what = (f"the accelerometer has a twice-per-turn term of {twice:.3g} ({twice / u_twice:.3g} u), the trace of "
-                f"a {math.degrees(e_twice):.2g} deg once-per-turn angle error (or of a nonlinear sensor)"
-                if twice_seen else
-                f"the encoder reads a once-per-turn deviation from a steady rotation of {math.degrees(e_once):.2g} deg "
-                "(speed ripple locked to the turn, or an eccentric encoder disc: one run cannot tell them apart)")
+    if twice_seen and not lost:
+        if u_angle > 0.0:
+            how = (f"beyond the declared accuracy ({math.degrees(u_angle):.2g} deg), which pulls the estimate short "
+                   "of it: offset, amplitude and phase may be off beyond their u; give --u-angle-deg 0 to estimate "
+                   "it from the data alone, or check the disc's centring")
+        else:
+            how = ("estimated from that term and removed from offset, amplitude and phase (their u include the "
+                   "estimate's noise); a nonlinear sensor's twice-per-turn term would be removed wrongly: check the "
+                   "disc's centring")
         warnings.append(named("encoder-eccentricity", (
-            f"{what}; an angle error of that size would move the offset by up to "
-            f"{abs(amp) * max(e_twice if twice_seen else e_un, 0.0) / 2.0:.3g} and amplitude and phase by up to "
-            f"{b_sync * w_mean2 * (e_twice if twice_seen else e_un):.3g}, beyond their u; give the encoder's accuracy "
-            "(--u-angle-deg) to carry it in u, or check the disc's centring")))
+            f"the accelerometer has a twice-per-turn term of {twice:.3g} ({twice / u_twice:.3g} u), the trace of "
+            f"a {math.degrees(e_twice):.2g} deg once-per-turn angle error (or of a nonlinear sensor); {how}")))
     if hw < MIN_TURNS:
         # The density behind u rests on about four degrees of freedom per turn: below 10 turns (40) k=2
         # covers less than 94.8 % (Student's t), 88 % for one turn.
@@ -780,9 +798,62 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
                                         ("centripetal_coefficient", kc is not None)) if v),
         nuisance=tuple(used), u_angle=float(u_angle), once_per_turn_angle=float(e_once),
         u_once_per_turn_angle=float(u_e_once), twice_per_turn=twice, u_twice_per_turn=float(u_twice),
+        angle_error=0.0 if ecc_est is None else float(math.hypot(ecc_est[0], ecc_est[1])),
+        u_angle_error=0.0 if ecc_est is None else float(math.sqrt(max(np.trace(ecc_est[2]) / 2.0, 0.0))),
         warnings=tuple(warnings), source=source,
         created=_dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat(),
     )
+
+
+def _correct_angle_error(amp, ph, off, cov_g, c2, cov2, theta, keep, tk, taper, dt, al_filter, w_filter, w_keep,
+                         b_alpha, b_speed2, u_angle=0.0):
+    """Gravity term and offset corrected for a once-per-turn angle error estimated from its twice-per-turn trace.
+
+    The encoder reads ``phi = theta + e_s sin(theta) + e_c cos(theta)``.  Against ``phi`` the gravity
+    sinusoid ``A sin(theta + ph)`` becomes ``A sin(phi + ph) - A eps cos(phi + ph)``: an offset
+    ``(A / 2)(e_s sin ph - e_c cos ph)`` and a twice-per-turn term ``T = -(A / 2) R(ph) e`` (``R`` the
+    rotation by ``ph``), so ``e = -(2 / A) R(ph)^T T``.  The regressors see ``eps`` too: the angular
+    acceleration ``eps''`` (about ``-w^2 eps``) and ``w^2`` (``2 w eps'``), whose coefficients move their
+    once-per-turn part into the gravity term; that part is computed through the regressors' own filters.
+    All is linear in ``T``: the corrections and their covariance ``J cov(T) J^T`` (``T`` is estimated
+    at twice the rotation frequency, independent of the gravity fit's noise) are applied to
+    (amplitude, phase, offset).  A declared accuracy ``u_angle`` (rad, per component of ``e``) is a
+    normal prior: the estimate is then the posterior mean ``(C^-1 + I / u_angle^2)^-1 C^-1 e_T``
+    with ``C`` the covariance of ``e_T`` from ``T``, and its covariance the posterior's.
+
+    Returns
+    -------
+    amp, ph, off, cov_g, (e_s, e_c, cov_e)
+    """
+    rot = np.array([[math.cos(ph), -math.sin(ph)], [math.sin(ph), math.cos(ph)]])
+    to_e = -(2.0 / amp) * rot.T  # e = to_e @ T
+    # Gravity (sin, cos coefficients): minus the once-per-turn projection of b d(alpha) + k d(w^2) per unit e.
+    sw = np.sqrt(taper)
+    dd = np.column_stack([np.sin(tk), np.cos(tk), np.ones_like(tk)]) * sw[:, None]
+    m7, p7 = al_filter
+    m5, p5 = w_filter
+    cols = []
+    for unit in (np.sin(theta), np.cos(theta)):
+        d_al = savgol(unit, m7, 2, dt, polyorder=p7)[keep] if b_alpha else 0.0
+        d_w2 = 2.0 * w_keep * savgol(unit, m5, 1, dt, polyorder=p5)[keep] if b_speed2 else 0.0
+        pert = -(b_alpha * d_al + b_speed2 * d_w2) * np.ones_like(tk)
+        cols.append(np.linalg.lstsq(dd, pert * sw, rcond=None)[0][:2])
+    jac_e = np.vstack([np.column_stack(cols), (amp / 2.0) * np.array([[math.sin(ph), -math.cos(ph)]])])
+    e_t = to_e @ np.asarray(c2, dtype=float)
+    cov_e = to_e @ np.asarray(cov2, dtype=float) @ to_e.T
+    if u_angle > 0.0:
+        prec = np.linalg.inv(cov_e)
+        cov_e = np.linalg.inv(prec + np.eye(2) / u_angle**2)
+        e_t = cov_e @ prec @ e_t
+    dv = jac_e @ e_t
+    gs, gc = amp * math.cos(ph) - dv[0], amp * math.sin(ph) - dv[1]
+    amp2 = math.hypot(gs, gc)
+    ph2 = math.atan2(gc, gs)
+    off2 = off - dv[2]
+    # (G_s, G_c, offset) -> (amplitude, phase, offset)
+    jg = np.array([[gs / amp2, gc / amp2, 0.0], [-gc / amp2**2, gs / amp2**2, 0.0], [0.0, 0.0, 1.0]])
+    cov_add = jg @ jac_e @ cov_e @ jac_e.T @ jg.T
+    return amp2, ph2, off2, cov_g + cov_add, (float(e_t[0]), float(e_t[1]), cov_e)
 
 
 def _kernel_dot(m_short: int, p_short: int, m_long: int, deriv: int, dt: float) -> float:
