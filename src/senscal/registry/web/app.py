@@ -30,11 +30,9 @@ from datetime import date, datetime, timedelta
 from pathlib import Path
 from typing import Any, Iterable
 
-import sqlalchemy as sa
-
 from senscal.errors import InputError, SenscalError, TooFewSamplesError
-from senscal.registry import db
-from senscal.registry.store import Calibration, Registry, UnknownQuantityError, UnknownSensorError, parse_date
+from senscal.registry.store import (Calibration, Registry, UnknownQuantityError, UnknownSensorError,
+                                   UnknownStandardError, parse_date)
 
 __all__ = ["ViewOptions", "create_app", "CERTIFICATE_TYPES", "certificate_files"]
 
@@ -80,17 +78,14 @@ class ViewOptions:
 
 # --- what the pages show (plain dicts for the templates) ------------------------
 
-def _status(due: datetime | date | None, as_of: datetime, soon_days: int, overdue: bool | None = None) -> str:
-    """``"overdue"``, ``"soon"``, ``"ok"`` or ``""`` (no due date)."""
+def _status(due: datetime | date | None, as_of: datetime, soon_days: int, overdue: bool | None) -> str:
+    """``"overdue"`` (as the registry judges it: ``overdue``), ``"soon"``, ``"ok"``, or ``""`` without a due date."""
     if overdue:
         return "overdue"
     if due is None:
         return ""
     day = due.date() if isinstance(due, datetime) else due
-    today = as_of.date()
-    if day <= today:
-        return "overdue"
-    return "soon" if day <= today + timedelta(days=soon_days) else "ok"
+    return "soon" if day <= as_of.date() + timedelta(days=soon_days) else "ok"
 
 
 _RANK = {"overdue": 3, "soon": 2, "ok": 1, "": 0}
@@ -171,67 +166,20 @@ def certificate_files(cal: Calibration) -> list[dict[str, Any]]:
     return out
 
 
-def _has_table(reg: Registry, name: str) -> bool:
-    with db.read_connection(reg.engine) as conn:
-        return sa.inspect(conn).has_table(name)
-
-
-def standards_overview(reg: Registry, as_of: datetime, soon_days: int) -> list[dict[str, Any]] | None:
-    """The newest certificate of every reference standard (None when the registry has no standards table)."""
-    table = getattr(db, "standards", None)
-    if table is None or not _has_table(reg, "standards"):
-        return None
-    s = table.c
-    newer = table.alias("newer")
-    with db.read_connection(reg.engine) as conn:
-        rows = conn.execute(sa.select(table).outerjoin(newer, newer.c.supersedes == s.uid)
-                            .where(newer.c.uid.is_(None)).order_by(s.ident, s.id)).mappings().all()
-    return [dict(r, status=_status(r["due"], as_of, soon_days)) for r in rows]
+def standards_overview(reg: Registry, as_of: datetime, soon_days: int) -> list[dict[str, Any]]:
+    """The current certificate of every reference standard with its due mark."""
+    return [{"s": st, "status": _status(st.due, as_of, soon_days, st.overdue(as_of))} for st in reg.standards()]
 
 
 def standard_detail(reg: Registry, ident: str, as_of: datetime, soon_days: int) -> dict[str, Any]:
-    """Every certificate of one standard and every calibration that used one of them."""
-    table, link = getattr(db, "standards", None), getattr(db, "calibration_standards", None)
-    if table is None or link is None or not _has_table(reg, "standards"):
-        raise _NotFound(f"this registry holds no reference standards (no {ident!r})")
-    c = db.calibrations.c
-    with db.read_connection(reg.engine) as conn:
-        certs = conn.execute(sa.select(table).where(table.c.ident == ident).order_by(table.c.id)).mappings().all()
-        if not certs:
-            raise _NotFound(f"no reference standard {ident!r} in {reg.url}")
-        used = conn.execute(
-            sa.select(c.uid, c.performed_at, c.utc_offset_s, c.job, c.certificate, db.sensors.c.serial,
-                      table.c.uid.label("standard_uid"), table.c.due)
-            .select_from(link.join(db.calibrations, c.id == link.c.calibration_id)
-                         .join(db.sensors, db.sensors.c.id == c.sensor_id)
-                         .join(table, table.c.id == link.c.standard_id))
-            .where(table.c.ident == ident).order_by(c.performed_at, c.id)).mappings().all()
-    superseded = {r["supersedes"] for r in certs if r["supersedes"]}
-    rows = []
-    for r in used:
-        performed = r["performed_at"]
-        # Used past the due date of the certificate it relied on: the out-of-date use a lab must review.
-        late = r["due"] is not None and performed.date() > r["due"]
-        rows.append(dict(r, date=performed.isoformat(), late=late))
-    return {"ident": ident, "certificates": [dict(r, status="" if r["uid"] in superseded else
-                                                   _status(r["due"], as_of, soon_days),
-                                                   superseded=r["uid"] in superseded) for r in certs],
-            "used": rows}
-
-
-def standards_used(reg: Registry, uid: str) -> list[dict[str, Any]] | None:
-    """The standard certificates a calibration used (None without a standards table)."""
-    table, link = getattr(db, "standards", None), getattr(db, "calibration_standards", None)
-    if table is None or link is None or not _has_table(reg, "calibration_standards"):
-        return None
-    c = db.calibrations.c
-    with db.read_connection(reg.engine) as conn:
-        rows = conn.execute(
-            sa.select(table, c.performed_at)
-            .select_from(link.join(table, table.c.id == link.c.standard_id)
-                         .join(db.calibrations, c.id == link.c.calibration_id))
-            .where(c.uid == uid).order_by(table.c.ident)).mappings().all()
-    return [dict(r, late=r["due"] is not None and r["performed_at"].date() > r["due"]) for r in rows]
+    """Every certificate of one standard and every calibration that used one of them (``registry impact``)."""
+    try:
+        rep = reg.impact(ident)
+    except UnknownStandardError:
+        raise _NotFound(f"no reference standard {ident!r} in {reg.url}") from None
+    certs = [{"s": st, "status": "" if st.superseded_by else _status(st.due, as_of, soon_days, st.overdue(as_of))}
+             for st in rep.standards]
+    return {"ident": ident, "certificates": certs, "impact": rep}
 
 
 class _NotFound(Exception):
@@ -408,7 +356,7 @@ def create_app(reg: Registry, options: ViewOptions | None = None, *, trusted_hos
     def calibration(uid: str):
         cal = _calibration(uid)
         return render_template("calibration.html", title=f"Calibration {uid[:8]} of {cal.serial}", cal=cal,
-                               files=certificate_files(cal), standards=standards_used(reg, uid),
+                               files=certificate_files(cal),
                                result_json=json.dumps(cal.result, indent=1, ensure_ascii=False)
                                if cal.result is not None else None)
 
