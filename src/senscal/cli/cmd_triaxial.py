@@ -11,14 +11,11 @@ from typing_extensions import Annotated
 from senscal.cli._quantities import units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (
-    FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, TimeColumnOpt, console, emit_warnings, err_console, print_json, progress_bar,
-    table,
+    FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, emit_warnings, err_console, print_json, progress_bar, table,
 )
-from senscal.cli.common import StartOpt, StopOpt, TimeUnitOpt
-from senscal.cli.registry_opts import (
-    CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, StandardOpt, note_standards, save_if_requested,
-    use_standards,
-)
+from senscal.cli.common import StartOpt, StopOpt
+from senscal.cli.option_groups import READ, REGISTRY, command_params, save_registered, with_options
+from senscal.cli.registry_opts import StandardOpt, note_standards, use_standards
 from senscal.errors import InputError
 from senscal.jobs._base import with_read_options
 
@@ -55,6 +52,7 @@ JOB_OPTIONS = {"triaxial-calibrate": _calibrate_options, "triaxial-apply": _appl
 
 @triaxial_app.command("calibrate")
 @units(static_window='s', min_pose='s')
+@with_options(READ, REGISTRY)
 def calibrate_cmd(
     file: Annotated[Path, typer.Argument(help="Recording with three field channels.")],
     channels: Annotated[str, typer.Option("--channels", help="The X,Y,Z channel names, comma separated.")],
@@ -71,35 +69,22 @@ def calibrate_cmd(
     out: Annotated[Optional[Path], typer.Option("--out", help="Write the parameters (for 'triaxial apply') as JSON, or HDF5 for .h5; - for stdout.")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="Sphere projections and norm error before/after (PNG); a one-axis turn or --accel-channels also writes <name>_heading.png.")] = None,
     accel_channels: Annotated[Optional[str], typer.Option("--accel-channels", help="An accelerometer recorded alongside (X,Y,Z names): it is calibrated too, and the tilt-compensated heading error and dip-angle spread are reported before/after.")] = None,
-    time_column: TimeColumnOpt = "t",
-    fs: FsOpt = None,
-    names: NamesOpt = None,
-    skip_rows: SkipRowsOpt = None,
-    time_unit: TimeUnitOpt = None,
-    start: StartOpt = None,
-    stop: StopOpt = None,
     json_out: JsonOpt = False,
-    save: SaveOpt = False,
-    sensor: SensorOpt = None,
-    db: DbOpt = None,
-    create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None,
-    operator: OperatorOpt = None,
     standard: StandardOpt = None,
+    **opts,
 ) -> None:
     """Identify non-orthogonality, gains and offsets from readings in a constant field."""
     from senscal.jobs.triaxial import triaxial_calibrate
 
-    used_standards = use_standards(standard, db=db, date=date)
+    used_standards = use_standards(standard, db=opts["db"], date=opts["date"])
     with progress_bar("calibrating", None):
-        result = triaxial_calibrate(file, _calibrate_options(**locals()))
+        result = triaxial_calibrate(file, _calibrate_options(**command_params(locals(), opts)))
     res, h, unit, tilt = result.calibration, result.readings, result.unit, result.tilt
     doc = result.to_dict()
     if out is not None:
         res.calibration.save(out, extra=doc)  # type + format_version; JSON, or HDF5 for .h5 (senscal.persist)
-    save_if_requested(result, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
-                      operator=operator, job="triaxial", method=result.method, input_files=[file],
-                      conditions=result.conditions, standards=used_standards)
+    save_registered(result, opts, job="triaxial", method=result.method, input_files=[file],
+                    conditions=result.conditions, standards=used_standards)
     if plot is not None:
         from senscal.triaxial.plots import plot_calibration
 
