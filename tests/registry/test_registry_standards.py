@@ -286,3 +286,22 @@ def test_cli_lab_profile_kept_in_step(cli, tmp_path):
     assert "CF-1: certificate DKD-7 in the profile, DKD-8 in the registry" in r.err
     assert "NEW-1" in r.err
     _one_line_error(cli("registry", "standard", "import", "--lab-profile", lab, "--db", db), "--renew")
+
+
+def test_impact_dates_are_the_records_own(db_url):
+    """The impact report's fast date path prints what the records print (offsets, microseconds), and judges
+    overdue on the record's local calibration day."""
+    with open_registry(db_url) as reg:
+        reg.add_standard("REF-1", certificate="PTB-1", due="2026-06-30", u_relative="0.2%")
+        reg.add_sensor("A1", "accelerometer")
+        for i, when in enumerate(("2026-06-30T23:30:00+00:00", "2026-07-01T00:30:00+02:00",
+                                  "2026-06-30T22:00:00.123456-05:00", "2026-07-01T00:00:00.5+00:00")):
+            reg.record("A1", [Quantity("sensitivity", 0.01 + i * 1e-6, 1e-5, "V/(m/s^2)")], performed_at=when,
+                       standards=["REF-1"])
+        recs = {r.uid: r for r in reg.calibrations("A1")}
+        rows = reg.impact("REF-1").rows
+    assert [r.performed_at for r in rows] == [recs[r.calibration].performed_at.isoformat() for r in rows]
+    assert [r.overdue for r in rows] == [recs[r.calibration].standards[0].overdue for r in rows]
+    # 00:30 at +02:00 is 2026-06-30 in UTC but 2026-07-01 where it was measured: overdue there.
+    assert sorted((r.performed_at[:10], r.overdue) for r in rows) == [
+        ("2026-06-30", False), ("2026-06-30", False), ("2026-07-01", True), ("2026-07-01", True)]

@@ -30,7 +30,7 @@ import math
 import re
 from dataclasses import dataclass
 from datetime import date, datetime, timezone
-from typing import Any, Mapping
+from typing import Any, Mapping, NamedTuple
 
 from senscal._result import ResultMixin
 from senscal.errors import InputError
@@ -248,9 +248,11 @@ class StandardUse(ResultMixin):
         return d
 
 
-@dataclass(frozen=True)
-class ImpactRow(ResultMixin):
+class ImpactRow(NamedTuple):
     """One calibration that used a standard (a row of ``registry impact``).
+
+    A named tuple, not a dataclass: an impact report lists up to every
+    record of a registry (100,000 rows in a second, benchmarks/bench_impact.py).
 
     Attributes
     ----------
@@ -284,6 +286,9 @@ class ImpactRow(ResultMixin):
     overdue: bool
     superseded_by: str | None = None
 
+    def to_dict(self) -> dict[str, Any]:
+        return self._asdict()
+
 
 @dataclass(frozen=True)
 class ImpactReport(ResultMixin):
@@ -310,3 +315,9 @@ class ImpactReport(ResultMixin):
     n_sensors: int
     n_certificates: int
     n_overdue: int
+
+    def to_dict(self) -> dict[str, Any]:
+        fields = ImpactRow._fields
+        return {"ident": self.ident, "since": self.since, "standards": [s.to_dict() for s in self.standards],
+                "rows": [dict(zip(fields, r)) for r in self.rows], "n_calibrations": self.n_calibrations,
+                "n_sensors": self.n_sensors, "n_certificates": self.n_certificates, "n_overdue": self.n_overdue}

@@ -333,6 +333,21 @@ def _as_date(value) -> "date":
     return date.fromisoformat(str(value))
 
 
+def _iso_local(value, offset_s: int) -> str:
+    """A stored performed_at as ISO 8601 text in the record's own offset (what ``datetime.isoformat`` prints).
+
+    ``value`` is SQLite's text (``YYYY-MM-DD HH:MM:SS.ffffff``, UTC) or a
+    datetime (PostgreSQL); text in UTC is rewritten without parsing it.
+    """
+    if isinstance(value, str):
+        if offset_s == 0 and len(value) == 26 and value[10] == " ":
+            return value[:10] + "T" + value[11:19] + ("" if value[20:] == "000000" else value[19:]) + "+00:00"
+        value = datetime.fromisoformat(value)
+    if value.tzinfo is None:
+        value = value.replace(tzinfo=UTC)
+    return _localise(value, offset_s).isoformat()
+
+
 def _use(row: Mapping[str, Any], when: datetime) -> StandardUse:
     """A standard row as a calibration performed at ``when`` (its own offset) used it."""
     due = _as_date(row["due"])
@@ -995,34 +1010,35 @@ class Registry:
         ident = check_ident(ident)
         t0 = parse_date(since, what="--since") if since is not None else None
         c, cs, st = calibrations.c, calibration_standards.c, standards.c
-        later = calibrations.alias("later")
         with db.read_connection(self.engine) as conn:
             srows = conn.execute(sa.select(standards).where(st.ident == ident).order_by(st.id)).mappings().all()
             if not srows:
                 raise UnknownStandardError(self._unknown_standard_message(conn, ident))
             by_id = {r["id"]: r for r in srows}
-            stmt = (sa.select(c.uid, c.performed_at, c.utc_offset_s, c.job, c.method, c.certificate, c.operator,
-                              sensors.c.serial, cs.standard_id, later.c.uid.label("superseded_by"))
+            # performed_at as the driver gives it (SQLite: text in UTC): most records are in UTC, and turning
+            # 100,000 of them into datetimes and back into ISO text would take most of the time.
+            stmt = (sa.select(c.uid, sa.type_coerce(c.performed_at, sa.String).label("performed_at"), c.utc_offset_s,
+                              c.job, c.method, c.certificate, c.operator, sensors.c.serial, cs.standard_id)
                     .select_from(calibration_standards)
                     .join(calibrations, c.id == cs.calibration_id)
                     .join(sensors, sensors.c.id == c.sensor_id)
-                    .outerjoin(later, later.c.supersedes == c.uid)
                     .where(cs.standard_id.in_(list(by_id)))
                     .order_by(c.performed_at, c.id))
             if t0 is not None:
                 stmt = stmt.where(c.performed_at >= t0)
             rows = conn.execute(stmt).all()
+            # Corrections are few: one pass over them, not one index lookup per listed record.
+            later = dict(conn.execute(sa.select(c.supersedes, c.uid).where(c.supersedes.is_not(None))
+                                      .order_by(c.recorded_at, c.id)).all())
         later_std = {r["supersedes"]: r["uid"] for r in srows if r["supersedes"]}
-        dues = {i: _as_date(r["due"]) for i, r in by_id.items()}
+        info = {i: (r["certificate"], _as_date(r["due"]).isoformat()) for i, r in by_id.items()}
         out = []
-        for r in rows:
-            when = _localise(r.performed_at, r.utc_offset_s)
-            due = dues[r.standard_id]
-            out.append(ImpactRow(calibration=r.uid, serial=r.serial, performed_at=when.isoformat(), job=r.job,
-                                 method=r.method, certificate=r.certificate, operator=r.operator,
-                                 standard_certificate=by_id[r.standard_id]["certificate"],
-                                 standard_due=due.isoformat(), overdue=overdue_on(due, when),
-                                 superseded_by=r.superseded_by))
+        for uid, when, off, job, method, cert, operator, serial, sid in rows:
+            when = _iso_local(when, off)
+            std_cert, due = info[sid]
+            # ISO dates compare as text: overdue when the due day is before the (local) calibration day.
+            out.append(ImpactRow(uid, serial, when, job, method, cert, operator, std_cert, due, due < when[:10],
+                                 later.get(uid)))
         return ImpactReport(ident=ident, since=t0.isoformat() if t0 is not None else None,
                             standards=tuple(_standard_from(r, later_std.get(r["uid"])) for r in srows),
                             rows=tuple(out), n_calibrations=len(out), n_sensors=len({r.serial for r in out}),
