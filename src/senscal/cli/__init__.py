@@ -158,9 +158,10 @@ def _with_common_checks(group, path: str = "senscal"):
         elif cmd.callback is not None and not getattr(cmd.callback, "_senscal_checked", False):
             def checked(*args, __f=cmd.callback, __p=sub, **kw):
                 from senscal.cli._quantities import convert_options
-                from senscal.cli.common import check_command_outputs
+                from senscal.cli.common import check_command_outputs, set_window
 
                 kw = convert_options(__f, kw)  # '80 mm' -> 0.08 for --radius in m (senscal.cli._quantities)
+                set_window(kw.get("start"), kw.get("stop"))  # recorded in --json, --save and the certificate
                 check_common_options(__p, kw)
                 check_command_outputs(__p, kw)  # every output, before any work (see senscal.io.guard)
                 return __f(*args, **kw)

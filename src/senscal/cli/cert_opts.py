@@ -265,6 +265,10 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     conf_warns = _conformity_warnings(doc)
     if report is None and dcc is None:
         return conf_warns
+    from senscal.cli.common import window_text
+
+    if window_text() is not None:
+        conditions = {**conditions, "record window (--start/--stop)": window_text()}  # which part was used
     from senscal.io.guard import check_output, write_bytes
     from senscal.report.certificate import REPORT_SUFFIXES, certificate_bytes, certificate_id, certificate_warnings
 

@@ -265,8 +265,47 @@ def load(path: Path | str, *, time_column: str = "t", fs: float | None = None,
                           time_required=time_required, start=start, stop=stop, job=job)
 
 
+# --- the part of the record a run used: --start/--stop ---------------------------------------------------
+
+# Set by senscal.cli before every command (None without --start/--stop); the JSON document, the registry
+# record and the certificate carry it, so a saved result says which part of the recording it used.
+_WINDOW: dict[str, Any] | None = None
+
+
+def set_window(start: float | None, stop: float | None) -> None:
+    """Note the ``--start``/``--stop`` window (s from the first sample) of the command about to run."""
+    global _WINDOW
+    _WINDOW = None if start is None and stop is None else {
+        "start_s": start, "stop_s": stop, "relative_to": "the first sample of each recording"}
+
+
+def run_window() -> dict[str, Any] | None:
+    """The window of the running command: ``{"start_s", "stop_s", "relative_to"}``, or None (whole record)."""
+    return None if _WINDOW is None else dict(_WINDOW)
+
+
+def window_text() -> str | None:
+    """The window in words for a certificate: ``"0.5 s to 1.5 s after the first sample of each recording"``."""
+    w = _WINDOW
+    if w is None:
+        return None
+    start, stop = w["start_s"], w["stop_s"]
+    if stop is None:
+        return f"from {start:g} s after the first sample of each recording to its end"
+    if start is None:
+        return f"from the first sample of each recording to {stop:g} s after it"
+    return f"from {start:g} s to {stop:g} s after the first sample of each recording"
+
+
+def with_window(doc: Any) -> Any:
+    """``doc`` (a JSON document) with ``"window"`` added when the run used only part of its records."""
+    if _WINDOW is None or not isinstance(doc, dict) or "window" in doc:
+        return doc
+    return {**doc, "window": run_window()}
+
+
 def print_json(obj: Any) -> None:
-    """Print ``obj`` as indented JSON on stdout.
+    """Print ``obj`` as indented JSON on stdout (with the run's ``--start/--stop`` ``window``, if any).
 
     Raises
     ------
@@ -278,7 +317,7 @@ def print_json(obj: Any) -> None:
     claim_stdout("--json")
     from senscal._result import to_jsonable
 
-    sys.stdout.write(json.dumps(to_jsonable(obj), indent=2) + "\n")
+    sys.stdout.write(json.dumps(to_jsonable(with_window(obj)), indent=2) + "\n")
 
 
 def write_json(obj: Any, path: Path | str) -> Path:

@@ -243,6 +243,12 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
         quantities = result.quantities
     qs = list(quantities() if callable(quantities) else (quantities or []))
     doc = result.to_dict() if hasattr(result, "to_dict") else result
+    from senscal.cli.common import run_window, with_window
+
+    if run_window() is not None:
+        # The part of the records it used (--start/--stop) is part of what was calibrated: in the chain.
+        conditions = {**(conditions or {}), "window": run_window()}
+        doc = with_window(doc)
     job = job or getattr(result, "job", "") or None
     with open_named_registry(db, create=create_sensor is not None,
                              remedy="--create-sensor KIND to start a new registry there with this sensor") as reg:
