@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional
 
+import numpy as np
 import typer
 from typing_extensions import Annotated
 
@@ -167,7 +168,8 @@ def imu_apply_cmd(
 
 @simulate_app.command("imu")
 @units(fs='Hz', init_s='s', pose_s='s', rotation_s='s', accel_noise='m/s^2', gyro_noise='rad/s',
-       bias_drift=ListOf('rad/s^2'))
+       bias_drift=ListOf('rad/s^2'), temperature=ListOf('degC'), accel_bias_tc=ListOf('m/s^2/K'),
+       accel_scale_tc=ListOf('1/K'), gyro_bias_tc=ListOf('rad/s/K'), g_sensitivity=ListOf('rad*s/m'))
 def simulate_imu_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     poses: Annotated[int, typer.Option("--poses", help="Static poses after the still start.")] = 30,
@@ -180,6 +182,11 @@ def simulate_imu_cmd(
     gyro_ar1: Annotated[float, typer.Option("--gyro-ar1", help="AR(1) coefficient of the gyro noise (coloured noise).")] = 0.0,
     bias_drift: Annotated[Optional[str], typer.Option("--bias-drift", help="Gyro bias change per s, x,y,z (rad/s/s).")] = None,
     exclude_axis: Annotated[Optional[int], typer.Option("--exclude-axis", help="Never rotate about this axis (0, 1, 2).")] = None,
+    temperature: Annotated[Optional[str], typer.Option("--temperature", help="Warm-up from T0 to T1 over the session, degC (adds the channel temp; the parameters hold at 25 degC).")] = None,
+    accel_bias_tc: Annotated[Optional[str], typer.Option("--accel-bias-tc", help="Accelerometer bias change x,y,z, m/s^2 per K (with --temperature).")] = None,
+    accel_scale_tc: Annotated[Optional[str], typer.Option("--accel-scale-tc", help="Relative accelerometer scale change x,y,z per K (with --temperature).")] = None,
+    gyro_bias_tc: Annotated[Optional[str], typer.Option("--gyro-bias-tc", help="Gyro bias change x,y,z, rad/s per K (with --temperature).")] = None,
+    g_sensitivity: Annotated[Optional[str], typer.Option("--g-sensitivity", help="Gyro g-sensitivity, 9 numbers row by row, rad/s per m/s^2.")] = None,
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
     """A multi-pose IMU session with known errors: imu.csv + truth JSON."""
@@ -196,9 +203,23 @@ def simulate_imu_cmd(
         raise InputError("--bias-drift needs three comma-separated numbers")
     if exclude_axis is not None and exclude_axis not in (0, 1, 2):
         raise InputError("--exclude-axis must be 0, 1 or 2")
+
+    def numbers(text, what, n):
+        v = tuple(parse_floats(text, what)) if text is not None else None
+        if v is not None and len(v) != n:
+            raise InputError(f"{what} needs {n} comma-separated numbers, got {len(v)}")
+        return v
+
+    temp = numbers(temperature, "--temperature", 2)
+    tcs = {k: numbers(v, f"--{k.replace('_', '-')}", 3) or (0.0, 0.0, 0.0) for k, v in
+           (("accel_bias_tc", accel_bias_tc), ("accel_scale_tc", accel_scale_tc), ("gyro_bias_tc", gyro_bias_tc))}
+    if temp is None and any(any(v) for v in tcs.values()):
+        raise InputError("temperature coefficients need --temperature T0,T1 (the warm-up they act over)")
+    gs = numbers(g_sensitivity, "--g-sensitivity", 9)
     rec, truth = simulate_imu(n_poses=poses, fs=fs, init_s=init_s, pose_s=pose_s, rotation_s=rotation_s,
                               accel_noise=accel_noise, gyro_noise=gyro_noise, gyro_ar1=gyro_ar1, gyro_bias_drift=d,
-                              exclude_axis=exclude_axis, seed=seed)
+                              exclude_axis=exclude_axis, temperature=temp, **tcs,
+                              gyro_g_sensitivity=None if gs is None else np.reshape(gs, (3, 3)), seed=seed)
     p = write_recording(rec, out / "imu.csv")
     q = write_truth(truth, out / "imu_truth.json")
     console.print(f"wrote {p} and {q}")
