@@ -349,3 +349,25 @@ def test_serve_answers_on_loopback_and_stops_cleanly(tmp_path):
             raise
     assert proc.returncode == 0, proc.stderr.read()
     assert hashlib.sha256(db.read_bytes()).hexdigest() == before
+
+
+def test_report_of_a_saved_calibration_downloads_from_anywhere(cli, tmp_path, monkeypatch):
+    """``--report cert.html --save``: the record keeps the certificate's absolute path, so the view finds it
+    whatever folder it runs in."""
+    work = tmp_path / "bench"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    assert cli("simulate", "hydraulic", "--out", "hy", "--seed", "1").code == 0
+    r = cli("velocity", "hy/hydraulic_01.csv", "hy/hydraulic_02.csv", "--position", "position", "--velocity",
+            "velocity", "--report", "cert.html", "--save", "--sensor", "V1", "--create-sensor", "velocity sensor",
+            "--db", tmp_path / "lab.sqlite")
+    assert r.code == 0, r.err
+    monkeypatch.chdir(tmp_path)
+    with open_read_only(tmp_path / "lab.sqlite") as ro:
+        rec = ro.calibrations("V1")[0]
+        assert rec.certificate == str(work / "cert.html")
+        client = create_app(ro).test_client()
+        page = client.get(f"/calibrations/{rec.uid}").get_data(as_text=True)
+        assert "Download the HTML certificate" in page
+        got = client.get(f"/calibrations/{rec.uid}/certificate.html")
+        assert got.status_code == 200 and got.data == (work / "cert.html").read_bytes()

@@ -250,6 +250,13 @@ def save_if_requested(result: Any, *, save: bool, sensor: str | None, db: str | 
         conditions = {**(conditions or {}), "window": run_window()}
         doc = with_window(doc)
     job = job or getattr(result, "job", "") or None
+    if isinstance(certificate, Path):
+        from senscal.io.guard import is_stdio
+
+        if not is_stdio(certificate):
+            # The file --report writes, as an absolute path: 'registry serve' offers it for download from
+            # wherever it runs (a relative path would name another file there).
+            certificate = certificate.resolve()
     with open_named_registry(db, create=create_sensor is not None,
                              remedy="--create-sensor KIND to start a new registry there with this sensor") as reg:
         rec = reg.record(sensor, qs, performed_at=when, job=job, method=method, conditions=conditions,
