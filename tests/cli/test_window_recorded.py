@@ -60,3 +60,11 @@ def test_registry_record_and_certificate_carry_it(cli, tmp_path):
     assert cli("registry", "export", tmp_path / "exp2.json", "--db", db).code == 0
     recs = json.loads((tmp_path / "exp2.json").read_text())["sensors"][0]["calibrations"]
     assert sorted(c["conditions"]["window"]["start_s"] for c in recs) == [1.0, 2.0]
+
+
+def test_batch_summary_carries_the_jobs_window(cli, sine):
+    r = cli("batch", "fit", sine, "--workers", "1", "--start", "500 ms", "--json")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    assert doc["window"] == {**WINDOW, "stop_s": None}
+    assert doc["rows"][0]["result"]["channels"]["ch1"]["n_samples"] == 1500

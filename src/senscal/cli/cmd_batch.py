@@ -143,6 +143,10 @@ def batch_cmd(
         check_output(out)
     # Parsed here, once: a typo fails before a cluster starts, and workers get typed options, not words.
     options, strict = job_options(job, files[0], extra)
+    from senscal.cli.common import set_window
+
+    # The job's --start/--stop window is the batch's: its --json summary says which part of each record was used.
+    set_window(getattr(options, "start", None), getattr(options, "stop", None))
     with progress_bar(f"{job} on {len(files)} recordings", len(files)) as advance:
         summary = run_batch(job, files, options, workers=workers, scheduler=scheduler, files_per_task=files_per_task,
                             strict=strict, on_done=lambda r: advance())
