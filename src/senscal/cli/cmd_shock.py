@@ -8,6 +8,7 @@ from typing import List, Optional
 import typer
 from typing_extensions import Annotated
 
+from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt,
                                 TimeUnitOpt, console, emit_warnings, parse_relative, print_json, progress_bar, table)
@@ -34,6 +35,7 @@ JOB_OPTIONS = {"shock": _shock_options}
 
 
 @app.command("shock")
+@units(lowpass_hz="Hz")
 def shock_cmd(
     files: Annotated[List[Path], typer.Argument(help="Recordings of half-sine shock pulses: the accelerometer's output and a reference accelerometer or a laser.")],
     output: Annotated[str, typer.Option("--output", help="Channel of the accelerometer under test.")] = "out",
@@ -42,7 +44,7 @@ def shock_cmd(
     u_reference: Annotated[Optional[str], typer.Option("--u-reference", help="Type B relative standard u of the reference sensitivity, e.g. 0.5%.")] = None,
     laser: Annotated[Optional[str], typer.Option("--laser", help="ISO 16063-13: channel of the laser, velocity (m/s) or displacement (m) by its unit.")] = None,
     laser_quantity: Annotated[Optional[str], typer.Option("--laser-quantity", help="velocity or displacement, when the laser channel's unit is not in the file.")] = None,
-    lowpass_hz: Annotated[Optional[float], typer.Option("--lowpass-hz", help="The stated low-pass (zero-phase Butterworth, -6 dB here, Hz) on both channels.")] = None,
+    lowpass_hz: Annotated[Optional[str], typer.Option("--lowpass-hz", help="The stated low-pass (zero-phase Butterworth, -6 dB here, Hz) on both channels.")] = None,
     lowpass_order: Annotated[int, typer.Option("--lowpass-order", help="Order of the low-pass.")] = 4,
     u_other: Annotated[Optional[str], typer.Option("--u-other", help="Type B: other relative standard u (transverse motion, mounting ...), e.g. 0.3%.")] = None,
     strict: StrictOpt = False,
@@ -75,21 +77,23 @@ def shock_cmd(
 
 
 @simulate_app.command("shock")
+@units(durations_ms=ListOf("ms"), peak="m/s^2", fs="Hz", sensitivity="V/(m/s^2)", reference_sensitivity="V/(m/s^2)",
+       resonance_hz="Hz")
 def simulate_shock_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     durations_ms: Annotated[str, typer.Option("--durations-ms", help="Half-sine durations, ms, comma separated (one record each).")] = "0.1,1,10",
-    peak: Annotated[float, typer.Option("--peak", help="Peak acceleration, m/s^2.")] = 1000.0,
+    peak: Annotated[str, typer.Option("--peak", help="Peak acceleration, m/s^2.")] = "1000",
     pulses: Annotated[int, typer.Option("--pulses", help="Pulses per record (each 30 % / n lower than the one before).")] = 1,
-    fs: Annotated[Optional[float], typer.Option("--fs", help="Sample rate, Hz (default 200 samples a pulse, at least 100 kS/s).")] = None,
+    fs: Annotated[Optional[str], typer.Option("--fs", help="Sample rate, Hz (default 200 samples a pulse, at least 100 kS/s).")] = None,
     mode: Annotated[str, typer.Option("--mode", help="comparison (reference accelerometer) or primary (laser).")] = "comparison",
     laser: Annotated[str, typer.Option("--laser", help="primary: velocity or displacement.")] = "velocity",
-    sensitivity: Annotated[float, typer.Option("--sensitivity", help="Accelerometer sensitivity, V per m/s^2.")] = 1e-4,
-    reference_sensitivity: Annotated[float, typer.Option("--reference-sensitivity", help="Stated reference sensitivity, V per m/s^2.")] = 1e-4,
+    sensitivity: Annotated[str, typer.Option("--sensitivity", help="Accelerometer sensitivity, V per m/s^2.")] = "1e-4",
+    reference_sensitivity: Annotated[str, typer.Option("--reference-sensitivity", help="Stated reference sensitivity, V per m/s^2.")] = "1e-4",
     u_reference: Annotated[float, typer.Option("--u-reference", help="Relative standard u of the reference sensitivity; its true value is drawn from it.")] = 0.0,
     noise: Annotated[float, typer.Option("--noise", help="Output and reference noise relative to their peak.")] = 1e-3,
     noise_ar1: Annotated[float, typer.Option("--noise-ar1", help="AR(1) coefficient of the noise (coloured).")] = 0.0,
     laser_noise: Annotated[Optional[float], typer.Option("--laser-noise", help="Laser noise, m/s or m (default 1e-3 of the velocity change, or 1 nm).")] = None,
-    resonance_hz: Annotated[Optional[float], typer.Option("--resonance-hz", help="The mounted sensor's resonance (ringing), Hz.")] = None,
+    resonance_hz: Annotated[Optional[str], typer.Option("--resonance-hz", help="The mounted sensor's resonance (ringing), Hz.")] = None,
     resonance_q: Annotated[float, typer.Option("--resonance-q", help="Its quality factor.")] = 30.0,
     zero_shift: Annotated[float, typer.Option("--zero-shift", help="Zero shift of the output across a pulse, relative to its peak.")] = 0.0,
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
