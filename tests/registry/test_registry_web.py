@@ -253,6 +253,23 @@ def test_unknown_things_are_404_and_foreign_hosts_400(site):
 
 # --- opening read-only -------------------------------------------------------------------
 
+def test_both_back_ends_are_read_only(db_url, tmp_path):
+    """SQLite (mode=ro, query_only) and PostgreSQL (read-only sessions): the view reads, nothing writes."""
+    reg, recs = _fill(db_url, tmp_path)
+    reg.close()
+    with open_read_only(db_url) as ro:
+        client = create_app(ro, ViewOptions(tolerance=0.02, as_of=AS_OF)).test_client()
+        assert "/sensors/A1" in client.get("/").get_data(as_text=True)
+        assert client.get(f"/calibrations/{recs[-1].uid}/certificate.pdf").status_code == 200
+        with pytest.raises(DBAPIError):
+            with ro.engine.begin() as conn:
+                conn.execute(sa.text("INSERT INTO sensors (serial, kind, created_at) "
+                                     "VALUES ('X', 'y', CURRENT_TIMESTAMP)"))
+    with open_registry(db_url) as again:
+        assert [s.serial for s in again.sensors()] == ["A1", "B2"]
+
+
+
 def test_open_read_only_refuses_what_is_no_registry(tmp_path):
     from senscal.errors import InputError
 
