@@ -299,15 +299,15 @@ def _write_rows(write, out) -> None:
 
 
 @simulate_app.command("drift")
-@units(days='day', dt='s', ramp_start_day='day', signal_tau='s', ramp_start_s='s')
+@units(days='day', dt='s', ramp_start_day='day', signal_tau='s', ramp_start_s='s', noise='kPa', ramp_rate='kPa/day')
 def simulate_drift_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
     days: Annotated[str, typer.Option("--days", help="Record length in days.")] = "10.0",
     dt: Annotated[str, typer.Option("--dt", help="Sample interval in s.")] = "300.0",
-    noise: Annotated[float, typer.Option("--noise", help="Sensor noise standard deviation (kPa).")] = 0.05,
+    noise: Annotated[str, typer.Option("--noise", help="Sensor noise standard deviation (kPa).")] = "0.05",
     ramp_start_day: Annotated[str, typer.Option("--ramp-start-day", help="Drift onset of channel 'drift' (day).")] = "4.0",
-    ramp_rate: Annotated[float, typer.Option("--ramp-rate", help="Ramp slope of channel 'drift' (kPa/day).")] = 0.3,
+    ramp_rate: Annotated[str, typer.Option("--ramp-rate", help="Ramp slope of channel 'drift' (kPa/day).")] = "0.3",
     temperature_coefficient: Annotated[float, typer.Option("--temperature-coefficient", help="Thermal bias coefficient of channel 'thermal' (kPa/degC).")] = 0.04,
     layout: Annotated[str, typer.Option("--layout", help="three (ref/drift/thermal over days) | pair (s1 trusted, s2 biased) | known (one sensor g whose true value is 0) | covariate (one sensor x with a temperature-linked bias).")] = "three",
     samples: Annotated[int, typer.Option("--samples", help="Samples of the pair/known/covariate layouts.")] = 600,
