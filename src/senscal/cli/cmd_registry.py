@@ -312,9 +312,11 @@ def verify_cmd(db: DbOpt = None, create: CreateOpt = False, json_out: JsonOpt = 
         url = reg.url
     if json_out:
         print_json({"database": url, "intact": rep.intact, "n_records": rep.n_records, "head": rep.head,
-                    "first_broken": rep.first_broken, "problems": list(rep.problems)})
+                    "first_broken": rep.first_broken, "problems": list(rep.problems),
+                    "n_standards": rep.n_standards})
     elif rep.intact:
-        console.print(f"{url}: {rep.n_records} records, hash chain intact; head {rep.head or '-'}")
+        stds = f" and {rep.n_standards} reference-standard certificates" if rep.n_standards else ""
+        console.print(f"{url}: {rep.n_records} records{stds}, hash chain intact; head {rep.head or '-'}")
     if not rep.intact:
         raise DiagnosticError(_tamper_warning(rep, url))
 
@@ -331,7 +333,8 @@ def export_cmd(
         url = reg.url
     write_json(doc, file)
     n = sum(len(s["calibrations"]) for s in doc["sensors"])
-    err_console.print(f"exported {len(doc['sensors'])} sensors and {n} records from {url} to {file}")
+    stds = f", {len(doc['standards'])} reference-standard certificates" if doc.get("standards") else ""
+    err_console.print(f"exported {len(doc['sensors'])} sensors{stds} and {n} records from {url} to {file}")
 
 
 @registry_app.command("import")
