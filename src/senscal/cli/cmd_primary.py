@@ -72,16 +72,23 @@ def primary_cmd(
         print_json(doc)
         emit_warnings(res.warnings, strict)
         return
+    def fc_diff(p):
+        # fringe counting's cross-check where the count resolves the displacement to 1e-3, else "-"
+        fc = p.get("fringe_count")
+        return f"{fc['difference_rel']:+.2e}" if fc and fc["applies"] else "-"
+
     rows = [[f"{p['frequency_hz']:.6g}", p["sensitivity"], 2 * p["u_sensitivity"], p["phase_deg"], 2 * p["u_phase_deg"],
-             f"{p['fringes']:.1f}"] for p in doc["points"]]
-    console.print(table(f"Primary calibration ({doc['method']}); U at k=2",
+             f"{p['fringes']:.1f}", fc_diff(p)] for p in doc["points"]]
+    console.print(table(f"Primary calibration ({doc['method']}); U at k=2; SA/FC - 1: sine approximation over "
+                        "fringe counting",
                         ["f / Hz", f"S / {doc['sensitivity_unit']}", "U(S)", "phase / deg", "U(phase) / deg",
-                         "fringes"], rows))
+                         "fringes", "SA/FC - 1"], rows))
     emit_warnings(res.warnings, strict)
 
 
 @simulate_app.command("interferometer")
-@units(freqs=ListOf('Hz'), fs='Hz', duration='s', sensitivity='V/(m/s^2)', phase_deg='deg')
+@units(freqs=ListOf('Hz'), fs='Hz', duration='s', sensitivity='V/(m/s^2)', phase_deg='deg',
+       acceleration=ListOf('m/s^2'))
 def simulate_interferometer_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     freqs: Annotated[str, typer.Option("--freqs", help="Excitation frequencies, Hz, comma separated.")] = "10,160,1000,5000",
@@ -89,6 +96,7 @@ def simulate_interferometer_cmd(
     duration: Annotated[str, typer.Option("--duration", help="Record length per frequency, s.")] = "1.0",
     sensitivity: Annotated[str, typer.Option("--sensitivity", help="Accelerometer sensitivity, V per m/s^2.")] = "0.01",
     phase_deg: Annotated[str, typer.Option("--phase-deg", help="Output phase minus acceleration phase, deg.")] = "-2.0",
+    acceleration: Annotated[Optional[str], typer.Option("--acceleration", help="Acceleration amplitude, m/s^2: one for all frequencies or one per frequency (default 1 m/s^2, at least 0.5 um).")] = None,
     laser_noise: Annotated[float, typer.Option("--laser-noise", help="Noise on I and Q relative to their amplitude.")] = 2e-3,
     harmonic_distortion: Annotated[float, typer.Option("--harmonic-distortion", help="Exciter's 2nd harmonic acceleration relative to the fundamental's.")] = 0.0,
     output_drift: Annotated[float, typer.Option("--output-drift", help="Linear output drift over the record, relative.")] = 0.0,
@@ -105,9 +113,14 @@ def simulate_interferometer_cmd(
     fl = parse_floats(freqs, "--freqs")
     if not fl or not fs > 0 or not duration > 0 or any(not 0 < f < fs / 2 for f in fl):
         raise InputError("--freqs must lie between 0 and fs/2, --fs and --duration must be positive")
+    acc = [None] * len(fl) if acceleration is None else parse_floats(acceleration, "--acceleration")
+    if len(acc) == 1:
+        acc = acc * len(fl)
+    if len(acc) != len(fl) or any(a is not None and not a > 0 for a in acc):
+        raise InputError("--acceleration takes one positive amplitude for all frequencies or one per frequency")
     recs, pts = [], []
     for i, f in enumerate(fl):
-        rec, tr = simulate_interferometer(freq=f, fs=fs, duration=duration, sensitivity=sensitivity,
+        rec, tr = simulate_interferometer(freq=f, acceleration=acc[i], fs=fs, duration=duration, sensitivity=sensitivity,
                                           phase_deg=phase_deg, laser_noise=laser_noise,
                                           harmonic_distortion=harmonic_distortion, output_drift_rel=output_drift,
                                           hum_rel=hum, swap_iq=swap_iq, seed=None if seed is None else seed + i)

@@ -23,8 +23,8 @@ from senscal._result import ResultMixin
 from senscal.diagnostics import named
 from senscal.errors import DataError, InputError
 
-__all__ = ["HeydemannFit", "PrimaryPoint", "heydemann_fit", "corrected_phase", "calibrate_point",
-           "check_wavelength"]
+__all__ = ["HeydemannFit", "PrimaryPoint", "FringeCount", "heydemann_fit", "corrected_phase", "calibrate_point",
+           "check_wavelength", "fringe_count"]
 
 HEYDEMANN_NAMES = ("offset_i", "offset_q", "gain_ratio", "quadrature_error_rad")
 
@@ -175,6 +175,84 @@ def check_wavelength(wavelength_nm: float) -> None:
 
 
 @dataclass(frozen=True)
+class FringeCount(ResultMixin):
+    """Displacement amplitude by fringe counting (ISO 16063-11 method 1), the magnitude cross-check.
+
+    Attributes
+    ----------
+    displacement_m, u_displacement_m : float
+        ``lambda N / (16 M)`` from ``N`` zero crossings of the offset-free I signal over ``M`` whole
+        periods; u from the count's resolution (each half-period's count is off by less than one
+        crossing, rectangular), m.
+    crossings : int
+    periods : int
+    sensitivity, u_sensitivity : float
+        The output's fundamental per m/s^2 of ``(2 pi f)^2`` times this displacement.
+    difference_rel : float
+        Sine approximation's sensitivity over this one, minus 1.
+    applies : bool
+        The count resolves the displacement to 1e-3 (at least 577 crossings a half period); below,
+        fringe counting is too coarse to check the magnitude.
+    """
+
+    displacement_m: float
+    u_displacement_m: float
+    crossings: int
+    periods: int
+    sensitivity: float
+    u_sensitivity: float
+    difference_rel: float
+    applies: bool
+
+
+FRINGE_RESOLUTION = 1e-3  # relative u of the count below which the cross-check applies
+
+
+def fringe_count(i_sig, fs: float, freq: float, wavelength_nm: float, *, offset: float | None = None,
+                 amplitude: float | None = None, hysteresis: float = 0.02) -> tuple[float, float, int, int]:
+    """Displacement amplitude from the zero crossings of one interferometer signal (ISO 16063-11 method 1).
+
+    Parameters
+    ----------
+    i_sig : array_like, shape (N,)
+        One interferometer output (``p + a cos(4 pi s / lambda)``).
+    fs, freq : float
+        Sample rate and excitation frequency, Hz.
+    wavelength_nm : float
+    offset, amplitude : float, optional
+        ``p`` and ``a`` (from the Heydemann fit); estimated from the signal's extremes when omitted.
+    hysteresis : float
+        A crossing counts when the signal goes from below ``-h a`` to above ``+h a`` or back, so that noise
+        near a turning point does not chatter; a turning point within ``asin(h) / pi`` of a crossing may
+        lose it, which widens each half period's count error to ``1 + 2 asin(h) / pi``.
+
+    Returns
+    -------
+    (displacement_m, u_displacement_m, crossings, periods)
+        Over the whole periods from the record's start; each half period's count is off by less than one
+        crossing (rectangular, the same every half period when the motion is steady), the record's ends
+        by less than one.
+    """
+    x = np.asarray(i_sig, float)
+    p = 0.5 * (float(x.max()) + float(x.min())) if offset is None else float(offset)
+    a = 0.5 * float(np.ptp(x)) if amplitude is None else float(amplitude)
+    m = int(math.floor(x.size * freq / fs))
+    if m < 1:
+        raise DataError("fringe counting needs at least one whole period of the vibration in the record")
+    seg = x[:int(round(m * fs / freq))] - p
+    h = hysteresis * abs(a)
+    state = np.where(seg > h, 1, np.where(seg < -h, -1, 0))
+    state = state[state != 0]
+    n = int(np.count_nonzero(np.diff(state)))
+    lam = wavelength_nm * 1e-9
+    disp = lam * n / (16.0 * m)
+    half = max(n / (2.0 * m), 1e-300)
+    width = 1.0 + 2.0 * math.asin(min(hysteresis, 1.0)) / math.pi
+    u_rel = math.sqrt(width * width / (3.0 * half * half) + 1.0 / (3.0 * max(n, 1) ** 2))
+    return disp, disp * u_rel, n, m
+
+
+@dataclass(frozen=True)
 class PrimaryPoint(ResultMixin):
     """Sensitivity of an accelerometer at one frequency against the interferometer.
 
@@ -196,6 +274,8 @@ class PrimaryPoint(ResultMixin):
         Residual RMS of the displacement (m) and output fits, the ellipse residual.
     slices : int
         Number of per-period (sliced) fits.
+    fringe_count : FringeCount or None
+        Fringe counting's magnitude cross-check (None where the record holds under one period).
     warnings : tuple of str
     """
 
@@ -211,6 +291,7 @@ class PrimaryPoint(ResultMixin):
     budget: dict
     residual: dict
     slices: int
+    fringe_count: FringeCount | None = None
     warnings: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
@@ -219,6 +300,7 @@ class PrimaryPoint(ResultMixin):
                 "displacement_m": self.displacement_m, "acceleration": self.acceleration, "fringes": self.fringes,
                 "heydemann": self.heydemann.to_dict(), "residual": dict(self.residual),
                 "budget": {k: dict(v) for k, v in self.budget.items()}, "slices": self.slices,
+                "fringe_count": None if self.fringe_count is None else self.fringe_count.to_dict(),
                 "warnings": list(self.warnings)}
 
 
@@ -465,7 +547,27 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
     residual = {"displacement_rms_m": float(np.asarray(fit.residual_rms)[0]),
                 "output_rms": float(np.asarray(fit.residual_rms)[1]), "ellipse_radius_rms": hf.radius_rms,
                 "removed_tones_hz": tones, "slices_u_rel": s_rel, "slices_u_phase_deg": deg(s_ph) if s_ph == s_ph else s_ph}
+    fc = None
+    if n * freq / fs >= 1.0:
+        # hysteresis a few noise sigmas (the ellipse's radius residual is the noise relative to a)
+        d_fc, u_d_fc, n_fc, m_fc = fringe_count(x, fs, freq, wavelength_nm, offset=hf.offset_i,
+                                                amplitude=hf.amplitude_i,
+                                                hysteresis=min(max(6.0 * hf.radius_rms, 0.005), 0.5))
+        if d_fc > 0:
+            s_fc = ao / (w * w * d_fc)
+            u_s_fc = abs(s_fc) * math.hypot(u_d_fc / d_fc, uao / ao)
+            applies = u_d_fc / d_fc <= FRINGE_RESOLUTION
+            diff = sens / s_fc - 1.0
+            fc = FringeCount(displacement_m=d_fc, u_displacement_m=u_d_fc, crossings=n_fc, periods=m_fc,
+                             sensitivity=s_fc, u_sensitivity=u_s_fc, difference_rel=diff, applies=applies)
+            # the two methods share the output's fit: their difference is the displacements' difference
+            u_diff = math.hypot(u_d_fc / d_fc, ud_rel, u_hey_rel)
+            if applies and abs(diff) > 2.0 * u_diff:
+                warnings.append(named("fringe-count-mismatch", f"fringe counting gives a displacement "
+                                      f"{-diff:+.2%} off the sine approximation's ({abs(diff) / u_diff:.1f} u): "
+                                      "the motion is not a pure sine (exciter distortion counts in the fringes, "
+                                      "not in the fundamental) or the fringes are miscounted"))
     return PrimaryPoint(frequency_hz=float(freq), sensitivity=float(sens), u_sensitivity=float(sens * u_rel),
                         phase_deg=deg(phase), u_phase_deg=u_ph, displacement_m=ad, acceleration=acc,
                         fringes=fringes, heydemann=hf, budget=budget, residual=residual, slices=max(m, 0),
-                        warnings=tuple(dict.fromkeys(warnings)))
+                        fringe_count=fc, warnings=tuple(dict.fromkeys(warnings)))
