@@ -305,3 +305,21 @@ def test_impact_dates_are_the_records_own(db_url):
     # 00:30 at +02:00 is 2026-06-30 in UTC but 2026-07-01 where it was measured: overdue there.
     assert sorted((r.performed_at[:10], r.overdue) for r in rows) == [
         ("2026-06-30", False), ("2026-06-30", False), ("2026-07-01", True), ("2026-07-01", True)]
+
+
+def test_impact_is_an_index_range_scan(tmp_path):
+    """The impact query reads calibration_standards through its (standard, calibration) index, never the
+    whole table (the 100,000-record timing is benchmarks/bench_impact.py)."""
+    from sqlalchemy import event
+
+    url = f"sqlite:///{tmp_path / 'r.sqlite'}"
+    with _registry_with_history(url) as reg:
+        seen = []
+        event.listen(reg.engine, "before_cursor_execute",
+                     lambda conn, cur, stmt, params, ctx, many: seen.append((stmt, params)))
+        reg.impact("REF-1", since="2026-01-01")
+        [(sql, params)] = [(s, p) for s, p in seen if "calibration_standards" in s]
+        with reg.engine.connect() as conn:
+            plan = " | ".join(r[-1] for r in conn.exec_driver_sql("EXPLAIN QUERY PLAN " + sql, params))
+    assert "ix_calibration_standards_standard" in plan, plan
+    assert "SCAN" not in plan, plan  # every table by index or primary key, none read whole
