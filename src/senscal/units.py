@@ -256,9 +256,9 @@ def parse_quantity(text: str | float | None, unit: str, *, option: str) -> float
     m = _QTY.match(str(text))
     if m is not None and m.group(2)[:1] in (",", "."):
         raise InputError(f"{option} {text!r} has a decimal comma or a stray mark; write the number with a decimal "
-                         "point, e.g. 0.05 or '50 mV/(m/s^2)'")
+                         f"point, e.g. 0.05 or '0.05 {unit}'")
     if m is None:
-        raise InputError(f"{option} must be a number, optionally with a unit (e.g. 0.05 or '50 mV/(m/s^2)'), "
+        raise InputError(f"{option} must be a number, optionally with a unit (e.g. 0.05 or '0.05 {unit}'), "
                          f"got {text!r}")
     value, given = float(m.group(1)), m.group(2)
     if given.startswith("/"):

@@ -85,8 +85,12 @@ def _one(text: Any, unit: str, option: str) -> float | None:
         return float(text)
     except (TypeError, ValueError):
         pass
-    from senscal.units import parse_quantity
+    from senscal.units import _QTY, parse_quantity
 
+    if _QTY.match(str(text)) is None:
+        # Not even a number first: the message of any other invalid option value, with this option's unit.
+        raise InputError(f"invalid value for '{option}': {str(text)!r} is not a number (in {unit}) or a quantity "
+                         f"such as '2.5 {unit}'")
     return parse_quantity(text, unit, option=option)
 
 
