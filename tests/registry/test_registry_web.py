@@ -388,3 +388,25 @@ def test_report_of_a_saved_calibration_downloads_from_anywhere(cli, tmp_path, mo
         assert "Download the HTML certificate" in page
         got = client.get(f"/calibrations/{rec.uid}/certificate.html")
         assert got.status_code == 200 and got.data == (work / "cert.html").read_bytes()
+
+
+def test_overview_reads_every_history_in_one_query_with_the_same_points(db_url, tmp_path):
+    """``Registry.histories()`` (the overview's one query) gives each sensor the points ``history()`` gives,
+    superseded records left out unless asked for; ``drift_report`` on them is ``drift``."""
+    from senscal.registry.store import drift_report
+
+    reg, recs = _fill(db_url, tmp_path)
+    reg.record("A1", [Quantity("sensitivity", 0.0101, 1e-6, "V/(m/s^2)", 2.0)], performed_at="2021-03-01",
+               supersedes=recs[1].uid, note="corrected")
+    reg.add_sensor("C3", "accelerometer")
+    reg.record("C3", [Quantity("sensitivity", 0.02, 1e-5, "V/(m/s^2)")], performed_at="2024-01-01")
+    for superseded in (False, True):
+        every = reg.histories(include_superseded=superseded)
+        assert set(every) == {"A1", "C3"}  # B2 has no records
+        for serial, pts in every.items():
+            assert pts == reg.history(serial, include_superseded=superseded)
+    pts = [p for p in reg.histories()["A1"] if p.quantity == "sensitivity"]
+    a = drift_report("A1", "sensitivity", pts, tolerance=0.02, as_of=AS_OF)
+    b = reg.drift("A1", "sensitivity", tolerance=0.02, as_of=AS_OF)
+    assert a.to_dict() == b.to_dict() and a.due_date == b.due_date and a.fit.n_records == 4
+    reg.close()

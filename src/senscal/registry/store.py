@@ -29,7 +29,7 @@ from senscal.quantity import Quantity, check_text as _check_text
 __all__ = [
     "Registry", "open_registry", "Sensor", "Quantity", "Calibration", "HistoryPoint", "DriftReport",
     "UnknownSensorError", "DuplicateSensorError", "UnknownQuantityError", "parse_date", "sha256_file",
-    "EXPORT_FORMAT", "ChainReport", "ReferenceStandard", "StandardUse", "ImpactReport", "ImpactRow",
+    "EXPORT_FORMAT", "ChainReport", "drift_report", "ReferenceStandard", "StandardUse", "ImpactReport", "ImpactRow",
     "UnknownStandardError", "DuplicateStandardError",
 ]
 
@@ -767,36 +767,36 @@ class Registry:
         UnknownSensorError, UnknownQuantityError
         """
         c, q = calibrations.c, quantities.c
-        later = calibrations.alias("later")
         with db.read_connection(self.engine) as conn:
             sid = self._sensor_id(conn, serial)
-            # Only the columns a history shows: the full result JSON of each record is not read.
-            stmt = (sa.select(c.performed_at, c.utc_offset_s, c.uid, c.job, c.method, c.operator, c.note,
-                              c.certificate, c.supersedes, later.c.uid.label("superseded_by"),
-                              q.name, q.value, q.uncertainty, q.unit, q.k)
-                    .join(quantities, q.calibration_id == c.id)
-                    .outerjoin(later, later.c.supersedes == c.uid)
-                    .where(c.sensor_id == sid)
-                    .order_by(c.performed_at, c.recorded_at, c.id, q.id))
+            stmt = _history_select(include_superseded).where(c.sensor_id == sid)
             if quantity is not None:
                 stmt = stmt.where(q.name == quantity)
-            if not include_superseded:
-                stmt = stmt.where(later.c.uid.is_(None))
             rows = conn.execute(stmt).all()
             known = None
             if quantity is not None and not rows:
                 known = sorted(conn.execute(sa.select(q.name).distinct().join(calibrations, q.calibration_id == c.id)
                                             .where(c.sensor_id == sid)).scalars())
-        points = [HistoryPoint(date=_localise(r.performed_at, r.utc_offset_s).isoformat(), quantity=r.name,
-                               value=r.value, uncertainty=r.uncertainty, unit=r.unit, k=r.k,
-                               expanded_uncertainty=r.k * r.uncertainty, uid=r.uid, job=r.job, method=r.method,
-                               operator=r.operator, note=r.note, certificate=r.certificate, supersedes=r.supersedes,
-                               superseded_by=r.superseded_by) for r in rows]
+        points = [_history_point(r) for r in rows]
         if known is not None:
             raise UnknownQuantityError(
                 f"sensor {serial!r} has no recorded quantity {quantity!r}; "
                 + (f"recorded quantities: {', '.join(known)}" if known else "it has no calibration records yet"))
         return points
+
+    @_db_errors
+    def histories(self, *, include_superseded: bool = False) -> dict[str, list[HistoryPoint]]:
+        """Every sensor's history at once, ``{serial: points}`` (sensors without records absent).
+
+        One query for the whole registry (the web view's overview), the same
+        points :meth:`history` gives per sensor.
+        """
+        with db.read_connection(self.engine) as conn:
+            rows = conn.execute(_history_select(include_superseded, serial=True)).all()
+        out: dict[str, list[HistoryPoint]] = {}
+        for r in rows:
+            out.setdefault(r.serial, []).append(_history_point(r))
+        return out
 
     @_db_errors
     def drift(self, serial: str, quantity: str, *, tolerance: float | None = None, relative: bool = True,
@@ -825,35 +825,8 @@ class Registry:
         TooFewSamplesError
             Fewer than two (non-superseded) records of the quantity.
         """
-        pts = self.history(serial, quantity)
-        import numpy as np  # here, not at module level: record/show/list/due never need it
-
-        pts = _in_one_unit(pts, serial, quantity)
-        if len(pts) < 2:
-            raise _too_few(serial, quantity, len(pts))
-        dates = [datetime.fromisoformat(p.date) for p in pts]
-        epoch = min(dates)
-        t = np.array([(d - epoch).total_seconds() / 86400.0 / DAYS_PER_YEAR for d in dates])
-        fit = fit_drift(t, [p.value for p in pts], [p.uncertainty for p in pts], alpha=alpha)
-        if nominal is not None and not math.isfinite(nominal):
-            raise InputError(f"--nominal must be a finite number, got {nominal}")
-        reference = float(nominal) if nominal is not None else pts[0].value
-        due = None
-        due_date = None
-        tol_abs = None
-        if tolerance is not None:
-            tol_abs = float(tolerance) * abs(reference) if relative else float(tolerance)
-            due = due_time(fit, t_last=float(t.max()), reference=reference, tolerance=tol_abs, k=k)
-            if due.t_due is not None:
-                due_date = (epoch + timedelta(days=due.t_due * DAYS_PER_YEAR)).replace(microsecond=0)
-        scale = abs(reference) if reference != 0 else math.nan
-        return DriftReport(
-            serial=serial, quantity=quantity, unit=pts[0].unit, epoch=epoch, first_date=min(dates), last_date=max(dates),
-            fit=fit, drift_per_year=fit.drift_per_year, u_drift_per_year=fit.u_drift_per_year,
-            relative_drift_per_year=fit.drift_per_year / scale, u_relative_drift_per_year=fit.u_drift_per_year / scale,
-            significant=fit.significant, reference=reference,
-            reference_source="nominal" if nominal is not None else "first record",
-            tolerance=tol_abs, due=due, due_date=due_date, as_of=parse_date(as_of, what="as_of"))
+        return drift_report(serial, quantity, self.history(serial, quantity), tolerance=tolerance, relative=relative,
+                            nominal=nominal, k=k, alpha=alpha, as_of=as_of)
 
     # reference standards -----------------------------------------------------
 
@@ -1283,6 +1256,67 @@ class Registry:
                 present.add(r["uid"])
                 added["calibrations"] += 1
             pending = [r for r in pending if r not in ready]
+
+
+def drift_report(serial: str, quantity: str, points: Sequence[HistoryPoint], *, tolerance: float | None = None,
+                 relative: bool = True, nominal: float | None = None, k: float = 2.0, alpha: float = 0.05,
+                 as_of: datetime | str | None = None) -> DriftReport:
+    """:meth:`Registry.drift` of a quantity's current (not superseded) history points (pure; no database).
+
+    ``points`` are those of ``Registry.history(serial, quantity)``; the other
+    parameters are :meth:`Registry.drift`'s.
+    """
+    pts = list(points)
+    import numpy as np  # here, not at module level: record/show/list/due never need it
+
+    pts = _in_one_unit(pts, serial, quantity)
+    if len(pts) < 2:
+        raise _too_few(serial, quantity, len(pts))
+    dates = [datetime.fromisoformat(p.date) for p in pts]
+    epoch = min(dates)
+    t = np.array([(d - epoch).total_seconds() / 86400.0 / DAYS_PER_YEAR for d in dates])
+    fit = fit_drift(t, [p.value for p in pts], [p.uncertainty for p in pts], alpha=alpha)
+    if nominal is not None and not math.isfinite(nominal):
+        raise InputError(f"--nominal must be a finite number, got {nominal}")
+    reference = float(nominal) if nominal is not None else pts[0].value
+    due = None
+    due_date = None
+    tol_abs = None
+    if tolerance is not None:
+        tol_abs = float(tolerance) * abs(reference) if relative else float(tolerance)
+        due = due_time(fit, t_last=float(t.max()), reference=reference, tolerance=tol_abs, k=k)
+        if due.t_due is not None:
+            due_date = (epoch + timedelta(days=due.t_due * DAYS_PER_YEAR)).replace(microsecond=0)
+    scale = abs(reference) if reference != 0 else math.nan
+    return DriftReport(
+        serial=serial, quantity=quantity, unit=pts[0].unit, epoch=epoch, first_date=min(dates), last_date=max(dates),
+        fit=fit, drift_per_year=fit.drift_per_year, u_drift_per_year=fit.u_drift_per_year,
+        relative_drift_per_year=fit.drift_per_year / scale, u_relative_drift_per_year=fit.u_drift_per_year / scale,
+        significant=fit.significant, reference=reference,
+        reference_source="nominal" if nominal is not None else "first record",
+        tolerance=tol_abs, due=due, due_date=due_date, as_of=parse_date(as_of, what="as_of"))
+
+
+def _history_select(include_superseded: bool, *, serial: bool = False):
+    """The statement of a history (order: date, record, quantity); ``serial`` adds the sensor's serial."""
+    c, q = calibrations.c, quantities.c
+    later = calibrations.alias("later")
+    # Only the columns a history shows: the full result JSON of each record is not read.
+    cols = [c.performed_at, c.utc_offset_s, c.uid, c.job, c.method, c.operator, c.note, c.certificate, c.supersedes,
+            later.c.uid.label("superseded_by"), q.name, q.value, q.uncertainty, q.unit, q.k]
+    stmt = sa.select(*cols, sensors.c.serial) if serial else sa.select(*cols)
+    stmt = stmt.join(quantities, q.calibration_id == c.id) if not serial else \
+        stmt.select_from(calibrations).join(quantities, q.calibration_id == c.id).join(sensors,
+                                                                                      sensors.c.id == c.sensor_id)
+    stmt = stmt.outerjoin(later, later.c.supersedes == c.uid).order_by(c.performed_at, c.recorded_at, c.id, q.id)
+    return stmt if include_superseded else stmt.where(later.c.uid.is_(None))
+
+
+def _history_point(r) -> HistoryPoint:
+    return HistoryPoint(date=_localise(r.performed_at, r.utc_offset_s).isoformat(), quantity=r.name, value=r.value,
+                        uncertainty=r.uncertainty, unit=r.unit, k=r.k, expanded_uncertainty=r.k * r.uncertainty,
+                        uid=r.uid, job=r.job, method=r.method, operator=r.operator, note=r.note,
+                        certificate=r.certificate, supersedes=r.supersedes, superseded_by=r.superseded_by)
 
 
 def _in_one_unit(pts: list, serial: str, quantity: str) -> list:

@@ -31,8 +31,8 @@ from pathlib import Path
 from typing import Any, Iterable
 
 from senscal.errors import InputError, SenscalError, TooFewSamplesError
-from senscal.registry.store import (Calibration, Registry, UnknownQuantityError, UnknownSensorError,
-                                   UnknownStandardError, parse_date)
+from senscal.registry.store import (Calibration, HistoryPoint, Registry, UnknownQuantityError, UnknownSensorError,
+                                   UnknownStandardError, drift_report, parse_date)
 
 __all__ = ["ViewOptions", "create_app", "CERTIFICATE_TYPES", "certificate_files"]
 
@@ -91,19 +91,22 @@ def _status(due: datetime | date | None, as_of: datetime, soon_days: int, overdu
 _RANK = {"overdue": 3, "soon": 2, "ok": 1, "": 0}
 
 
-def _quantity_drift(reg: Registry, serial: str, quantity: str, n_current: int, opts: ViewOptions,
+def _quantity_drift(serial: str, quantity: str, points: list[HistoryPoint], opts: ViewOptions,
                     as_of: datetime) -> dict[str, Any]:
-    """Drift and due date of one quantity (a dict; ``report`` None when there is no drift to show)."""
+    """Drift and due date of one quantity from its current points (a dict; ``report`` None without a drift).
+
+    The report is :func:`senscal.registry.store.drift_report`, the computation of ``registry due``.
+    """
     out: dict[str, Any] = {"quantity": quantity, "report": None, "note": "", "status": "", "due": None}
-    if n_current < 2:
+    if len(points) < 2:
         out["note"] = "one calibration: a drift needs two"
         return out
     try:
-        rep = reg.drift(serial, quantity, tolerance=opts.tolerance, k=opts.k, as_of=as_of)
+        rep = drift_report(serial, quantity, points, tolerance=opts.tolerance, k=opts.k, as_of=as_of)
     except TooFewSamplesError:
         out["note"] = "one calibration date: a drift needs two"
         return out
-    except (InputError, UnknownQuantityError) as exc:
+    except InputError as exc:
         # Units that cannot be converted into each other, and the like: the page says why.
         out["note"] = str(exc)
         return out
@@ -114,14 +117,15 @@ def _quantity_drift(reg: Registry, serial: str, quantity: str, n_current: int, o
     return out
 
 
-def sensor_summary(reg: Registry, serial: str, opts: ViewOptions, as_of: datetime) -> dict[str, Any]:
-    """A sensor's quantities with their drift and the sensor's earliest due date."""
-    points = reg.history(serial)
-    names = list(dict.fromkeys(p.quantity for p in points))
-    counts: dict[str, int] = {}
+def sensor_summary(serial: str, points: list[HistoryPoint], opts: ViewOptions, as_of: datetime) -> dict[str, Any]:
+    """A sensor's quantities with their drift and the sensor's earliest due date.
+
+    ``points`` is the sensor's current history (``Registry.history(serial)``).
+    """
+    by_name: dict[str, list[HistoryPoint]] = {}
     for p in points:
-        counts[p.quantity] = counts.get(p.quantity, 0) + 1
-    drifts = [_quantity_drift(reg, serial, q, counts[q], opts, as_of) for q in names]
+        by_name.setdefault(p.quantity, []).append(p)
+    drifts = [_quantity_drift(serial, q, pts, opts, as_of) for q, pts in by_name.items()]
     dated = [d for d in drifts if d["status"]]
     worst = max(dated, key=lambda d: (_RANK[d["status"]], -(d["due"] or as_of).timestamp()), default=None)
     return {
@@ -304,9 +308,10 @@ def create_app(reg: Registry, options: ViewOptions | None = None, *, trusted_hos
     def index():
         as_of = opts.when()
         counts = reg.counts()
+        histories = reg.histories()  # one query for every sensor
         sensors = []
         for s in reg.sensors():
-            summ = sensor_summary(reg, s.serial, opts, as_of)
+            summ = sensor_summary(s.serial, histories.get(s.serial, []), opts, as_of)
             sensors.append({"sensor": s, "n": counts.get(s.serial, 0), **summ})
         return render_template("index.html", title="Sensor registry", sensors=sensors, chain=reg.verify(),
                                standards=standards_overview(reg, as_of, opts.soon_days), as_of=as_of)
@@ -318,9 +323,9 @@ def create_app(reg: Registry, options: ViewOptions | None = None, *, trusted_hos
             s = reg.sensor(serial)
         except UnknownSensorError:
             raise _NotFound(f"no sensor {serial!r} in {reg.url}") from None
-        summ = sensor_summary(reg, serial, opts, as_of)
-        records = reg.calibrations(serial, include_superseded=True)
         all_points = reg.history(serial, include_superseded=True)
+        summ = sensor_summary(serial, [p for p in all_points if p.superseded_by is None], opts, as_of)
+        records = reg.calibrations(serial, include_superseded=True)
         plots = []
         for d in summ["drifts"][:MAX_INLINE_PLOTS]:
             pts = [p for p in all_points if p.quantity == d["quantity"]]
@@ -340,7 +345,7 @@ def create_app(reg: Registry, options: ViewOptions | None = None, *, trusted_hos
             pts = reg.history(serial, quantity, include_superseded=True)
         except (UnknownSensorError, UnknownQuantityError) as exc:
             raise _NotFound(str(exc)) from None
-        d = _quantity_drift(reg, serial, quantity, sum(p.superseded_by is None for p in pts), opts, as_of)
+        d = _quantity_drift(serial, quantity, [p for p in pts if p.superseded_by is None], opts, as_of)
         svg = _plot_svg(pts, d["report"], f"{serial}: {quantity}",
                         f"Calibration history of {quantity} of {serial}: {len(pts)} records")
         return render_template("quantity.html", title=f"{serial}: {quantity}", serial=serial, quantity=quantity,
