@@ -243,7 +243,7 @@ def test_intact_chain_shows_the_head(site):
 def test_unknown_things_are_404_and_foreign_hosts_400(site):
     client, *_ = site
     for url in ("/sensors/NOPE", "/calibrations/0000", "/calibrations/0000/certificate.pdf",
-                "/sensors/A1/history/nope", "/standards/NOPE", "/nothing"):
+                "/sensors/A1/history/nope", "/standards/NOPE", "/standards/not an id", "/nothing"):
         r = client.get(url)
         assert r.status_code == 404 and "<h1>Not found</h1>" in r.get_data(as_text=True), url
     # A page elsewhere that points a name at 127.0.0.1 (DNS rebinding) gets nothing.

@@ -32,7 +32,7 @@ from typing import Any, Iterable
 
 from senscal.errors import InputError, SenscalError, TooFewSamplesError
 from senscal.registry.store import (Calibration, HistoryPoint, Registry, UnknownQuantityError, UnknownSensorError,
-                                   UnknownStandardError, drift_report, parse_date)
+                                   drift_report, parse_date)
 
 __all__ = ["ViewOptions", "create_app", "CERTIFICATE_TYPES", "certificate_files"]
 
@@ -179,7 +179,7 @@ def standard_detail(reg: Registry, ident: str, as_of: datetime, soon_days: int) 
     """Every certificate of one standard and every calibration that used one of them (``registry impact``)."""
     try:
         rep = reg.impact(ident)
-    except UnknownStandardError:
+    except InputError:  # unknown, or no standard ID at all (UnknownStandardError is an InputError)
         raise _NotFound(f"no reference standard {ident!r} in {reg.url}") from None
     certs = [{"s": st, "status": "" if st.superseded_by else _status(st.due, as_of, soon_days, st.overdue(as_of))}
              for st in rep.standards]
@@ -269,7 +269,7 @@ def create_app(reg: Registry, options: ViewOptions | None = None, *, trusted_hos
     -------
     flask.Flask
     """
-    from flask import Flask, Response, abort, render_template, send_file
+    from flask import Flask, Response, render_template, send_file
 
     opts = options or ViewOptions()
     app = Flask(__name__, template_folder="templates", static_folder=None)
