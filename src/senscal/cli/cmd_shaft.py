@@ -37,7 +37,8 @@ PlotOpt = Annotated[Optional[Path], typer.Option("--plot", help="Before/after co
 def _calibrate_options(*, angle: str = "angle", accel: str = "accel", angle_unit: str | None = None,
                        sensitivity: float = 1.0, u_sensitivity: float = 0.0, radius: float | None = None,
                        ripple_correction: bool = True, g: float = 9.80665, window: float | None = None,
-                       max_speed_variation: str = "10%", u_angle_deg: float = 0.0, **_):
+                       max_speed_variation: str = "10%", u_angle_deg: float = 0.0,
+                       encoder_lines: int | None = None, **_):
     """``ShaftCalibrateOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.cli.common import parse_relative
     from senscal.jobs.shaft import ShaftCalibrateOptions
@@ -45,7 +46,8 @@ def _calibrate_options(*, angle: str = "angle", accel: str = "accel", angle_unit
     return ShaftCalibrateOptions(
         angle=angle, accel=accel, angle_unit=angle_unit, sensitivity=sensitivity, u_sensitivity=u_sensitivity,
         radius=radius, ripple_correction=ripple_correction, g=g, window=window,
-        max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"), u_angle_deg=u_angle_deg)
+        max_speed_variation=parse_relative(max_speed_variation, "--max-speed-variation"), u_angle_deg=u_angle_deg,
+        encoder_lines=encoder_lines)
 
 
 @with_read_options
@@ -83,7 +85,12 @@ def calibrate_cmd(
         "--max-speed-variation", help="Warn above this speed std/mean (e.g. 10% or 0.1).")] = "10%",
     u_angle_deg: Annotated[float, typer.Option(
         "--u-angle-deg", help="Encoder accuracy: standard uncertainty of its once-per-turn angle error "
-                              "(eccentric disc), deg; carried in u (type B). 0: checked in the data only.")] = 0.0,
+                              "(eccentric disc), deg: the prior of the angle error estimated from the data "
+                              "(0: none).")] = 0.0,
+    encoder_lines: Annotated[Optional[int], typer.Option(
+        "--encoder-lines", help="Encoder counts per revolution: its step is in u where the readings cannot show "
+                                "it (a whole number of counts per sample); without it such a step is named "
+                                "encoder-step-unknown.")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", help="Write the model (JSON) for 'shaft compensate'.")] = None,
     plot: PlotOpt = None,
     strict: StrictOpt = False,
@@ -214,7 +221,7 @@ def _smoothed(x, res):
 
 @simulate_app.command("shaft")
 @units(tilt='deg', radius='m', misalignment='deg', fs='Hz', speed='rev/s', ripple_freq='Hz', cal_duration='s',
-       test_speed='rev/s', modulation_freq='Hz', test_duration='s', angle_ripple_phase='deg')
+       test_speed='rev/s', modulation_freq='Hz', test_duration='s', angle_ripple_phase='deg', start_angle='deg')
 def simulate_shaft_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
@@ -245,6 +252,8 @@ def simulate_shaft_cmd(
     angle_ripple_phase: Annotated[str, typer.Option("--angle-ripple-phase", help="Its phase p, deg.")] = "0.0",
     eccentricity: Annotated[float, typer.Option(
         "--eccentricity", help="Once-per-turn encoder angle error (eccentric disc), deg.")] = 0.0,
+    start_angle: Annotated[str, typer.Option(
+        "--start-angle", help="True shaft angle at the start of each run, deg (0: on an encoder count).")] = "0.0",
 ) -> None:
     """A tilted shaft with a tangential accelerometer: shaft_cal.csv, shaft_test.csv, shaft_truth.json."""
     from senscal.io import write_recording
@@ -256,7 +265,8 @@ def simulate_shaft_cmd(
         noise_rho=noise_rho, encoder_counts=encoder_counts, fs=fs, speed_rps=speed, ripple=ripple, ripple_freq=ripple_freq,
         sync_ripple=sync_ripple, cal_duration=cal_duration, test_speed_rps=test_speed, modulation=modulation,
         modulation_freq=modulation_freq, test_duration=test_duration, wrap=wrap, angle_ripple=angle_ripple,
-        angle_ripple_phase_deg=angle_ripple_phase, eccentricity_deg=eccentricity, seed=seed)
+        angle_ripple_phase_deg=angle_ripple_phase, eccentricity_deg=eccentricity, start_angle_deg=start_angle,
+        seed=seed)
     al = truth.pop("_test_angular_acceleration")
     # Units ride in the headers ("angle [deg]"), so the angle unit need not be given for these files.
     p1 = write_recording(cal, out / "shaft_cal.csv", units_in_header=True)

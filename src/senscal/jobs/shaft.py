@@ -106,6 +106,10 @@ def calibration_summary(model) -> dict[str, Any]:
         "once_per_turn_angle_deg": math.degrees(model.once_per_turn_angle),
         "u_once_per_turn_angle_deg": math.degrees(model.u_once_per_turn_angle),
         "angle_error_deg": math.degrees(model.angle_error), "u_angle_error_deg": math.degrees(model.u_angle_error),
+        "encoder_step_deg": None if model.encoder_step is None else math.degrees(model.encoder_step),
+        "encoder_step_detected": model.encoder_step_detected,
+        "u_encoder_step": {"amplitude": model.u_encoder_step[0], "phase_deg": math.degrees(model.u_encoder_step[1]),
+                           "offset": model.u_encoder_step[2]},
         "twice_per_turn": model.twice_per_turn, "u_twice_per_turn": model.u_twice_per_turn,
         "centripetal_coefficient": model.centripetal_coefficient,
         "u_centripetal_coefficient": model.u_centripetal_coefficient, "diagnostic": list(model.diagnostic),
@@ -123,6 +127,19 @@ def _u_angle(deg) -> float:
         raise InputError(f"--u-angle-deg must be a standard uncertainty in deg, >= 0, got {deg!r}; "
                          "give the encoder's accuracy (e.g. 0.01)")
     return math.radians(v)
+
+
+def _encoder_lines(lines) -> int | None:
+    """``--encoder-lines`` as a whole number >= 4 of counts per revolution (None: not given)."""
+    if lines is None:
+        return None
+    try:
+        v = float(lines)
+    except (TypeError, ValueError):
+        v = math.nan
+    if not (math.isfinite(v) and v.is_integer() and v >= 4):
+        raise InputError(f"--encoder-lines must be a whole number of counts per revolution (>= 4), got {lines!r}")
+    return int(v)
 
 
 def _quantity(name: str, value: float, u: float, unit: str) -> Quantity:
@@ -163,8 +180,12 @@ class ShaftCalibrateOptions(ReadOptions):
         Warn above this speed std/mean (fraction, 0.1 = 10 %).
     u_angle_deg : float
         Standard uncertainty of the encoder angle's once-per-turn error
-        (eccentric disc; RMS over a turn), deg: a type B input (0: the
-        encoder at face value, checked in the data).
+        (eccentric disc; RMS over a turn), deg: the prior of the angle error
+        the calibration estimates from the data (0: none).
+    encoder_lines : int or None
+        Encoder counts per revolution: the step ``360 / N`` deg is in u when
+        the readings cannot show it; None: the step is detected, and an
+        unresolvable one named ``encoder-step-unknown``.
     time_column, fs, names, time_unit, skip_rows
         How the recording is read (:class:`~senscal.jobs._base.ReadOptions`).
     """
@@ -180,6 +201,7 @@ class ShaftCalibrateOptions(ReadOptions):
     window: float | None = None
     max_speed_variation: float = 0.10
     u_angle_deg: float = 0.0
+    encoder_lines: int | None = None
 
 
 @dataclass(frozen=True)
@@ -280,7 +302,8 @@ def shaft_calibrate(source, options: ShaftCalibrateOptions = ShaftCalibrateOptio
         accel, rec[o.angle], rec.time, angle_unit=unit, sensitivity=o.sensitivity,
         u_sensitivity=o.u_sensitivity, output_unit=accel_unit, radius=o.radius,
         ripple_correction=o.ripple_correction, g=o.g, window=0.1 if o.window is None else o.window,
-        max_speed_variation=o.max_speed_variation, u_angle=_u_angle(o.u_angle_deg), source=name)
+        max_speed_variation=o.max_speed_variation, u_angle=_u_angle(o.u_angle_deg),
+        encoder_lines=_encoder_lines(o.encoder_lines), source=name)
     return ShaftCalibrateResult(model=model, source=name, angle=angle_to_rad(rec[o.angle], unit),
                                 accel=accel, accel_unit=accel_unit,
                                 warnings=merge_time_warnings(model.warnings, rec.warnings))

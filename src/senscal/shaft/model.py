@@ -166,6 +166,14 @@ class GravityModel(ResultMixin):
         when declared), rad, and its standard uncertainty (per component);
         amplitude, phase and offset are corrected for it and their
         covariance holds the estimate's share.
+    encoder_step : float or None
+        Step of the encoder angle, rad (``2 pi / encoder_lines`` or detected
+        in the readings); None when the angle showed no grid.
+    encoder_step_detected : bool
+        True when the step came from the readings.
+    u_encoder_step : tuple of float
+        Type B shares of the step in (amplitude, phase, offset) (output
+        unit, rad, output unit), in the covariance.
     diagnostic : tuple of str
         Fields reported as diagnostics, without an uncertainty (not to be
         quoted as measurement results).
@@ -226,6 +234,9 @@ class GravityModel(ResultMixin):
     u_twice_per_turn: float = 0.0
     angle_error: float = 0.0
     u_angle_error: float = 0.0
+    encoder_step: float | None = None
+    encoder_step_detected: bool = False
+    u_encoder_step: tuple[float, ...] = (0.0, 0.0, 0.0)
     diagnostic: tuple[str, ...] = ()
     warnings: tuple[str, ...] = ()
     source: str | None = None
@@ -428,7 +439,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
                       sensitivity: float = 1.0, u_sensitivity: float = 0.0, output_unit: str = "",
                       radius: float | None = None, ripple_correction: bool = True, g: float = G,
                       window: float = 0.1, max_speed_variation: float = 0.10, u_angle: float = 0.0,
-                      source: str | None = None) -> GravityModel:
+                      encoder_lines: int | None = None, source: str | None = None) -> GravityModel:
     """Identify the gravity term seen by a tangential accelerometer on a shaft.
 
     Fits ``amplitude * sin(theta + phase) + offset`` to the accelerometer
@@ -497,6 +508,17 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         A twice-per-turn term beyond noise (and beyond ``u_angle``) is named
         ``encoder-eccentricity``: a nonlinear sensor's would be corrected
         as an angle error.
+    encoder_lines : int, optional
+        Counts per revolution of the encoder: its step ``2 pi / lines`` is an
+        error in the fit's abscissa.  Without it the step is detected in the
+        angle channel (readings on a grid, :func:`senscal.vibration.fits.angle_grid`);
+        either way its effect on amplitude, phase and offset, propagated
+        through this record's own sampling and smoothing over the grid's
+        position (:func:`_encoder_step_effect`), is a type B share of the
+        covariance.  Readings that advance a whole number of grid steps per
+        sample do not show the step (every reading may lie up to half a count
+        from the angle, the same for all, which moves the phase by up to that):
+        named ``encoder-step-unknown`` unless ``encoder_lines`` is given.
     source : str, optional
         Where the data came from (stored in the model).
 
@@ -533,6 +555,10 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         radius = check_radius(radius)
     if not (math.isfinite(u_angle) and 0.0 <= u_angle < math.pi):
         raise InputError(f"u_angle (--u-angle-deg) must be a standard uncertainty >= 0 of the angle, got {u_angle!r}")
+    if encoder_lines is not None and not (isinstance(encoder_lines, (int, np.integer, float))
+                                          and float(encoder_lines).is_integer() and encoder_lines >= 4):
+        raise InputError(f"encoder lines (--encoder-lines) must be a whole number of counts per revolution (>= 4), "
+                         f"got {encoder_lines!r}")
     revs = abs(float(theta[-1] - theta[0])) / (2.0 * math.pi)
     if revs < 1.0:
         raise TooFewSamplesError(
@@ -620,6 +646,10 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         # Fraction by which the noise the two derivatives share could pull the coefficient (x2 for
         # quantisation that is not white): the instrument must see real, non-synchronous variation.
         eps = 2.0 * abs(cvv) / abs(cross) if cross != 0 else math.inf
+        if not math.sqrt(float(np.mean(xt * xt))) > 1e-6 * float(np.mean(w2)):
+            # No speed variation beyond rounding (a steady drive read by an encoder whose readings advance a
+            # whole number of counts per sample): nothing to learn a coefficient from.
+            eps = math.inf
         sc, cvx, _ = iv_fit(xv, d, d, hw, empty, taper=taper)
         amp_x = math.hypot(sc[0], sc[1])
         gx = np.array([sc[0], sc[1]]) / amp_x if amp_x > 0 else np.zeros(2)
@@ -679,6 +709,23 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
             amp, ph, off, cov_g, c2, cov2, theta, keep, tk, taper, dt, (m7, p7), (m5, p5), x_w[keep],
             b_of.get("alpha", sensitivity * radius if mode == "radius" else 0.0), b_of.get("speed2", 0.0),
             u_angle)
+    # The encoder's step: declared, or the grid the readings lie on; its effect through this record's own
+    # sampling is a type B share, and a grid the readings cannot resolve is named unless declared.
+    from senscal.vibration.fits import angle_grid
+
+    grid_deg, through_zero, on_line = angle_grid(np.degrees(theta), np.arange(n) * dt)
+    step = None if encoder_lines is None else 2.0 * math.pi / float(encoder_lines)
+    step_detected = False
+    if grid_deg is not None and not on_line and (step is None or math.radians(grid_deg) > step * (1 + 1e-6)):
+        step, step_detected = math.radians(grid_deg), True
+    unresolved_deg = grid_deg if (step is None and on_line and through_zero) else None
+    step_u = np.zeros(3)
+    # Only readings on a constant-speed line hide the step (one error, the same for all samples): with any
+    # other sampling the step's error varies along the record and the residual's spectrum carries it.
+    if step is not None and on_line and amp > 0:
+        step_u = _encoder_step_effect(tk, taper, (m5, p5), step, amp, ph, off,
+                                      np.sqrt(np.maximum(np.diag(cov_g), 0.0)))
+        cov_g = cov_g + np.diag(step_u**2)
     u = np.sqrt(np.maximum(np.diag(cov_g), 0.0))
     rms = float(np.sqrt(np.mean(res**2)))
     noise = white_noise_std(a, kin.window_samples)
@@ -767,6 +814,13 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         warnings.append(named("encoder-eccentricity", (
             f"the accelerometer has a twice-per-turn term of {twice:.3g} ({twice / u_twice:.3g} u), the trace of "
             f"a {math.degrees(e_twice):.2g} deg once-per-turn angle error (or of a nonlinear sensor); {how}")))
+    if unresolved_deg is not None:
+        warnings.append(named("encoder-step-unknown", (
+            f"the angle readings are whole multiples of {unresolved_deg:.4g} deg and advance a whole number of them "
+            "per sample, so the encoder's count step cannot be told from this record: every reading may lie up to "
+            "half a count from the angle, the same for all, which moves the phase by up to that and is not in its "
+            "u; give --encoder-lines N (counts per revolution) or sample at a rate that is not a whole number of "
+            "counts per sample")))
     if hw < MIN_TURNS:
         # The density behind u rests on about four degrees of freedom per turn: below 10 turns (40) k=2
         # covers less than 94.8 % (Student's t), 88 % for one turn.
@@ -798,11 +852,70 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
                                         ("centripetal_coefficient", kc is not None)) if v),
         nuisance=tuple(used), u_angle=float(u_angle), once_per_turn_angle=float(e_once),
         u_once_per_turn_angle=float(u_e_once), twice_per_turn=twice, u_twice_per_turn=float(u_twice),
+        encoder_step=None if step is None else float(step), encoder_step_detected=step_detected,
+        u_encoder_step=tuple(float(v) for v in step_u),
         angle_error=0.0 if ecc_est is None else float(math.hypot(ecc_est[0], ecc_est[1])),
         u_angle_error=0.0 if ecc_est is None else float(math.sqrt(max(np.trace(ecc_est[2]) / 2.0, 0.0))),
         warnings=tuple(warnings), source=source,
         created=_dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat(),
     )
+
+
+# Positions of the count grid against the angle over which the step's effect is spread (stratified: the
+# 95 % quantile of a bounded error to about 1/32 of its range, as senscal.vibration.fits.encoder_effect).
+_GRID_OFFSETS = 32
+
+
+def _half_width_with_noise(d: np.ndarray, u: float, level: float = 0.95) -> float:
+    """``x`` with ``P(|d + n| <= x) = level``, ``d`` uniform over its values, ``n ~ N(0, u^2)`` (bisection)."""
+    from scipy.special import ndtr
+
+    d = np.abs(np.asarray(d, dtype=float))
+    if u <= 0:
+        return float(np.quantile(d, level))
+    lo, hi = 0.0, float(d.max()) + 4.0 * u
+    for _ in range(60):
+        x = 0.5 * (lo + hi)
+        cov = float(np.mean(ndtr((x - d) / u) - ndtr((-x - d) / u)))
+        lo, hi = (x, hi) if cov < level else (lo, x)
+    return 0.5 * (lo + hi)
+
+
+def _encoder_step_effect(tk, taper, w_filter, step, amp, ph, off, u_fit) -> np.ndarray:
+    """Type B standard uncertainties of (amplitude, phase, offset) from an encoder step ``step`` (rad).
+
+    Where the count grid lies against the true angle no record shows: uniform over one step.  For
+    :data:`_GRID_OFFSETS` grid positions the smoothed angle (the fit's abscissa, standing in for the
+    true angle) is read on the shifted grid (nearest count), smoothed as the record was, and the
+    noise-free gravity term refitted against it with the record's taper: the spread of the fitted
+    values is the step's effect through this record's sampling (a Monte-Carlo propagation of a
+    rectangular input, JCGM 101).  It is bounded, so it is combined with the fit's normal u into the
+    95 % half-width U of the sum, and the share returned is ``sqrt((U / 2)^2 - u_fit^2)``.
+    """
+    from scipy.signal import savgol_filter
+
+    m5, p5 = w_filter
+    truth = np.asarray(tk, dtype=float)
+    line = truth[0] + (truth[-1] - truth[0]) * np.arange(truth.size) / max(truth.size - 1, 1)
+    offs = (np.arange(_GRID_OFFSETS) + 0.5) / _GRID_OFFSETS * step
+    read = step * np.round((truth[None, :] + offs[:, None]) / step) - offs[:, None]
+    if m5 < truth.size:
+        read = savgol_filter(read - line, m5, p5, axis=-1, mode="interp") + line
+    sw = np.sqrt(taper)
+    y = (amp * np.sin(truth + ph) + off) * sw
+    vals = []
+    for r in read:
+        dd = np.column_stack([np.sin(r), np.cos(r), np.ones_like(r)]) * sw[:, None]
+        c = np.linalg.lstsq(dd, y, rcond=None)[0]
+        vals.append([math.hypot(c[0], c[1]), math.atan2(c[1], c[0]), c[2]])
+    vals = np.array(vals)
+    dv = vals - np.array([amp, ph, off])
+    dv[:, 1] = (dv[:, 1] + math.pi) % (2.0 * math.pi) - math.pi
+    out = []
+    for j in range(3):
+        half = _half_width_with_noise(dv[:, j], float(u_fit[j]))
+        out.append(math.sqrt(max((0.5 * half) ** 2 - float(u_fit[j]) ** 2, 0.0)))
+    return np.array(out)
 
 
 def _correct_angle_error(amp, ph, off, cov_g, c2, cov2, theta, keep, tk, taper, dt, al_filter, w_filter, w_keep,

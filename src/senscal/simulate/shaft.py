@@ -89,7 +89,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
                    test_speed_rps: float = 2.0, modulation: float = 0.5, modulation_freq: float = 0.5,
                    test_duration: float = 10.0, wrap: bool = True, g: float = G, noise_rho: float = 0.0,
                    angle_ripple: float = 0.0, angle_ripple_phase_deg: float = 0.0, eccentricity_deg: float = 0.0,
-                   seed: int | None = None) -> tuple[Recording, Recording, dict[str, Any]]:
+                   start_angle_deg: float = 0.0, seed: int | None = None) -> tuple[Recording, Recording, dict[str, Any]]:
     """Calibration and test runs of a tangential accelerometer on a tilted shaft.
 
     The sensitive axis is turned by ``misalignment`` from the tangent towards
@@ -154,6 +154,12 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
         Once-per-turn error of the encoder angle (an eccentric or tilted
         disc), deg: the encoder reads ``theta + e sin(theta + q)`` before
         rounding, in both runs, with ``q`` drawn at random (in ``truth``).
+    start_angle_deg : float
+        True shaft angle at the start of each run, deg.  With 0 the angle
+        starts on a count of the encoder; another value puts the count grid
+        elsewhere against the angle (what a real run does): a run whose
+        readings advance a whole number of counts per sample then reads every
+        angle off by the same fraction of a count.
     seed : int, optional
         Random seed.
 
@@ -171,12 +177,13 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
         raise InputError("sensitivity must be positive")
     if not (0.0 <= noise_rho < 1.0):
         raise InputError(f"noise_rho (--noise-rho) must be in [0, 1), got {noise_rho!r}; 0 gives white noise")
-    if not (0.0 <= abs(angle_ripple) < 1.0 and math.isfinite(eccentricity_deg)):
+    if not (0.0 <= abs(angle_ripple) < 1.0 and math.isfinite(eccentricity_deg) and math.isfinite(start_angle_deg)):
         raise InputError(f"angle_ripple must be in (-1, 1) and eccentricity finite, got {angle_ripple!r}, "
                          f"{eccentricity_deg!r}")
     rng = np.random.default_rng(seed)
     d = math.radians(misalignment_deg)
     ecc = math.radians(eccentricity_deg)
+    start = math.radians(start_angle_deg)
     # Drawn only when asked for, so the other runs' random streams stay those of earlier versions.
     ecc_phase = float(rng.uniform(0, 2 * math.pi)) if ecc else 0.0
     amp = sensitivity * g * math.cos(math.radians(tilt_deg))
@@ -187,9 +194,10 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
     def run(duration, speed, terms, name, locked=0.0):
         t = np.arange(int(round(duration * fs))) / fs
         if locked:
-            theta, omega, alpha = angle_locked_motion(t, speed, locked, math.radians(angle_ripple_phase_deg))
+            theta, omega, alpha = angle_locked_motion(t, speed, locked, math.radians(angle_ripple_phase_deg) + start)
         else:
             theta, omega, alpha = shaft_motion(t, speed, terms)
+        theta = theta + start
         v = sensitivity * (math.cos(d) * radius * alpha + math.sin(d) * radius * omega**2) \
             + amp * np.sin(theta + ph) + bias + ar1_noise(rng, noise, noise_rho, t.size)
         read = theta + ecc * np.sin(theta + ecc_phase) if ecc else theta
@@ -224,6 +232,7 @@ def simulate_shaft(*, tilt_deg: float = 20.0, radius: float = 0.1, sensitivity: 
                  "angular_acceleration_rms": float(np.sqrt(np.mean(al_test**2))),
                  "angular_acceleration_amplitude": w1 * modulation * 2 * math.pi * modulation_freq},
         "eccentricity_deg": eccentricity_deg, "eccentricity_phase_deg": math.degrees(ecc_phase),
+        "start_angle_deg": start_angle_deg,
         "centripetal_leakage_coefficient_m": leak,
         "angular_acceleration_noise_floor": noise / (sensitivity * radius),
         "uncompensated_error_amplitude": g * math.cos(math.radians(tilt_deg)) / radius,

@@ -18,7 +18,10 @@ Departures: speed ripple locked to the rotation (an unbalanced rotor), with
 and without other speed variation and with the radius given, as a function
 of time or of the angle itself (issue 25 item 1: 3 rev/s, r = 0.08 m); 4 %
 speed ripple at 0.7 Hz (item 2); an eccentric encoder disc (item 8), with
-its accuracy declared (``u_angle``, type B) or not; AR(1) accelerometer
+its accuracy declared (``u_angle``, the estimate's prior) or not, at 0.05 deg and over
+0.005-0.05 deg (estimated from the twice-per-turn term and removed); an
+encoder whose readings advance a whole number of counts per sample (step not
+in the record), with ``--encoder-lines`` and without; AR(1) accelerometer
 noise.  Where the data cannot tell the departure from gravity the
 calibration must say so in a named warning (``synchronous-ripple``,
 ``encoder-eccentricity``).
@@ -183,6 +186,41 @@ def run_eccentric(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
                              note=f"{ECCENTRICITY_DEG} deg once-per-turn angle error, no --u-angle-deg")
 
 
+def _eccentric_range(seed: int) -> dict:
+    # Log-uniform over the issue's range (and the sweep's): 0.005-0.05 deg once-per-turn angle error.
+    r = np.random.default_rng([seed, 25, 81])
+    return {"eccentricity_deg": float(math.exp(r.uniform(math.log(0.005), math.log(0.05))))}
+
+
+def run_eccentric_range(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Item 8: 0.005-0.05 deg once-per-turn angle error, nothing declared: estimated and removed, must cover."""
+    return _calibration_rows("eccentric-0.005-0.05deg", n_seeds, seed0, {}, sim_of_seed=_eccentric_range,
+                             note="once-per-turn angle error log-uniform 0.005-0.05 deg, no --u-angle-deg")
+
+
+#: An encoder whose readings advance a whole number of counts per sample (2000 counts, 1 rev/s at 1 kHz,
+#: steady drive): the step is not in the record, and the start angle puts the count grid anywhere.
+ON_LINE = {"encoder_counts": 2000, "ripple": 0.0}
+
+
+def _start_angle(seed: int) -> dict:
+    return {"start_angle_deg": float(np.random.default_rng([seed, 25, 2]).uniform(0.0, 360.0))}
+
+
+def run_encoder_on_line(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """2 counts per sample, no --encoder-lines: the phase may be off by half a count, must be named."""
+    return _calibration_rows("encoder-2000-on-line", n_seeds, seed0, ON_LINE, sim_of_seed=_start_angle,
+                             expect="warn", warning="encoder-step-unknown",
+                             note="2000-count encoder, 2 counts per sample at a steady 1 rev/s, random start angle")
+
+
+def run_encoder_on_line_declared(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """The same with --encoder-lines 2000: the step's effect is in u, must cover."""
+    return _calibration_rows("encoder-2000-on-line-declared", n_seeds, seed0, ON_LINE, sim_of_seed=_start_angle,
+                             cal_kw={"encoder_lines": 2000},
+                             note="2000-count encoder, 2 counts per sample, --encoder-lines 2000")
+
+
 SCENARIOS = {
     "white": run_white,
     "no-ripple": run_no_ripple,
@@ -196,6 +234,9 @@ SCENARIOS = {
     "ripple-4%-0.7Hz": run_ripple_07,
     "eccentric-declared": run_eccentric_declared,
     f"eccentric-{ECCENTRICITY_DEG}deg": run_eccentric,
+    "eccentric-0.005-0.05deg": run_eccentric_range,
+    "encoder-2000-on-line": run_encoder_on_line,
+    "encoder-2000-on-line-declared": run_encoder_on_line_declared,
 }
 for _run in SCENARIOS.values():
     _run.full_seeds = 400
@@ -206,3 +247,6 @@ run_angle_sync.ci_seeds = 20
 run_eccentric.ci_seeds = 20
 run_ripple_07.ci_seeds = 20
 run_eccentric_declared.ci_seeds = 20
+run_eccentric_range.ci_seeds = 40
+run_encoder_on_line.ci_seeds = 20
+run_encoder_on_line_declared.ci_seeds = 40

@@ -402,7 +402,7 @@ def _jobs() -> dict[str, SweepJob]:
              Departure("encoder_counts", 256, 65536, "int-log", "encoder counts per revolution")),
             ("tilt_deg", "radius", "sensitivity", "bias", "misalignment_deg", "noise", "phase_deg", "fs", "speed_rps",
              "ripple_freq", "cal_duration", "test_speed_rps", "modulation", "modulation_freq", "test_duration", "wrap",
-             "g", "angle_ripple", "angle_ripple_phase_deg", "seed"),
+             "g", "angle_ripple", "angle_ripple_phase_deg", "start_angle_deg", "seed"),
             _run_shaft),
         "triaxial": SweepJob(
             "triaxial", _triaxial_simulator(),
