@@ -248,7 +248,8 @@ def test_unknown_things_are_404_and_foreign_hosts_400(site):
         assert r.status_code == 404 and "<h1>Not found</h1>" in r.get_data(as_text=True), url
     # A page elsewhere that points a name at 127.0.0.1 (DNS rebinding) gets nothing.
     assert client.get("/", headers={"Host": "attacker.example"}).status_code == 400
-    assert client.get("/", headers={"Host": "127.0.0.1:8000"}).status_code == 200
+    for host in ("127.0.0.1:8000", "localhost:8000", "[::1]:8000"):
+        assert client.get("/chain", headers={"Host": host}).status_code == 200, host
 
 
 # --- opening read-only -------------------------------------------------------------------

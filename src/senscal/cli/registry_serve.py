@@ -59,8 +59,10 @@ def serve_cmd(
 
     reg = open_read_only(db)
     try:
-        app = create_app(reg, ViewOptions(tolerance=tol, k=k, as_of=when, soon_days=soon),
-                         trusted_hosts=LOCAL_HOSTS if local else None)
+        bare = host.strip().strip("[]")
+        # The name the user chose is answered too (127.0.0.2, a local alias), in brackets for IPv6.
+        trusted = (*LOCAL_HOSTS, bare, f"[{bare}]" if ":" in bare else bare) if local else None
+        app = create_app(reg, ViewOptions(tolerance=tol, k=k, as_of=when, soon_days=soon), trusted_hosts=trusted)
         server = make_server(app, host, port)
         shown = f"[{host.strip('[]')}]" if ":" in host else host
         err_console.print(f"serving {reg.url} read-only at http://{shown}:{server.port}/ (Ctrl+C stops)",

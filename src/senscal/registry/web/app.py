@@ -247,7 +247,8 @@ def _plot_svg(points, report, title: str, label: str) -> str:
 _CSP = ("default-src 'none'; style-src 'unsafe-inline'; img-src data:; form-action 'none'; "
         "frame-ancestors 'none'; base-uri 'none'")
 
-LOCAL_HOSTS = ("localhost", "127.0.0.1", "::1")
+#: Host headers a server on the loopback interface answers (IPv6 in brackets, as a browser sends it).
+LOCAL_HOSTS = ("localhost", "127.0.0.1", "::1", "[::1]")
 
 
 def create_app(reg: Registry, options: ViewOptions | None = None, *, trusted_hosts: Iterable[str] | None = LOCAL_HOSTS):
