@@ -20,10 +20,7 @@ from senscal.validation.sweep import (ALPHA, JOBS, NOT_SWEPT, Departure, Outcome
 # (job, departure) classes known to miss silently on main, with where they are tracked.  A class listed here is
 # still run and printed; the test fails if it passes (remove it then) only under SENSCAL_MC=full, where the
 # number of cases makes a pass meaningful.
-KNOWN_OPEN: dict[tuple[str, str], str] = {
-    ("shaft", "eccentricity_deg"): "issue 25 item 8: offset/bias miss silently under a 0.005-0.05 deg eccentric disc",
-    ("shaft", "eccentricity_deg+"): "issue 25 item 8 (the same, with other departures)",
-}
+KNOWN_OPEN: dict[tuple[str, str], str] = {}
 
 
 def test_every_simulator_keyword_is_a_departure_or_a_setting():
