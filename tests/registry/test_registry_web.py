@@ -325,6 +325,7 @@ def test_serve_refuses_bad_options_in_one_line(cli, tmp_path):
     _one_line_error(cli("registry", "serve", "--db", db, "--port", "70000"), "--port", "65535")
     _one_line_error(cli("registry", "serve", "--db", db, "--port", "-1"), "--port")
     _one_line_error(cli("registry", "serve", "--db", tmp_path / "typo.sqlite"), "does not exist")
+    _one_line_error(cli("registry", "serve", "--db", tmp_path), "is a folder")
     assert not (tmp_path / "typo.sqlite").exists()
     _one_line_error(cli("registry", "serve", "--db", db, "--host", "0.0.0.0"), "--allow-remote")
     _one_line_error(cli("registry", "serve", "--db", db, "--host", "no-such-host.invalid"), "--host")

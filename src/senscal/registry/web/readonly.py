@@ -97,6 +97,9 @@ class ReadOnlyRegistry(Registry):
             if not u.database or u.database == ":memory:" or u.database.startswith("file:"):
                 raise InputError(f"the web view reads a registry file or server; {self.url} is not one "
                                  "(give --db FILE.sqlite or a postgresql:// URL)")
+            if Path(u.database).is_dir():
+                raise InputError(f"--db {u.database} is a folder; give the registry file in it (e.g. "
+                                 f"{Path(u.database) / 'registry.sqlite'})")
             if not Path(u.database).is_file():
                 raise InputError(f"registry file {u.database} does not exist; check the --db path (the web view "
                                  "only reads: it never creates a registry)")
