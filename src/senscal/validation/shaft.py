@@ -249,4 +249,4 @@ run_ripple_07.ci_seeds = 20
 run_eccentric_declared.ci_seeds = 20
 run_eccentric_range.ci_seeds = 40
 run_encoder_on_line.ci_seeds = 20
-run_encoder_on_line_declared.ci_seeds = 40
+run_encoder_on_line_declared.ci_seeds = 20
