@@ -179,3 +179,58 @@ def test_fringe_count_mismatch_names_a_distorted_motion():
         p = calibrate_point(c["I"], c["Q"], c["out"], rec.fs, freq=20.0)
         warned += any(w.startswith("fringe-count-mismatch:") for w in p.warnings)
     assert warned >= 4
+
+
+# --- certificates, DCC and the registry, as for `senscal response` ------------------------------------------
+
+_LAB = """name = "Vibration Lab Nord"
+address = "Hafenstr. 7, 20457 Hamburg"
+country = "DE"
+email = "lab@example.org"
+approvers = [{name = "Dr. Ada Pruefer", role = "Head of laboratory"}]
+
+[[standards]]
+name = "HeNe laser interferometer"
+serial = "IF-0007"
+certificate = "PTB-1.21-0815"
+traceability = "PTB"
+due = "2099-12-31"
+u_relative = 0.0002
+
+[run]
+location = "Laboratory hall 2"
+customer = "ACME"
+customer_email = "qa@acme.example"
+customer_address = "Am Markt 1, 10115 Berlin"
+manufacturer = "Qfab"
+item = "reference accelerometer"
+"""
+
+
+def test_cli_report_dcc_and_save(cli, sim_dir, tmp_path, monkeypatch):
+    """--report, --dcc and --save reuse the certificate, DCC and registry code of `response`."""
+    import xml.etree.ElementTree as ET
+
+    monkeypatch.delenv("SENSCAL_LAB", raising=False)
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    lab = tmp_path / "lab.toml"
+    lab.write_text(_LAB)
+    db = tmp_path / "reg.db"
+    r = cli("primary", sim_dir / "p160.csv", "--json", "--report", tmp_path / "cert.html", "--dcc", tmp_path / "cert.xml",
+            "--lab", lab, "--sensor-id", "SN-1", "--calibration-date", "2026-11-26", "--u-wavelength-rel", "1e-6",
+            "--u-gain-rel", "5e-4", "--u-gain-phase-deg", "0.05", "--u-other-rel", "1e-3", "--u-other-phase-deg", "0.1",
+            "--env", "temperature=23.0+-0.3 degC", "--save", "--sensor", "SN-1", "--create-sensor",
+            "reference accelerometer", "--db", db)
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    html = (tmp_path / "cert.html").read_text()
+    assert "ISO 16063-11 method 3" in html and "Heydemann correction" in html
+    root = ET.parse(tmp_path / "cert.xml").getroot()
+    si = "{https://ptb.de/si}"
+    sens = [q for q in root.iter("{https://ptb.de/dcc}quantity") if q.get("refType") == "senscal_sensitivity"]
+    value = float(sens[0].find(f"{si}realListXMLList/{si}valueXMLList").text)
+    assert value == pytest.approx(doc["points"][0]["sensitivity"], rel=1e-11)  # the DCC's 12 significant digits
+    assert not [w for w in doc["warnings"] if w.startswith(("certificate-draft", "budget-zero-component"))]
+    r = cli("registry", "history", "SN-1", "--db", db, "--json")
+    assert r.code == 0, r.err
+    assert "sensitivity@160Hz" in r.out

@@ -10,6 +10,11 @@ from typing_extensions import Annotated
 
 from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
+from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, CustomerOpt, DccOpt, EnvOpt, ItemOpt, LabOpt, LocationOpt,
+                                   ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt, SensorIdOpt, SignCertOpt,
+                                   SignKeyOpt, cert_fields, certify)
+from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, StandardOpt,
+                                       save_if_requested, use_standards)
 from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt,
                                 TimeUnitOpt, console, emit_warnings, print_json, progress_bar, table)
 from senscal.jobs._base import with_read_options
@@ -59,18 +64,44 @@ def primary_cmd(
     start: StartOpt = None,
     stop: StopOpt = None,
     json_out: JsonOpt = False,
+    output_unit: Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the accelerometer output for the certificate when the file's header gives none (default V).")] = None,
+    report: ReportOpt = None, dcc: DccOpt = None, sensor_id: SensorIdOpt = None, model: ModelOpt = None,
+    lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None, item: ItemOpt = None,
+    manufacturer: ManufacturerOpt = None, location: LocationOpt = None, certificate_id: CertIdOpt = None,
+    calibration_date: CalDateOpt = None, env: EnvOpt = None, sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
+    save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
+    date: DateOpt = None, operator: OperatorOpt = None, standard: StandardOpt = None,
 ) -> None:
     """Primary accelerometer calibration by laser interferometry (ISO 16063-11 method 3): sensitivity and phase."""
     from senscal.jobs.primary import primary
 
     params = dict(locals())
     params.pop("files")
+    used_standards = use_standards(standard, db=db, date=date, calibration_date=calibration_date)
     with progress_bar("calibrating", None):
         res = primary(list(files), _primary_options(**params))
     doc = res.to_dict()
+    # certificates and the registry as for `senscal response`: the points as a frequency response
+    method = ("Primary calibration by laser interferometry (ISO 16063-11 method 3): homodyne quadrature "
+              "interferometer, Heydemann correction, sine approximation of the displacement")
+    resp = res.response(output_unit) if report is not None or dcc is not None else None
+    cond = {} if resp is None else {
+        "frequency points": len(res.points), "laser wavelength": f"{res.wavelength_nm:g} nm",
+        "quadrature channels": ",".join(res.quadrature), "output channel": res.output,
+        "type B inputs (relative u)": (f"wavelength {u_wavelength_rel:g}, output gain {u_gain_rel:g}, "
+                                       f"other {u_other_rel:g}")}
+    cert_warns = certify("response", resp, report=report, dcc=dcc, unit=resp.unit if resp else "", method=method,
+                         conditions=cond, files=[str(f) for f in files], warnings=res.warnings,
+                         **cert_fields(locals()))
+    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
+    if report is not None:
+        doc["report"] = str(report)
+    save_if_requested(res, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
+                      operator=operator, method=method, input_files=files, certificate=report,
+                      standards=used_standards)
     if json_out:
         print_json(doc)
-        emit_warnings(res.warnings, strict)
+        emit_warnings([*res.warnings, *cert_warns], strict)
         return
     def fc_diff(p):
         # fringe counting's cross-check where the count resolves the displacement to 1e-3, else "-"
@@ -83,7 +114,9 @@ def primary_cmd(
                         "fringe counting",
                         ["f / Hz", f"S / {doc['sensitivity_unit']}", "U(S)", "phase / deg", "U(phase) / deg",
                          "fringes", "SA/FC - 1"], rows))
-    emit_warnings(res.warnings, strict)
+    if report is not None:
+        console.print(f"certificate written to {report}")
+    emit_warnings([*res.warnings, *cert_warns], strict)
 
 
 @simulate_app.command("interferometer")

@@ -26,6 +26,21 @@ def _pair(names: Any) -> tuple[str, str]:
     return str(listed[0]), str(listed[1])
 
 
+# budget keys -> (sensitivity component, phase component) as the certificate names them (ISO 16063-11 Annex A)
+_ANNEX_A = {
+    "displacement_fit": ("interferometer signal disturbance (displacement fit)", "interferometer signal disturbance"),
+    "output_fit": ("output voltage measurement, noise (output fit)", "output phase measurement, noise (output fit)"),
+    "unmodelled_slices": ("residual effects (per-period fits)", "residual effects (per-period fits)"),
+    "heydemann": ("quadrature output disturbance (Heydemann correction)",
+                  "quadrature output disturbance (Heydemann correction)"),
+    "frequency": ("frequency measurement", "frequency measurement"),
+    "wavelength": ("laser wavelength", "laser wavelength"),
+    "output_gain": ("output voltage amplitude measurement", "output voltage phase measurement"),
+    "other": ("other effects (transverse, rocking, base strain, mounting)",
+              "other effects (transverse, rocking, base strain, mounting)"),
+}
+
+
 @dataclass(frozen=True)
 class PrimaryOptions(ReadOptions):
     """Options of :func:`primary` (the ``senscal primary`` options).
@@ -96,6 +111,7 @@ class PrimaryResult(JobResult):
     unit: str
     wavelength_nm: float
     warnings: tuple[str, ...] = ()
+    output_unit: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         """The ``senscal primary --json`` document."""
@@ -117,6 +133,46 @@ class PrimaryResult(JobResult):
             out.append(Quantity(f"sensitivity@{tag}", p.sensitivity, p.u_sensitivity, self.unit))
             out.append(Quantity(f"phase@{tag}", p.phase_deg, p.u_phase_deg, "deg"))
         return tuple(out)
+
+    def response(self, output_unit: str | None = None):
+        """The points as a :class:`~senscal.vibration.FrequencyResponse`, for the certificate and the DCC.
+
+        Each point's budget becomes a GUM budget with the components of ISO 16063-11 Annex A by name; the
+        phase delay is ``phase_deg`` (output minus acceleration, negative for a lag, as in ``response``).
+
+        Parameters
+        ----------
+        output_unit : str, optional
+            The output's unit when the files give none (default V).
+        """
+        from senscal.vibration.budget import make_budget
+        from senscal.vibration.response import FrequencyResponse, ResponsePoint
+
+        unit = f"{self.output_unit or output_unit or 'V'}/(m/s^2)"
+        pts = []
+        for src, p in zip(self.sources, self.points):
+            s_comp = [(_ANNEX_A[k][0], v["type"], abs(p.sensitivity) * v["u_rel"]) for k, v in p.budget.items()]
+            ph_comp = [(_ANNEX_A[k][1], v["type"], math.radians(v["u_phase_deg"])) for k, v in p.budget.items()
+                       if k != "frequency" and k != "wavelength"]
+            out_amp = p.sensitivity * p.acceleration
+            rms = float(p.residual.get("output_rms", float("nan")))
+            snr = 20.0 * math.log10(abs(out_amp) / (math.sqrt(2.0) * rms)) if rms > 0 else float("inf")
+            pts.append(ResponsePoint(
+                source=src, method="ISO 16063-11 method 3 (homodyne quadrature, sine approximation)",
+                frequency=p.frequency_hz, u_frequency=0.5 * p.frequency_hz * p.budget["frequency"]["u_rel"],
+                input_amplitude=p.acceleration, output_amplitude=out_amp,
+                u_output_amplitude=abs(out_amp) * p.budget["output_fit"]["u_rel"], sensitivity=p.sensitivity,
+                u_sensitivity=p.u_sensitivity, normalized_sensitivity=None, u_normalized_sensitivity=None,
+                phase=math.radians(p.phase_deg), u_phase=math.radians(p.u_phase_deg),
+                phase_delay=math.radians(p.phase_deg), u_phase_delay=math.radians(p.u_phase_deg),
+                sensitivity_budget=make_budget("sensitivity", p.sensitivity, unit, s_comp),
+                normalized_budget=None,
+                phase_delay_budget=make_budget("phase delay", math.radians(p.phase_deg), "rad", ph_comp),
+                sync=None, n_samples=0, snr_db=snr, phase_reference="laser interferometer (displacement)",
+                warnings=tuple(p.warnings)))
+        return FrequencyResponse(points=tuple(pts), unit=unit, static_sensitivity=None,
+                                 phase_reference="the table's displacement by laser interferometry",
+                                 warnings=tuple(self.warnings))
 
     def to_dataframe(self):
         import pandas as pd
@@ -178,8 +234,8 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
         warnings.extend(merge_time_warnings((), rec.warnings))
         rows.append((p.frequency_hz, name, p))
     rows.sort(key=lambda r: r[0])
-    unit = units.pop() if len(units) == 1 else ""
-    unit = f"{unit or 'output'} per m/s^2"
+    raw_unit = units.pop() if len(units) == 1 else ""
+    unit = f"{raw_unit or 'output'} per m/s^2"
     return PrimaryResult(points=tuple(r[2] for r in rows), sources=tuple(r[1] for r in rows),
                          quadrature=(qi, qq), output=o.output, unit=unit, wavelength_nm=float(o.wavelength_nm),
-                         warnings=tuple(dict.fromkeys(warnings)))
+                         warnings=tuple(dict.fromkeys(warnings)), output_unit=raw_unit)

@@ -411,7 +411,10 @@ _TITLES = {"response": "Accelerometer frequency response", "velocity": "Velocity
 # The option that sets each type B component, for the budget-zero-component hint.
 _B_OPTIONS = {"input amplitude": "--u-input", "reference sensitivity": "--u-reference",
               "static sensitivity S0": "--u-static-sensitivity", "input phase": "--u-initial-phase-deg",
-              "position reference": "--u-position"}
+              "position reference": "--u-position", "laser wavelength": "--u-wavelength-rel",
+              "output voltage amplitude measurement": "--u-gain-rel",
+              "output voltage phase measurement": "--u-gain-phase-deg",
+              "other effects (transverse, rocking, base strain, mounting)": "--u-other-rel"}
 
 
 def _budgets(kind: str, result: Any) -> list[tuple[str, Any]]:
