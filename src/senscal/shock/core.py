@@ -541,13 +541,18 @@ def _one_pulse(j, st, pk, en, pulses, acc, y, r_raw, o_raw, cref, cout, scale, f
     eb = eb - eb.mean()
     w0, w1 = max(st - margin, 0), min(en + 3 * width + margin, a0, n)
     # the window reaches past the pulse as long as the residual (ringing) stands above the noise
+    # (a ringing that decays exponentially is still half its threshold level as long again after it first
+    # falls under it: the window takes that too, so that the truncated tail is far under the noise)
     blk = max(width // 2, 16)
     s_e = float(np.sqrt(np.mean(eb * eb)))
     k = en
+    last = None
     while k + blk <= min(a0, n):
-        if float(np.sqrt(np.mean((y_b[k:k + blk] - sens * acc_b[k:k + blk]) ** 2))) > 2.0 * s_e:
-            w1 = max(w1, min(k + blk + margin, a0, n))
+        if float(np.sqrt(np.mean((y_b[k:k + blk] - sens * acc_b[k:k + blk]) ** 2))) > 1.5 * s_e:
+            last = k + blk
         k += blk
+    if last is not None:
+        w1 = max(w1, min(last + (last - en) + margin, a0, n))
     e = y_b[w0:w1] - sens * acc_b[w0:w1]
     c0 = float(eb @ eb) / max(eb.size, 1)
     ratio = float(e @ e) / (e.size * c0) if c0 > 0 else float("nan")
