@@ -116,8 +116,11 @@ def certificate_info(*, lab: Path | None = None, run_file: Path | None = None, c
                      item: str | None = None, manufacturer: str | None = None, model: str | None = None,
                      serial: str | None = None, location: str | None = None, certificate_id: str | None = None,
                      env: Sequence[str] | None = None, calibration_date: str | None = None,
-                     conformity: str | None = None, decision_rule: str | None = None):
+                     conformity: str | None = None, decision_rule: str | None = None, standards: Any = None):
     """The :class:`~senscal.report.lab.CertificateInfo` from the profile, the run file and the options.
+
+    ``standards`` (:class:`~senscal.cli.registry_opts.UsedStandards`, from ``--standard``) replaces the
+    profile's reference standards by the registry's ones the calibration used.
 
     Raises
     ------
@@ -136,6 +139,8 @@ def certificate_info(*, lab: Path | None = None, run_file: Path | None = None, c
     run = merge_run(run, customer=customer, item=item, manufacturer=manufacturer, model=model, serial=serial,
                     location=location, certificate_id=certificate_id, calibration_date=_date_part(calibration_date),
                     conditions=conds, conformity=conformity, decision_rule=decision_rule)
+    if standards is not None:
+        profile = replace(profile, standards=standards.lab_standards(profile.standards))
     return CertificateInfo(profile, run)
 
 
@@ -261,7 +266,7 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
     fields["conformity"], fields["decision_rule"] = decide_conformity(doc, fields.get("conformity"),
                                                                        fields.get("decision_rule"))
     signing = _signing_material(fields.pop("sign_key", None), fields.pop("sign_cert", None), dcc)
-    used = fields.pop("standards", None)
+    used = fields.get("standards")
     conf_warns = _conformity_warnings(doc)
     if report is None and dcc is None:
         return conf_warns
@@ -277,10 +282,8 @@ def certify(kind: str, result: Any, *, report: Path | None, dcc: Path | None, un
         report = check_output(report, suffixes=REPORT_SUFFIXES, what="--report")
     if dcc is not None:
         dcc = check_output(dcc, suffixes=(".xml",), what="--dcc")
-    info = certificate_info(**fields)
+    info = certificate_info(**fields)  # with --standard: the registry's standards (certificate, due, u, SHA-256)
     if used is not None:
-        # The standards of this calibration, as the registry holds them (certificate, due date, u, SHA-256).
-        info = replace(info, lab=replace(info.lab, standards=used.lab_standards(info.lab.standards)))
         warnings = [*warnings, *used.warnings]
     now = _dt.datetime.now(_dt.timezone.utc)
     # The PDF/HTML and the DCC carry the same id and issue date.
