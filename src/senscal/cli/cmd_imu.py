@@ -13,6 +13,7 @@ from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import JsonOpt, StrictOpt, console, emit_warnings, print_json, progress_bar, table
 from senscal.cli.option_groups import READ, REGISTRY, command_params, save_registered, with_options
+from senscal.cli.registry_opts import StandardOpt, note_standards, use_standards
 from senscal.errors import InputError
 from senscal.jobs._base import with_read_options
 
@@ -78,16 +79,18 @@ def imu_calibrate_cmd(
     noise_yaml: Annotated[Optional[Path], typer.Option("--noise-yaml", help="Write the still start's Allan noise as a kalibr imu.yaml block (ROS covariances in --json).")] = None,
     strict: StrictOpt = False,
     json_out: JsonOpt = False,
+    standard: StandardOpt = None,
     **opts,
 ) -> None:
     """Accelerometer and gyroscope scale, misalignment and bias from one multi-pose session."""
     from senscal.jobs.imu import imu_calibrate
 
     params = command_params(locals(), opts)
+    used_standards = use_standards(standard, db=opts["db"], date=opts["date"])  # before the job: a typo costs nothing
     with progress_bar("calibrating", None):
         res = imu_calibrate(file, _imu_options(**params))
     doc = res.to_dict()
-    warnings = list(res.warnings)
+    warnings = [*res.warnings, *note_standards(doc, used_standards)]
     if out is not None:
         res.calibration.save(out, extra=doc)  # type + format_version; JSON, or HDF5 for .h5 (senscal.persist)
     if noise_yaml is not None:
@@ -102,7 +105,7 @@ def imu_calibrate_cmd(
         te = doc["temperature"]
         conditions = {"reference_temperature": te["reference"], "temperature_unit": te["unit"]}
     save_registered(res, opts, job="imu", method="multi-pose (IMU-TK protocol), joint ML", input_files=[file],
-                    conditions=conditions)
+                    conditions=conditions, standards=used_standards)
     if plot is not None:
         from senscal.imu.plots import plot_imu
 
