@@ -355,7 +355,8 @@ def import_cmd(
     if json_out:
         print_json(added)
     else:
-        console.print(f"imported {added['sensors']} sensors and {added['calibrations']} records into {url} "
+        stds = f", {added['standards']} reference-standard certificates" if added.get("standards") else ""
+        console.print(f"imported {added['sensors']} sensors{stds} and {added['calibrations']} records into {url} "
                       f"({added['skipped']} already present)")
 
 
