@@ -249,7 +249,8 @@ def test_unknown_things_are_404_and_foreign_hosts_400(site):
         r = client.get(url)
         assert r.status_code == 404 and "<h1>Not found</h1>" in r.get_data(as_text=True), url
     # A page elsewhere that points a name at 127.0.0.1 (DNS rebinding) gets nothing.
-    assert client.get("/", headers={"Host": "attacker.example"}).status_code == 400
+    for host in ("attacker.example", "localhost.attacker.example:8000", "[::2]:8000", "127.0.0.2"):
+        assert client.get("/", headers={"Host": host}).status_code == 400, host
     for host in ("127.0.0.1:8000", "localhost:8000", "[::1]:8000"):
         assert client.get("/chain", headers={"Host": host}).status_code == 200, host
 

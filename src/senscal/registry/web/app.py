@@ -270,14 +270,26 @@ def create_app(reg: Registry, options: ViewOptions | None = None, *, trusted_hos
     -------
     flask.Flask
     """
-    from flask import Flask, Response, render_template, send_file
+    from flask import Flask, Response, render_template, request, send_file
 
     opts = options or ViewOptions()
     app = Flask(__name__, template_folder="templates", static_folder=None)
-    app.config["TRUSTED_HOSTS"] = list(trusted_hosts) if trusted_hosts is not None else None
+    # Checked here rather than by Flask's TRUSTED_HOSTS, whose matching cannot name an IPv6 address ([::1]).
+    trusted = None if trusted_hosts is None else {h.strip().lower() for h in trusted_hosts}
     app.config["SENSCAL_REGISTRY"] = reg
     app.jinja_env.globals.update(fmt_date=_fmt_date, fmt_day=_fmt_day, value_u=_value_u, num=_g, url_db=reg.url, options=opts)
     app.jinja_env.filters["pretty_unit"] = _pretty_unit
+
+    @app.before_request
+    def _only_trusted_hosts():
+        if trusted is None:
+            return None
+        host = (request.host or "").strip().lower()
+        name = host[:host.find("]") + 1] if host.startswith("[") else host.partition(":")[0]
+        if name not in trusted:
+            return render_template("error.html", title="Bad request",
+                                   message="this view answers only requests addressed to this computer"), 400
+        return None
 
     @app.after_request
     def _headers(resp):
