@@ -13,10 +13,9 @@ from senscal.cli.app import app, simulate_app
 from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, CustomerOpt, DccOpt, EnvOpt, ItemOpt, LabOpt, LocationOpt,
                                    ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt, SensorIdOpt, SignCertOpt,
                                    SignKeyOpt, cert_fields, certify)
-from senscal.cli.registry_opts import (CreateSensorOpt, DateOpt, DbOpt, OperatorOpt, SaveOpt, SensorOpt, StandardOpt,
-                                       save_if_requested, use_standards)
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt,
-                                TimeUnitOpt, console, emit_warnings, print_json, progress_bar, table)
+from senscal.cli.option_groups import READ, REGISTRY, command_params, save_registered, with_options
+from senscal.cli.registry_opts import StandardOpt, use_standards
+from senscal.cli.common import JsonOpt, StrictOpt, console, emit_warnings, print_json, progress_bar, table
 from senscal.jobs._base import with_read_options
 
 
@@ -40,6 +39,7 @@ JOB_OPTIONS = {"primary": _primary_options}
 
 @app.command("primary")
 @units(wavelength_nm='nm', freq='Hz')
+@with_options(READ, REGISTRY)
 def primary_cmd(
     files: Annotated[List[Path], typer.Argument(help="Recordings, one per frequency, with the interferometer's I and Q outputs and the accelerometer's output.")],
     quadrature: Annotated[str, typer.Option("--quadrature", help="Channels of the quadrature outputs, I,Q.")] = "I,Q",
@@ -56,28 +56,21 @@ def primary_cmd(
     u_other_phase_deg: Annotated[float, typer.Option("--u-other-phase-deg", help="Type B: other phase standard u, deg.")] = 0.0,
     sign_check: Annotated[bool, typer.Option("--sign-check/--no-sign-check", help="Refuse an output near 180 deg from the acceleration (I/Q swapped); off for an inverting amplifier.")] = True,
     strict: StrictOpt = False,
-    time_column: TimeColumnOpt = "t",
-    fs: FsOpt = None,
-    names: NamesOpt = None,
-    skip_rows: SkipRowsOpt = None,
-    time_unit: TimeUnitOpt = None,
-    start: StartOpt = None,
-    stop: StopOpt = None,
     json_out: JsonOpt = False,
     output_unit: Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the accelerometer output for the certificate when the file's header gives none (default V).")] = None,
     report: ReportOpt = None, dcc: DccOpt = None, sensor_id: SensorIdOpt = None, model: ModelOpt = None,
     lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None, item: ItemOpt = None,
     manufacturer: ManufacturerOpt = None, location: LocationOpt = None, certificate_id: CertIdOpt = None,
     calibration_date: CalDateOpt = None, env: EnvOpt = None, sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
-    save: SaveOpt = False, sensor: SensorOpt = None, db: DbOpt = None, create_sensor: CreateSensorOpt = None,
-    date: DateOpt = None, operator: OperatorOpt = None, standard: StandardOpt = None,
+    standard: StandardOpt = None,
+    **opts,
 ) -> None:
     """Primary accelerometer calibration by laser interferometry (ISO 16063-11 method 3): sensitivity and phase."""
     from senscal.jobs.primary import primary
 
-    params = dict(locals())
+    used_standards = use_standards(standard, db=opts["db"], date=opts["date"], calibration_date=calibration_date)
+    params = command_params(locals(), opts)
     params.pop("files")
-    used_standards = use_standards(standard, db=db, date=date, calibration_date=calibration_date)
     with progress_bar("calibrating", None):
         res = primary(list(files), _primary_options(**params))
     doc = res.to_dict()
@@ -92,13 +85,11 @@ def primary_cmd(
                                        f"other {u_other_rel:g}")}
     cert_warns = certify("response", resp, report=report, dcc=dcc, unit=resp.unit if resp else "", method=method,
                          conditions=cond, files=[str(f) for f in files], warnings=res.warnings,
-                         **cert_fields(locals()))
+                         **cert_fields(params))
     doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
     if report is not None:
         doc["report"] = str(report)
-    save_if_requested(res, save=save, sensor=sensor, db=db, create_sensor=create_sensor, date=date,
-                      operator=operator, method=method, input_files=files, certificate=report,
-                      standards=used_standards)
+    save_registered(res, opts, method=method, input_files=files, certificate=report, standards=used_standards)
     if json_out:
         print_json(doc)
         emit_warnings([*res.warnings, *cert_warns], strict)

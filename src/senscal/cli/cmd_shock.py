@@ -10,8 +10,9 @@ from typing_extensions import Annotated
 
 from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
-from senscal.cli.common import (FsOpt, JsonOpt, NamesOpt, SkipRowsOpt, StartOpt, StopOpt, StrictOpt, TimeColumnOpt,
-                                TimeUnitOpt, console, emit_warnings, parse_relative, print_json, progress_bar, table)
+from senscal.cli.common import (JsonOpt, StrictOpt, console, emit_warnings, parse_relative, print_json, progress_bar,
+                                table)
+from senscal.cli.option_groups import READ, command_params, with_options
 from senscal.jobs._base import with_read_options
 
 
@@ -36,6 +37,7 @@ JOB_OPTIONS = {"shock": _shock_options}
 
 @app.command("shock")
 @units(lowpass_hz="Hz")
+@with_options(READ)
 def shock_cmd(
     files: Annotated[List[Path], typer.Argument(help="Recordings of half-sine shock pulses: the accelerometer's output and a reference accelerometer or a laser.")],
     output: Annotated[str, typer.Option("--output", help="Channel of the accelerometer under test.")] = "out",
@@ -48,19 +50,13 @@ def shock_cmd(
     lowpass_order: Annotated[int, typer.Option("--lowpass-order", help="Order of the low-pass.")] = 4,
     u_other: Annotated[Optional[str], typer.Option("--u-other", help="Type B: other relative standard u (transverse motion, mounting ...), e.g. 0.3%.")] = None,
     strict: StrictOpt = False,
-    time_column: TimeColumnOpt = "t",
-    fs: FsOpt = None,
-    names: NamesOpt = None,
-    skip_rows: SkipRowsOpt = None,
-    time_unit: TimeUnitOpt = None,
-    start: StartOpt = None,
-    stop: StopOpt = None,
     json_out: JsonOpt = False,
+    **opts,
 ) -> None:
     """Shock sensitivity (peak ratio) and transfer function from half-sine pulses (ISO 16063-22, -13)."""
     from senscal.jobs.shock import shock
 
-    params = dict(locals())
+    params = command_params(locals(), opts)
     params.pop("files")
     with progress_bar("calibrating", None):
         res = shock(list(files), _shock_options(**params))
