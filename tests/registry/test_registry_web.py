@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import queue
 import re
+import shutil
 import socket
 import subprocess
 import sys
@@ -163,6 +164,31 @@ def test_certificate_reference_that_is_no_file(tmp_path):
         assert client.get(f"/calibrations/{rec.uid}/certificate.pdf").status_code == 404
         assert "nothing to download" in client.get(f"/calibrations/{gone.uid}").get_data(as_text=True)
         assert client.get(f"/calibrations/{gone.uid}/certificate.pdf").status_code == 404
+
+
+def test_pdf_printed_from_an_html_certificate(tmp_path):
+    """An HTML certificate without a PDF beside it downloads as PDF too, printed from that HTML (WeasyPrint)."""
+    html = tmp_path / "C-7.html"
+    html.write_text('<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>C-7</title></head>'
+                    "<body><h1>Calibration certificate C-7</h1></body></html>", encoding="utf-8")
+    reg = open_registry(tmp_path / "r.sqlite")
+    reg.add_sensor("C7", "accelerometer")
+    rec = reg.record("C7", [Quantity("sensitivity", 0.01, 1e-5, "V/(m/s^2)")], performed_at="2024-01-01",
+                     certificate=html)
+    reg.close()
+    with open_read_only(tmp_path / "r.sqlite") as ro:
+        client = create_app(ro).test_client()
+        page = client.get(f"/calibrations/{rec.uid}").get_data(as_text=True)
+        assert "Download the PDF certificate" in page and "Download the HTML certificate" in page
+        pdf = client.get(f"/calibrations/{rec.uid}/certificate.pdf")
+        assert pdf.status_code == 200 and pdf.mimetype == "application/pdf" and pdf.data.startswith(b"%PDF-")
+        assert 'filename="C-7.pdf"' in pdf.headers["Content-Disposition"]
+        if shutil.which("pdftotext"):
+            text = subprocess.run(["pdftotext", "-", "-"], input=pdf.data, capture_output=True).stdout.decode()
+            assert "Calibration certificate C-7" in text
+        # A PDF written beside it is the one offered, not a new print.
+        (tmp_path / "C-7.pdf").write_bytes(b"%PDF-1.4 the issued one")
+        assert client.get(f"/calibrations/{rec.uid}/certificate.pdf").data == b"%PDF-1.4 the issued one"
 
 
 def test_standard_page_is_the_impact_report(site):
@@ -388,7 +414,7 @@ def test_report_of_a_saved_calibration_downloads_from_anywhere(cli, tmp_path, mo
     work.mkdir()
     monkeypatch.chdir(work)
     assert cli("simulate", "hydraulic", "--out", "hy", "--seed", "1").code == 0
-    r = cli("velocity", "hy/hydraulic_01.csv", "hy/hydraulic_02.csv", "--position", "position", "--velocity",
+    r = cli("velocity", "hy/hydraulic_01.csv", "--position", "position", "--velocity",
             "velocity", "--report", "cert.html", "--save", "--sensor", "V1", "--create-sensor", "velocity sensor",
             "--db", tmp_path / "lab.sqlite")
     assert r.code == 0, r.err
@@ -401,6 +427,8 @@ def test_report_of_a_saved_calibration_downloads_from_anywhere(cli, tmp_path, mo
         assert "Download the HTML certificate" in page
         got = client.get(f"/calibrations/{rec.uid}/certificate.html")
         assert got.status_code == 200 and got.data == (work / "cert.html").read_bytes()
+        # No PDF was written: the view offers one printed from the HTML (test_pdf_printed_from_an_html_certificate).
+        assert "Download the PDF certificate" in page and "printed now from the HTML" in page
 
 
 def test_overview_reads_every_history_in_one_query_with_the_same_points(db_url, tmp_path):

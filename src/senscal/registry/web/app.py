@@ -144,14 +144,18 @@ def certificate_files(cal: Calibration) -> list[dict[str, Any]]:
     command, ``registry record --certificate``) or a reference text.  A
     path to an existing PDF, HTML or XML (DCC) file is offered, and so are
     files of those types beside it with the same name (``--report C.pdf
-    --dcc C.xml`` writes both; only the first is recorded).  A relative
-    path is looked up from the folder the server runs in.
+    --dcc C.xml`` writes both; only the first is recorded).  An HTML
+    certificate without a PDF beside it is also offered as PDF, printed on
+    request from that HTML as ``--report C.pdf`` prints it (the same
+    document).  A relative path is looked up from the folder the server
+    runs in.
 
     Returns
     -------
     list of dict
-        ``{"ext", "label", "path", "beside"}`` (``beside``: found next to
-        the recorded file, not recorded itself).
+        ``{"ext", "label", "path", "beside", "printed"}`` (``beside``: found
+        next to the recorded file, not recorded itself; ``printed``: a PDF
+        made from the HTML file at ``path``).
     """
     ref = (cal.certificate or "").strip()
     if not ref:
@@ -162,11 +166,17 @@ def certificate_files(cal: Calibration) -> list[dict[str, Any]]:
         return []
     out = []
     if p.is_file():
-        out.append({"ext": ext[1:], "label": CERTIFICATE_TYPES[ext][0], "path": p, "beside": False})
+        out.append({"ext": "html" if ext == ".htm" else ext[1:], "label": CERTIFICATE_TYPES[ext][0], "path": p,
+                    "beside": False, "printed": False})
     for other in (".pdf", ".html", ".xml"):
         q = p.with_suffix(other)
         if other != ext and not (ext == ".htm" and other == ".html") and q.is_file():
-            out.append({"ext": other[1:], "label": CERTIFICATE_TYPES[other][0], "path": q, "beside": True})
+            out.append({"ext": other[1:], "label": CERTIFICATE_TYPES[other][0], "path": q, "beside": True,
+                        "printed": False})
+    html = next((f for f in out if f["ext"] == "html"), None)
+    if html is not None and not any(f["ext"] == "pdf" for f in out):
+        out.insert(0, {"ext": "pdf", "label": "PDF certificate", "path": html["path"], "beside": html["beside"],
+                       "printed": True})
     return out
 
 
@@ -391,6 +401,15 @@ def create_app(reg: Registry, options: ViewOptions | None = None, *, trusted_hos
         f = next((f for f in certificate_files(cal) if f["ext"] == ext), None)
         if f is None:
             raise _NotFound(f"calibration {uid[:8]} has no {ext!r} certificate file on this computer")
+        if f["printed"]:
+            from senscal.report.pdf import html_to_pdf
+
+            try:
+                html = f["path"].read_text(encoding="utf-8")
+            except (OSError, UnicodeDecodeError) as exc:
+                raise _NotFound(f"the HTML certificate {f['path']} cannot be read ({exc})") from None
+            return Response(html_to_pdf(html), mimetype="application/pdf", headers={
+                "Content-Disposition": f'attachment; filename="{_safe_name(f["path"].stem)}.pdf"'})
         return send_file(f["path"], mimetype=CERTIFICATE_TYPES["." + ext][1], as_attachment=True,
                          download_name=f["path"].name, max_age=0)
 
