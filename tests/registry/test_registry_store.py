@@ -168,23 +168,34 @@ def test_schema_from_a_newer_senscal_is_a_clear_error(tmp_path):
         open_registry(url)
 
 
+#: Characters the registry refuses in a name (bidi overrides, zero-width, controls, separators, private use,
+#: unassigned: registry.store), so the round-trip property draws names it accepts.
+CONTROL_OR_FORMAT = ("Cs", "Cf", "Cc", "Zl", "Zp", "Co", "Cn")
+
+
 def test_any_record_reads_back_exactly(db_url):
     """Property: values, uncertainties, offsets and microseconds survive the database bit for bit."""
     from hypothesis import given, settings, strategies as st
 
     reg = open_registry(db_url)
     reg.add_sensor("P", "accelerometer")
+    calls: list[None] = []
     finite = st.floats(allow_nan=False, allow_infinity=False, width=64)
     positive = st.floats(min_value=1e-300, max_value=1e300, allow_nan=False)
 
     @settings(max_examples=30, deadline=None)
     @given(value=finite, u=positive, k=st.sampled_from([1.0, 2.0, 2.576, 3.0]),
            when=st.datetimes(min_value=datetime(1950, 1, 1), max_value=datetime(2100, 1, 1)),
-           offset_min=st.integers(-12 * 60, 14 * 60), name=st.text(st.characters(min_codepoint=32, exclude_categories=("Cs",)), min_size=1,
+           offset_min=st.integers(-12 * 60, 14 * 60), name=st.text(st.characters(min_codepoint=32, exclude_categories=CONTROL_OR_FORMAT), min_size=1,
                         max_size=30).filter(str.strip))
     def check(value, u, k, when, offset_min, name):
         performed = when.replace(tzinfo=timezone(timedelta(minutes=offset_min)))
-        rec = reg.record("P", [Quantity(name, value, u, "V", k)], performed_at=performed, result={"v": value})
+        # Hypothesis replays examples (and shrinks to the same one); a replay would be the same record, which
+        # the registry rightly keeps once, so each call's result carries its own serial number.
+        calls.append(None)
+        rec = reg.record("P", [Quantity(name, value, u, "V", k)], performed_at=performed,
+                         result={"v": value, "call": len(calls)})
+        assert not rec.already_recorded
         back = reg.calibration(rec.uid)
         assert back == rec
         assert back.performed_at.utcoffset() == timedelta(minutes=offset_min)
