@@ -11,7 +11,14 @@ finite differences, and without their truncation error.
 Layout as in :mod:`senscal.kalman._kernels`: time-major, every model matrix
 ``(1|T, r, c)``; derivative stacks carry a leading parameter axis
 ``(p, 1|T, r, c)``.  No control input, no gating (the likelihood of
-parameter estimation).
+parameter estimation).  The model stacks are indexed in place (``F[f, i, j]``
+with ``f = _ti(F, t)``), not sliced per step.
+
+The filter step is written out here rather than shared with
+:func:`senscal.kalman._kernels.filter_series`: shared step functions
+either cost 13 s more compilation on a user's first run (numba
+``inline="always"``) or, as plain calls, up to twice the time per pass of
+a small model (measured for issue 30).
 
 References
 ----------
@@ -28,7 +35,7 @@ import math
 import numba as nb
 import numpy as np
 
-from senscal.kalman._kernels import _at, _chol
+from senscal.kalman._kernels import _chol
 
 _LOG_2PI = math.log(2.0 * math.pi)
 # Relative change of the predicted covariance and of its derivatives below
@@ -36,6 +43,12 @@ _LOG_2PI = math.log(2.0 * math.pi)
 # frozen gain then changes the log-likelihood by far less than 1e-6 nat.
 _SS_TOL = 1e-13
 _SS_HOLD = 3
+
+
+@nb.njit(cache=True)
+def _ti(A, t):
+    """Index of step ``t`` in a (1|T, ...) stack."""
+    return 0 if A.shape[0] == 1 else t
 
 
 @nb.njit(cache=True)
@@ -117,7 +130,8 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
     hold = 0
     ss_from = -1
     for t in range(T):
-        Ft = _at(F, t)
+        f = _ti(F, t)
+        fd = _ti(dF[0], t) if p > 0 else 0
         # ---- predict
         if t == 0:
             for i in range(n):
@@ -133,69 +147,67 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
             for i in range(n):
                 acc = 0.0
                 for j in range(n):
-                    acc += Ft[i, j] * x[j]
+                    acc += F[f, i, j] * x[j]
                 xp[i] = acc
-            for k in range(p):
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(n):
-                        acc += Ft[i, j] * dx[k, j]
-                    if useF[k]:
-                        dFt = _at(dF[k], t)
+            if grad:
+                for k in range(p):
+                    for i in range(n):
+                        acc = 0.0
                         for j in range(n):
-                            acc += dFt[i, j] * x[j]
-                    dxp[k, i] = acc
+                            acc += F[f, i, j] * dx[k, j]
+                        if useF[k]:
+                            for j in range(n):
+                                acc += dF[k, fd, i, j] * x[j]
+                        dxp[k, i] = acc
             if not frozen:
-                Qt = _at(Q, t)
+                q = _ti(Q, t)
                 for i in range(n):
                     for j in range(n):
                         acc = 0.0
                         for l in range(n):
-                            acc += Ft[i, l] * P[l, j]
+                            acc += F[f, i, l] * P[l, j]
                         FP[i, j] = acc
                 for i in range(n):
                     for j in range(i + 1):
-                        acc = Qt[i, j]
+                        acc = Q[q, i, j]
                         for l in range(n):
-                            acc += FP[i, l] * Ft[j, l]
+                            acc += FP[i, l] * F[f, j, l]
                         Pp[i, j] = acc
                         Pp[j, i] = acc
                 if grad:
+                    qd = _ti(dQ[0], t)
                     for k in range(p):
-                        dQt = _at(dQ[k], t)
-                        # F dP F'
                         for i in range(n):
                             for j in range(n):
                                 acc = 0.0
                                 for l in range(n):
-                                    acc += Ft[i, l] * dP[k, l, j]
+                                    acc += F[f, i, l] * dP[k, l, j]
                                 A[i, j] = acc
                         for i in range(n):
                             for j in range(i + 1):
-                                acc = dQt[i, j]
+                                acc = dQ[k, qd, i, j]
                                 for l in range(n):
-                                    acc += A[i, l] * Ft[j, l]
+                                    acc += A[i, l] * F[f, j, l]
                                 dPp[k, i, j] = acc
                                 dPp[k, j, i] = acc
                         if useF[k]:
-                            # dF P F' + F P dF'
-                            dFt = _at(dF[k], t)
                             for i in range(n):
                                 for j in range(n):
                                     acc = 0.0
                                     for l in range(n):
-                                        acc += dFt[i, l] * FP[j, l]
+                                        acc += dF[k, fd, i, l] * FP[j, l]
                                     A[i, j] = acc
                             for i in range(n):
                                 for j in range(n):
                                     dPp[k, i, j] += A[i, j] + A[j, i]
         # ---- innovation
-        Ht = _at(H, t)
+        h = _ti(H, t)
+        hd = _ti(dH[0], t) if p > 0 else 0
         mo = 0
         for a in range(m):
             acc = y[t, a]
             for j in range(n):
-                acc -= Ht[a, j] * xp[j]
+                acc -= H[h, a, j] * xp[j]
             v[a] = acc
             if not math.isnan(acc):
                 obs[mo] = a
@@ -206,11 +218,10 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                     r = obs[a]
                     acc = 0.0
                     for j in range(n):
-                        acc -= Ht[r, j] * dxp[k, j]
+                        acc -= H[h, r, j] * dxp[k, j]
                     if useH[k]:
-                        dHt = _at(dH[k], t)
                         for j in range(n):
-                            acc -= dHt[r, j] * xp[j]
+                            acc -= dH[k, hd, r, j] * xp[j]
                     dv[k, a] = acc
         if mo == 0:
             for i in range(n):
@@ -224,18 +235,18 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                         dP[k, i, j] = dPp[k, i, j]
             continue
         if not frozen:
-            Rt = _at(R, t)
+            rr = _ti(R, t)
             for i in range(n):
                 for a in range(mo):
                     acc = 0.0
                     for j in range(n):
-                        acc += Pp[i, j] * Ht[obs[a], j]
+                        acc += Pp[i, j] * H[h, obs[a], j]
                     M[i, a] = acc
             for a in range(mo):
                 for b in range(a + 1):
-                    acc = Rt[obs[a], obs[b]]
+                    acc = R[rr, obs[a], obs[b]]
                     for j in range(n):
-                        acc += Ht[obs[a], j] * M[j, b]
+                        acc += H[h, obs[a], j] * M[j, b]
                     S[a, b] = acc
                     S[b, a] = acc
             if not _chol(S, idx, mo, L):
@@ -257,43 +268,37 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                         acc += M[i, b] * Sinv[b, a]
                     Kg[i, a] = acc
             if grad:
+                rd = _ti(dR[0], t)
                 for k in range(p):
-                    dRt = _at(dR[k], t)
                     for i in range(n):
                         for a in range(mo):
                             acc = 0.0
                             for j in range(n):
-                                acc += dPp[k, i, j] * Ht[obs[a], j]
+                                acc += dPp[k, i, j] * H[h, obs[a], j]
                             if useH[k]:
-                                dHt = _at(dH[k], t)
                                 for j in range(n):
-                                    acc += Pp[i, j] * dHt[obs[a], j]
+                                    acc += Pp[i, j] * dH[k, hd, obs[a], j]
                             dM[k, i, a] = acc
                     for a in range(mo):
                         for b in range(mo):
-                            acc = dRt[obs[a], obs[b]]
+                            acc = dR[k, rd, obs[a], obs[b]]
                             for j in range(n):
-                                acc += Ht[obs[a], j] * dM[k, j, b]
+                                acc += H[h, obs[a], j] * dM[k, j, b]
                             if useH[k]:
-                                dHt = _at(dH[k], t)
                                 for j in range(n):
-                                    acc += dHt[obs[a], j] * M[j, b]
+                                    acc += dH[k, hd, obs[a], j] * M[j, b]
                             dS[k, a, b] = acc
                     tr = 0.0
                     for a in range(mo):
                         for b in range(mo):
                             tr += Sinv[a, b] * dS[k, b, a]
                     trc[k] = tr
-                    # dK = (dM - K dS) S^-1
                     for i in range(n):
                         for a in range(mo):
                             acc = dM[k, i, a]
                             for b in range(mo):
                                 acc -= Kg[i, b] * dS[k, b, a]
-                            dK[k, i, a] = acc
-                    for i in range(n):
-                        for a in range(mo):
-                            w[a] = dK[k, i, a]
+                            w[a] = acc
                         for a in range(mo):
                             acc = 0.0
                             for b in range(mo):
@@ -319,7 +324,6 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                         acc += dS[k, a, b] * w[b]
                     q2 += w[a] * acc
                 g[k] += -0.5 * (trc[k] + 2.0 * q1 - q2)
-            # Expected information: the trace part changes only with the covariances.
             if not frozen:
                 for k in range(p):
                     for a in range(mo):
@@ -365,13 +369,12 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                     dx[k, i] = acc
         if frozen:
             continue
-        # ---- update: covariance (Joseph form) and its derivative
-        Rt = _at(R, t)
+        rr = _ti(R, t)
         for i in range(n):
             for j in range(n):
                 acc = 1.0 if i == j else 0.0
                 for a in range(mo):
-                    acc -= Kg[i, a] * Ht[obs[a], j]
+                    acc -= Kg[i, a] * H[h, obs[a], j]
                 IKH[i, j] = acc
         for i in range(n):
             for j in range(n):
@@ -386,12 +389,11 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                     acc += tmp[i, l] * IKH[j, l]
                 for a in range(mo):
                     for b in range(mo):
-                        acc += Kg[i, a] * Rt[obs[a], obs[b]] * Kg[j, b]
+                        acc += Kg[i, a] * R[rr, obs[a], obs[b]] * Kg[j, b]
                 P[i, j] = acc
                 P[j, i] = acc
         if grad:
             for k in range(p):
-                # dP = dPp - dK M' - K dM'
                 for i in range(n):
                     for j in range(i + 1):
                         acc = dPp[k, i, j]
