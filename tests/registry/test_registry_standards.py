@@ -202,7 +202,7 @@ def test_cli_standard_add_list_show_and_fit_with_standard(cli, tmp_path):
     assert [row["overdue"] for row in imp["rows"]] == [False, True] and imp["n_sensors"] == 1
     assert json.loads(_ok(cli("registry", "impact", "REF-1", "--since", "2026-07-01", "--json", "--db", db)).out)[
         "n_calibrations"] == 1
-    assert "2 calibrations of 1 sensors" in _ok(cli("registry", "impact", "REF-1", "--db", db)).out
+    assert "2 calibrations of 1 sensor," in _ok(cli("registry", "impact", "REF-1", "--db", db)).out
     show = json.loads(_ok(cli("registry", "standard", "show", "REF-1", "--json", "--db", db)).out)
     assert show["certificates"][0]["n_calibrations"] == 2
     # Without --save, --standard still looks the standards up and judges them (--db and --date allowed).

@@ -341,5 +341,9 @@ def impact_cmd(
     console.print(table(f"Calibrations that used {rep.ident}" + (f" since {since}" if since else "") + f" ({url})",
                         ["date", "sensor", "job", "record", "certificate issued", "standard's certificate", "note"],
                         rows))
-    console.print(f"{rep.n_calibrations} calibrations of {rep.n_sensors} sensors, {rep.n_certificates} with a "
-                  f"certificate; {rep.n_overdue} made while the standard was overdue")
+    console.print(f"{_count(rep.n_calibrations, 'calibration')} of {_count(rep.n_sensors, 'sensor')}, "
+                  f"{rep.n_certificates} with a certificate; {rep.n_overdue} made while the standard was overdue")
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else "s")
