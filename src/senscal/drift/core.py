@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Callable, Mapping, Sequence
 
@@ -370,26 +372,33 @@ def _lag_sensitivity(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, flo
     names = list(setup.state_names)
     j = {b.name: names.index(b.name) for b in todo}
     grid = np.geomspace(step / 3.0, span / 3.0, _LAG_POINTS)
-    rows = []
+    def lagged(L: float) -> DriftSetup:
+        return dataclasses.replace(setup, biases=tuple(dataclasses.replace(b, lag=float(L)) if b in todo else b
+                                                       for b in setup.biases))
+
     try:
-        for L in grid:
-            alt = dataclasses.replace(setup, biases=tuple(dataclasses.replace(b, lag=float(L)) if b in todo else b
-                                                          for b in setup.biases))
-            m = augmented_model(alt, dt, levels, cov, x0=x0, P0=P0)
+        # Likelihoods first (one filter pass per lag, only the number kept: a long
+        # record's filter output is large); the states again only where the lag is
+        # not excluded.
+        ll = np.array([float(kalman_filter(augmented_model(s_, dt, levels, cov, x0=x0, P0=P0), yy).loglik)
+                       for s_ in [setup] + [lagged(L) for L in grid]])
+        if not np.all(np.isfinite(ll)):
+            return []
+        keep = ll[1:] >= ll.max() - _LAG_DROP
+        rows = []
+        for L, k in zip(grid, keep):
+            if not k:
+                rows.append(None)
+                continue
+            m = augmented_model(lagged(L), dt, levels, cov, x0=x0, P0=P0)
             r = kalman_filter(m, yy)
             e = (rts_smoother(m, r) if method == "smoother" else
                  fixed_lag_smoother(m, r, int(window)) if method == "window" else r)
             H = np.broadcast_to(m.H, (yy.shape[1],) + m.H.shape[-2:]) if m.H.ndim == 2 else m.H
-            b_l = channel_bias(alt, H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))[0]
-            rows.append((float(r.loglik), {k: float(e.x[i, -1]) for k, i in j.items()}, b_l))
-        m0 = augmented_model(setup, dt, levels, cov, x0=x0, P0=P0)
-        ll0 = float(kalman_filter(m0, yy).loglik)
+            b_l = channel_bias(lagged(L), H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))[0]
+            rows.append((float(r.loglik), {k_: float(e.x[i, -1]) for k_, i in j.items()}, b_l))
     except Exception:  # a lag the model refuses: nothing to compare
         return []
-    ll = np.array([ll0] + [r_[0] for r_ in rows])
-    if not np.all(np.isfinite(ll)):
-        return []
-    keep = ll[1:] >= ll.max() - _LAG_DROP
     bad = []
     for b in todo:
         i = j[b.name]
@@ -702,6 +711,18 @@ def _sub_setup(setup: DriftSetup, chans: Sequence[str]) -> DriftSetup:
                       ar_noise=tuple(c for c in setup.ar_noise if c in chans))
 
 
+def _fit_workers() -> int:
+    """Threads for independent blocks: the CPUs this process may use, at most 4 (``SENSCAL_THREADS`` overrides)."""
+    env = os.environ.get("SENSCAL_THREADS", "")
+    if env.strip().isdigit():
+        return max(1, int(env))
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    return max(1, min(4, n))
+
+
 def _fit_levels(setup: DriftSetup, yy: np.ndarray, dt: np.ndarray, cov: Mapping[str, np.ndarray],
                 x0: np.ndarray, P0: np.ndarray, free: Mapping[str, float], given: Mapping[str, float],
                 starts: Sequence[Mapping[str, float]] = (),
@@ -716,11 +737,10 @@ def _fit_levels(setup: DriftSetup, yy: np.ndarray, dt: np.ndarray, cov: Mapping[
     ``cov_out`` receives the covariance of the free levels' logs
     (block-diagonal across blocks), as :func:`estimate_levels` gives it.
     """
-    covs = []
     dtu = _uniform_dt(dt)
     out: dict[str, NoiseParameter] = {}
-    total = 0.0
-    for chans in _blocks(setup):
+
+    def fit_block(chans):
         sub = setup if len(chans) == len(setup.channels) else _sub_setup(setup, chans)
         idx = [setup.state_names.index(nm) for nm in sub.state_names]
         rows = [setup.channels.index(c) for c in chans]
@@ -735,10 +755,24 @@ def _fit_levels(setup: DriftSetup, yy: np.ndarray, dt: np.ndarray, cov: Mapping[
         span = float(np.sum(dt[1:])) if dt.size > 1 else 1.0
         step = float(np.median(dt))
         bounds = {k: (0.01 * step, max(span / 3.0, 0.02 * step)) for k in f if k.endswith("_lag")}
-        params, ll = estimate_levels(None, yy[rows], f, g, starts=[{k: s_[k] for k in f} for s_ in starts],
-                                     progress=progress, score=score, cov_out=co, bounds=bounds,
-                                     curvature=curvature)
-        covs.append(co)
+        with one_blas_thread():
+            params, ll = estimate_levels(None, yy[rows], f, g, starts=[{k: s_[k] for k in f} for s_ in starts],
+                                         progress=progress, score=score, cov_out=co, bounds=bounds,
+                                         curvature=curvature)
+        return co, params, ll
+
+    blocks = _blocks(setup)
+    workers = min(len(blocks), _fit_workers())
+    if workers > 1:
+        # Independent blocks (a known quantity's channels) in threads: the
+        # score pass releases the GIL, so two cores take two channels at once.
+        with ThreadPoolExecutor(workers) as ex:
+            fits = list(ex.map(fit_block, blocks))
+    else:
+        fits = [fit_block(c) for c in blocks]
+    covs = [co for co, _, _ in fits]
+    total = 0.0
+    for _, params, ll in fits:
         out.update({p.name: p for p in params})
         total += ll
     order = [k for k in given] + [k for k in setup.level_names() if k not in given]
