@@ -166,6 +166,11 @@ class GravityModel(ResultMixin):
         when declared), rad, and its standard uncertainty (per component);
         amplitude, phase and offset are corrected for it and their
         covariance holds the estimate's share.
+    angle_error_vector : tuple of float
+        ``(e_s, e_c)``, rad: the encoder reads ``theta + e_s sin(theta) +
+        e_c cos(theta)``.  :meth:`gravity` takes encoder angles and undoes
+        it, so a later run read by the same encoder is compensated with
+        the error's offset and twice-per-turn term as well.
     encoder_step : float or None
         Step of the encoder angle, rad (``2 pi / encoder_lines`` or detected
         in the readings); None when the angle showed no grid.
@@ -234,6 +239,7 @@ class GravityModel(ResultMixin):
     u_twice_per_turn: float = 0.0
     angle_error: float = 0.0
     u_angle_error: float = 0.0
+    angle_error_vector: tuple[float, float] = (0.0, 0.0)
     encoder_step: float | None = None
     encoder_step_detected: bool = False
     u_encoder_step: tuple[float, ...] = (0.0, 0.0, 0.0)
@@ -246,8 +252,16 @@ class GravityModel(ResultMixin):
 
     # -- the model -------------------------------------------------------------
     def gravity(self, theta) -> np.ndarray:
-        """Gravity term (output unit) at encoder angles ``theta`` (rad, unwrapped or not)."""
-        return self.amplitude * np.sin(np.asarray(theta, dtype=float) + self.phase) + self.offset
+        """Gravity term (output unit) at encoder angles ``theta`` (rad, unwrapped or not).
+
+        The encoder's estimated once-per-turn error (``angle_error_vector``) is undone first: the
+        shaft's angle is ``theta - e_s sin(theta) - e_c cos(theta)`` to first order.
+        """
+        th = np.asarray(theta, dtype=float)
+        e_s, e_c = self.angle_error_vector
+        if e_s or e_c:
+            th = th - (e_s * np.sin(th) + e_c * np.cos(th))
+        return self.amplitude * np.sin(th + self.phase) + self.offset
 
     def u_gravity(self, theta) -> np.ndarray:
         """Standard uncertainty of :meth:`gravity` from the fit covariance, output unit."""
@@ -366,6 +380,10 @@ class GravityModel(ResultMixin):
         kw["covariance"] = array_field(kw["covariance"], (3, 3), f"'covariance' in {source}")
         kw["warnings"] = tuple(kw.get("warnings") or ())
         kw["nuisance"] = tuple(kw.get("nuisance") or ())
+        if "angle_error_vector" in kw:
+            kw["angle_error_vector"] = tuple(float(v) for v in kw["angle_error_vector"])
+        if "u_encoder_step" in kw:
+            kw["u_encoder_step"] = tuple(float(v) for v in kw["u_encoder_step"])
         kw["format_version"] = FORMAT_VERSION  # the object is today's, whichever layout it was read from
         return cls(**kw)
 
@@ -855,6 +873,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         encoder_step=None if step is None else float(step), encoder_step_detected=step_detected,
         u_encoder_step=tuple(float(v) for v in step_u),
         angle_error=0.0 if ecc_est is None else float(math.hypot(ecc_est[0], ecc_est[1])),
+        angle_error_vector=(0.0, 0.0) if ecc_est is None else (float(ecc_est[0]), float(ecc_est[1])),
         u_angle_error=0.0 if ecc_est is None else float(math.sqrt(max(np.trace(ecc_est[2]) / 2.0, 0.0))),
         warnings=tuple(warnings), source=source,
         created=_dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat(),
