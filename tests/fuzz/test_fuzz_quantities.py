@@ -37,7 +37,7 @@ def qty(*valid: str):
     return st.one_of(st.sampled_from(valid), st.sampled_from(valid), QUANTITY)
 
 
-EXAMPLES = 200 if LONG else 25
+EXAMPLES = 200 if LONG else 15
 SETTINGS = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
                     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
