@@ -65,9 +65,9 @@ def _tril_inv_into(L, m, Li):
             Li[i, j] = 0.0
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, nogil=True)
 def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_ss, grad):
-    """Log-likelihood and (with ``grad``) its gradient for one series.
+    """Log-likelihood and (with ``grad``) its gradient for one series (releases the GIL).
 
     Shapes: F, Q (1|T, n, n); H (1|T, m, n); R (1|T, m, m); x0 (n,); P0 (n,
     n); y (T, m) time-major with NaN = missing; dF, dQ (p, 1|T, n, n); dH
