@@ -234,3 +234,10 @@ def test_cli_report_dcc_and_save(cli, sim_dir, tmp_path, monkeypatch):
     r = cli("registry", "history", "SN-1", "--db", db, "--json")
     assert r.code == 0, r.err
     assert "sensitivity@160Hz" in r.out
+
+
+def test_sample_rate_not_a_multiple_of_the_frequency():
+    """Slices of whole periods need not be whole samples: 1 kHz at 99.731 kS/s (the slicing once overran)."""
+    rec, tr, c = _point(freq=1000.0, fs=99_731.0, duration=0.5, seed=14)
+    p = calibrate_point(c["I"], c["Q"], c["out"], rec.fs, freq=1000.0)
+    assert p.slices == 10 and abs(p.sensitivity - tr["sensitivity"]) < 3 * p.u_sensitivity

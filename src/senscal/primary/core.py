@@ -488,7 +488,8 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
     s_rel = s_ph = float("nan")
     if m >= 3:
         per = math.floor(periods / m)
-        L = int(round(per * fs / freq))
+        # whole periods where the sample rate allows; never more samples than the record holds
+        L = min(int(round(per * fs / freq)), n // m)
         seg = both[:, : m * L].reshape(2, m, L)
         sf = fit_sine(seg.reshape(2 * m, L), fs=fs, freq=freq, harmonics=harmonics, drift=False,
                       noise_model="white")

@@ -56,10 +56,15 @@ def one_seed(seed: int, sim_kw: dict, freqs=FREQS):
     return out
 
 
+# each case draws its own noise: with shared seeds a departed case repeated the white case's unlucky draws
+# (the first 60 white seeds cover the 1 kHz sensitivity 86.7 %, and so did every departure on them)
+_CASE_SEED = {"white": 0, "harmonics": 1, "output-drift": 2, "hum": 3}
+
+
 def _run(case: str, sim_kw: dict, n_seeds: int, seed0: int, note: str) -> list[CoverageRow]:
     vals: dict[str, list] = {}
     for s in range(seed0, seed0 + n_seeds):
-        res = one_seed(s, sim_kw)
+        res = one_seed(s + 1_000_000 * _CASE_SEED[case], sim_kw)
         for f, r in res.items():
             tag = f"{f:g}Hz"
             if r is None:

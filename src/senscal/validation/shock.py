@@ -88,8 +88,9 @@ def one_seed(seed: int, sim_kw: dict, *, mode: str = "comparison", laser: str = 
 def _run(case: str, n_seeds: int, seed0: int, note: str, sim_kw: dict | None = None, *, warn_at=(), warn=None,
          **kw) -> list[CoverageRow]:
     vals: dict[str, list] = {}
+    offset = 1_000_000 * sorted(SCENARIOS).index(case)  # each case draws its own noise
     for s in range(seed0, seed0 + n_seeds):
-        res = one_seed(s, sim_kw or {}, warn=warn, **kw)
+        res = one_seed(s + offset, sim_kw or {}, warn=warn, **kw)
         for T, q in res.items():
             if q is None:
                 for name in ("sensitivity", *(f"tf_{w}[{j}]" for j in TF_INDEX for w in ("magnitude", "phase"))):
