@@ -28,6 +28,7 @@ import numpy as np
 from senscal._result import ResultMixin
 from senscal.errors import FileFormatError, InputError, UnobservableError
 from senscal.kalman import StateSpaceModel
+from senscal.kalman._kernels import observability_gramian
 
 __all__ = ["Bias", "SignalModel", "DriftSetup", "redundant_setup", "covariate_setup", "known_setup", "load_model_yaml",
            "augmented_model", "augmented_arrays", "lag_filter", "check_observable", "DYNAMICS", "SIGNAL_KINDS"]
@@ -744,28 +745,9 @@ def check_observable(setup: DriftSetup, dt: np.ndarray, covariates: Mapping[str,
     model = augmented_model(setup, dt, levels, covariates)
     n = model.n_states
     pick = np.unique(np.linspace(0, T - 1, min(T, 4000)).round().astype(int))
-    W = np.zeros((n, n))
-    Phi = np.eye(n)
-    Ft = model._F
-    if Ft.shape[0] > 1 and np.all(Ft == Ft[:1]):
-        # Irregular steps that do not change the transition (random walks):
-        # jump between the picked samples instead of 65,000 small products.
-        Ft = Ft[:1]
-    Ht = model._H
-    prev = 0
-    for t in pick:
-        if Ft.shape[0] == 1:
-            # Time-invariant transition: jump between the picked samples.
-            Phi = np.linalg.matrix_power(Ft[0], int(t - prev)) @ Phi
-        else:
-            for s in range(prev + 1, t + 1):
-                Phi = Ft[s] @ Phi
-        prev = t
-        nrm = np.abs(Phi).max()
-        if not np.isfinite(nrm) or nrm > 1e150:
-            break
-        Hp = (Ht[0] if Ht.shape[0] == 1 else Ht[t]) @ Phi
-        W += Hp.T @ Hp
+    # Step by step in compiled code (a ramp's transition changes with every
+    # irregular step; 4000 matrix powers in Python cost more than that).
+    W = observability_gramian(np.ascontiguousarray(model._F), np.ascontiguousarray(model._H), pick.astype(np.int64))
     names = setup.state_names
     if setup.signal.kind == "known":
         # The quantity is given: only the biases need to be observable.
