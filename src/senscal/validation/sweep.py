@@ -368,6 +368,37 @@ def _primary_simulator():
 
 
 # ---------------------------------------------------------------------------
+# shock calibration (senscal shock, ISO 16063-22 comparison)
+# ---------------------------------------------------------------------------
+
+def _run_shock(strengths: Mapping[str, float], seed: int) -> list[Outcome]:
+    from senscal.shock import shock_pulses
+    from senscal.simulate.shock import resonance_response, simulate_shock
+    from senscal.validation.shock import true_peak_ratio
+
+    kw: dict[str, Any] = dict(strengths)
+    rec, tr = simulate_shock(duration_ms=1.0, peak=5000.0, fs=2e5, u_reference_rel=5e-4, seed=seed, **kw)
+    c = rec.channels
+    (p,) = shock_pulses(c["ref"], c["out"], rec.fs, reference_sensitivity=tr["reference_sensitivity"],
+                        u_reference_rel=5e-4)
+    w = _w(p.warnings)
+    out = [_o("sensitivity", p.sensitivity, p.u_sensitivity, true_peak_ratio(tr, rec.fs), w)]
+    tf = p.transfer_function
+    for j in (2, 6):
+        h = tr["sensitivity"] * complex(resonance_response(tf.frequency_hz[j], tr["resonance_hz"], tr["resonance_q"]))
+        out.append(_o(f"tf_magnitude[{j}]", tf.magnitude[j], tf.u_magnitude[j], abs(h), w))
+        out.append(_o(f"tf_phase[{j}]", tf.phase_deg[j], tf.u_phase_deg[j], math.degrees(math.atan2(h.imag, h.real)),
+                      w))
+    return out
+
+
+def _shock_simulator():
+    from senscal.simulate.shock import simulate_shock
+
+    return simulate_shock
+
+
+# ---------------------------------------------------------------------------
 # the registry
 # ---------------------------------------------------------------------------
 
@@ -424,6 +455,14 @@ def _jobs() -> dict[str, SweepJob]:
             ("freq", "acceleration", "fs", "duration", "wavelength_nm", "sensitivity", "phase_deg", "offsets",
              "gain_ratio", "quadrature_deg", "laser_noise", "output_noise_rel", "hum_hz", "seed"),
             _run_primary),
+        "shock": SweepJob(
+            "shock", _shock_simulator(),
+            (Departure("noise_ar1", 0.1, 0.9, "linear", "AR(1) noise on both channels, lag-one correlation"),
+             Departure("resonance_hz", 15e3, 150e3, "log", "the mounted sensor's resonance (Q 30), Hz: ringing"),
+             Departure("zero_shift_rel", 1e-3, 3e-2, "log", "zero shift of the output across the pulse, relative")),
+            ("duration_ms", "peak", "pulses", "fs", "sensitivity", "mode", "reference_sensitivity", "u_reference_rel",
+             "reference_noise_rel", "output_noise_rel", "laser", "laser_noise", "resonance_q", "seed"),
+            _run_shock),
     }
 
 
