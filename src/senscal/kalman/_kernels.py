@@ -478,29 +478,14 @@ def observability_gramian(F, H, pick):
     prev = 0
     for t in pick:
         for s in range(prev + 1, t + 1):
-            f = 0 if F.shape[0] == 1 else s
-            for i in range(n):
-                for j in range(n):
-                    acc = 0.0
-                    for l in range(n):
-                        acc += F[f, i, l] * Phi[l, j]
-                    tmp[i, j] = acc
+            _mm(_at(F, s), Phi, tmp)
             _copy2(Phi, tmp)
         prev = t
-        nrm = 0.0
         for i in range(n):
             for j in range(n):
-                a = abs(Phi[i, j])
-                if not a <= 1e150:  # NaN too
+                if not abs(Phi[i, j]) <= 1e150:  # NaN too
                     return W
-                nrm = max(nrm, a)
-        h = 0 if H.shape[0] == 1 else t
-        for a in range(m):
-            for j in range(n):
-                acc = 0.0
-                for l in range(n):
-                    acc += H[h, a, l] * Phi[l, j]
-                Hp[a, j] = acc
+        _mm(_at(H, t), Phi, Hp)
         for i in range(n):
             for j in range(n):
                 acc = 0.0
