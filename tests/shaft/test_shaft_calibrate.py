@@ -89,9 +89,12 @@ def test_synchronous_ripple_alone_is_named_and_the_radius_removes_it():
         assert abs(_z(m, truth)[0]) > 10 or abs(_z(m, truth)[1]) > 10
         assert has_warning(m.warnings, "synchronous-ripple"), m.warnings
         assert m.synchronous_ripple == pytest.approx(0.04, rel=0.05)
-    # With the radius the tangential term is removed (the centripetal term of a misaligned axis is learnt
-    # from the twice-per-turn part of w^2 that a 4 % ripple has).
-    assert np.all(np.abs(_z(with_r, truth)) < 4.0), _z(with_r, truth)
+    # With the radius the tangential term is removed: amplitude and phase within their u.  The run holds no
+    # speed variation but the locked one, so the centripetal regressor is left out and the run is named
+    # (synchronous-ripple); the offset, about 4 u off here (3.9 u before the twice-per-turn term was fitted
+    # with gravity, 4.4 u since), is then not promised.
+    assert np.all(np.abs(_z(with_r, truth)[:2]) < 4.0), _z(with_r, truth)
+    assert has_warning(with_r.warnings, "synchronous-ripple"), with_r.warnings
     assert with_r.ripple_correction == "radius"
     # Ordinary (non-synchronous) ripple: no such warning.
     assert not has_warning(_cal(cached(1)[0]).warnings, "synchronous-ripple")
@@ -105,7 +108,8 @@ def test_synchronous_ripple_with_other_ripple_is_modelled():
     assert not has_warning(m.warnings, "synchronous-ripple")
     assert np.all(np.abs(_z(m, truth)) < 4.0), _z(m, truth)
     plain = _cal(cal, ripple_correction=False)
-    assert abs(_z(plain, truth)[0]) > 10 or abs(_z(plain, truth)[1]) > 10
+    # The plain fit's ripple leak is far beyond what the modelled fit's u allows.
+    assert abs(plain.amplitude - truth["gravity"]["amplitude"]) > 10 * m.u_amplitude
     # A diagnostic without u (its spectral u does not cover: docs/shaft.md, Limits); over 10-turn runs
     # its relative spread is 16 % (200 seeds), so half the truth is beyond 3 sd.
     assert m.u_centripetal_coefficient is None and "centripetal_coefficient" in m.diagnostic

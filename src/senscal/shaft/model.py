@@ -675,11 +675,17 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         info[name] = {"eps": eps, "sync": amp_x, "u_sync": u_amp_x, "x": xv, "z": zv}
     wanted = {"regression": ["alpha", "speed2"], "radius": ["speed2"], "none": []}[mode]
 
+    # The twice-per-turn term (an angle error's trace, estimated below) is fitted with the gravity term so
+    # that its line, at the edge of the density's band around the rotation frequency, does not lift the
+    # density behind u (0.05 deg: u(amplitude) 1.3x too large); over whole turns it is orthogonal to gravity.
+    d2 = np.column_stack([np.sin(2.0 * tk), np.cos(2.0 * tk)])
+    empty2 = sorted(set(empty) | {2 * hw + j for j in range(-2, 3)})
+
     def solve(names, y):
-        mm = np.column_stack([d] + [info[k]["x"] for k in names])
-        ww = np.column_stack([d] + [info[k]["z"] for k in names])
-        coef, cov, res = iv_fit(y, mm, ww, hw, empty, taper=taper)
-        return coef, cov, res
+        mm = np.column_stack([d] + [info[k]["x"] for k in names] + [d2])
+        ww = np.column_stack([d] + [info[k]["z"] for k in names] + [d2])
+        coef, cov, res = iv_fit(y, mm, ww, hw, empty2, taper=taper)
+        return coef[:-2], cov[:-2, :-2], res
 
     def gravity_cov(coef, cov):
         s_, c_ = coef[0], coef[1]
@@ -712,13 +718,23 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
     # The twice-per-turn term of the accelerometer against the angle: an angle error's signature (or a
     # sensor's own nonlinearity, which the fit does not model either), tested against its noise density.
     res_g = (yk - removed) - fit.amplitude * np.sin(tk + fit.phase) - fit.offset
-    d2 = np.column_stack([np.sin(2.0 * tk), np.cos(2.0 * tk)])
-    empty2 = sorted(set(empty) | {2 * hw + j for j in range(-2, 3)})
     c2, cov2, _ = iv_fit(res_g, d2, d2, hw, empty2, taper=taper)
     twice = float(math.hypot(c2[0], c2[1]))
     u_twice = math.sqrt(max(float(np.trace(cov2)) / 2.0, 0.0))
+    # Ripple locked to the rotation is a sinusoid of the angle like gravity: only speed variation at
+    # other frequencies (or a known radius) tells its effect apart.  A regressor left out matters when
+    # its once-per-turn part is real (5 sigma: false alarm < 4e-6) and could move the amplitude by more
+    # than 0.3 u for a plausible coefficient: S r with r <= SYNC_RADIUS_BOUND for the tangential term,
+    # S r sin(1 deg) for the centripetal term of a misaligned axis (u before the angle-error correction).
+    r_bound = radius if radius is not None else SYNC_RADIUS_BOUND
+    coef_bound = {"alpha": sensitivity * r_bound, "speed2": sensitivity * r_bound * math.sin(math.radians(1.0))}
+    u_amp0 = math.sqrt(max(float(cov_g[0, 0]), 0.0))
+    lost = [k for k in (("alpha", "speed2") if mode == "none" else wanted) if k not in used
+            and info[k]["sync"] > 5.0 * info[k]["u_sync"] and coef_bound[k] * info[k]["sync"] > 0.3 * u_amp0]
     ecc_est = None
-    if amp > 0:
+    # Unmodelled once-per-turn ripple has harmonics of its own (S r alpha holds m^2 / 2 of the second):
+    # its twice-per-turn term is not an angle error's, and the run is named synchronous-ripple instead.
+    if amp > 0 and not lost:
         # The angle error is estimated from its twice-per-turn trace, as nuisance parameters, and its
         # effects removed, with the estimate's noise carried into u; a declared accuracy (u_angle) is its
         # prior.  Naming it instead would not do: the twice-per-turn term's noise per component is about
@@ -775,15 +791,7 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
         warnings.append(named("speed-not-constant", (
             f"the speed varied by {100 * speed_var:.3g}% (std/mean, limit {100 * max_speed_variation:.3g}%); "
             "angular acceleration leaks into the gravity fit, calibrate at a steadier speed")))
-    # Ripple locked to the rotation is a sinusoid of the angle like gravity: only speed variation at
-    # other frequencies (or a known radius) tells its effect apart.  A regressor left out matters when
-    # its once-per-turn part is real (5 sigma: false alarm < 4e-6) and could move the amplitude by more
-    # than 0.3 u for a plausible coefficient: S r with r <= SYNC_RADIUS_BOUND for the tangential term,
-    # S r sin(1 deg) for the centripetal term of a misaligned axis.
-    r_bound = radius if radius is not None else SYNC_RADIUS_BOUND
-    coef_bound = {"alpha": sensitivity * r_bound, "speed2": sensitivity * r_bound * math.sin(math.radians(1.0))}
-    lost = [k for k in (("alpha", "speed2") if mode == "none" else wanted) if k not in used
-            and info[k]["sync"] > 5.0 * info[k]["u_sync"] and coef_bound[k] * info[k]["sync"] > 0.3 * u[0]]
+    # Once-per-turn ripple a regressor left out (lost, above) is named.
     if mode == "radius" and "speed2" in lost:
         per_deg = coef_bound["speed2"] * info["speed2"]["sync"]
         warnings.append(named("synchronous-ripple", (
@@ -796,7 +804,8 @@ def calibrate_gravity(accel, angle, t=None, *, fs: float | None = None, angle_un
             f"the speed varies once per turn ({100 * sync_rel:.3g}% ripple, angular acceleration "
             f"{info['alpha']['sync']:.3g} rad/s^2 locked to the rotation) and the run holds too little other speed "
             "variation to tell its effect from gravity: amplitude, phase and tilt are off by S r times that, "
-            "and the offset by its second harmonic read as an angle error, beyond their u; give the sensor radius (--radius) or calibrate at a steadier speed")))
+            "beyond their u (and the offset is not corrected for an angle error, whose twice-per-turn trace the ripple's "
+            "harmonics would mimic); give the sensor radius (--radius) or calibrate at a steadier speed")))
     if mode == "none" and "alpha" not in lost and abs(leak) > 2.0 * u[0] and math.isfinite(leak):
         warnings.append(named("ripple-not-removed", (
             f"angular acceleration during the run moved the gravity amplitude by about {leak:.3g} "
