@@ -78,3 +78,32 @@ def test_lag_check_needs_the_comparison():
     s = covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0, covariate_reference=20.0)
     r = correct_drift(s, d["y"][0], d["t"], cov, smooth=True, compare=False)
     assert not has_warning(r.warnings, "covariate-lag-uncertain")
+
+
+def test_cli_covariate_lag_given_is_used_and_checked(cli, tmp_path):
+    # senscal drift --covariate-lag: the known lag (a quantity; 0 for a sensor reading its own temperature) goes
+    # into the model, so the lag check has nothing to name; bad values and a lag without a covariate: exit 2.
+    import json
+
+    from senscal.io.readers import write_recording
+    from senscal.io.recording import Recording
+
+    d, cov = _lag_record()
+    f = tmp_path / "lag.csv"
+    write_recording(Recording({"x": d["y"][0][0], "c": cov["c"]}, t=d["t"]), f)
+    base = ["drift", f, "--preset", "covariate", "--channels", "x", "--covariate", "c", "--signal", "gauss_markov",
+            "--signal-tau", "200", "--covariate-reference", "20", "--json"]
+    free = cli(*base)
+    assert free.code == 0, free.err
+    assert "covariate-lag-uncertain" in json.dumps(json.loads(free.out)["warnings"])
+    given = cli(*base, "--covariate-lag", "0.333 min")
+    assert given.code == 0, given.err
+    doc = json.loads(given.out)
+    assert "covariate-lag-uncertain" not in json.dumps(doc["warnings"])
+    term = doc["channels"]["x"]["terms"]["x_c_coefficient"]
+    assert abs(term["value"] - 0.2) <= 2 * term["std"]
+    for extra, words in ((["--covariate-lag", "-3"], ">= 0"), (["--covariate-lag", "3 V"], "voltage")):
+        r = cli(*base, *extra)
+        assert r.code == 2 and words in r.err and len(r.err.strip().splitlines()) == 1, r.err
+    r = cli("drift", f, "--preset", "known", "--channels", "x", "--covariate-lag", "3")
+    assert r.code == 2 and "--covariate" in r.err, r.err

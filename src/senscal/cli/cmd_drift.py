@@ -31,8 +31,8 @@ def _drift_options(*, preset: str = "redundant", channels: str | None = None, tr
                    covariate: str | None = None, model: Path | str | None = None, window: int | None = None,
                    smooth: bool = False, false_alarm_rate: float = 1e-4, signal: str = "random_walk",
                    signal_tau: float | None = None, signal_mean: float = 0.0,
-                   covariate_reference: float | None = None, bias_dynamics: str = "random_walk",
-                   true_value: float = 0.0, compare: bool = True, state: Path | str | None = None,
+                   covariate_reference: float | None = None, covariate_lag: float | None = None,
+                   bias_dynamics: str = "random_walk", true_value: float = 0.0, compare: bool = True, state: Path | str | None = None,
                    fit_levels: bool = False, levels_from_allan: bool = False, flush: bool = False, **_):
     """``DriftOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.drift import DriftOptions
@@ -41,8 +41,8 @@ def _drift_options(*, preset: str = "redundant", channels: str | None = None, tr
         preset=preset, channels=tuple(split_names(channels) or ()) or None, trusted=tuple(split_names(trusted) or ()),
         covariate=covariate, model=None if model is None else str(model), window=window, smooth=smooth,
         false_alarm_rate=false_alarm_rate, signal=signal, signal_tau=signal_tau, signal_mean=signal_mean,
-        covariate_reference=covariate_reference, bias_dynamics=bias_dynamics, true_value=true_value,
-        compare=compare, state=None if state is None else str(state), fit_levels=fit_levels,
+        covariate_reference=covariate_reference, covariate_lag=covariate_lag, bias_dynamics=bias_dynamics,
+        true_value=true_value, compare=compare, state=None if state is None else str(state), fit_levels=fit_levels,
         levels_from_allan=levels_from_allan, flush=flush)
 
 
@@ -62,7 +62,7 @@ JOB_OPTIONS = {"drift": _batch_options}
 
 
 @app.command("drift")
-@units(signal_tau='s', false_alarm_rate='1/h')
+@units(signal_tau='s', false_alarm_rate='1/h', covariate_lag='s')
 def drift_cmd(
     file: Annotated[Path, typer.Argument(help="Recording file (CSV, Parquet, HDF5, TDMS, NPZ), or - for CSV on standard input (read whole; with --state in chunks as it arrives, corrected CSV on standard output).")],
     preset: Annotated[str, typer.Option("--preset", help="redundant | covariate | known (true value known, e.g. a gyro at rest) | model.")],
@@ -79,6 +79,7 @@ def drift_cmd(
     signal_tau: Annotated[Optional[str], typer.Option("--signal-tau", help="Time constant of a gauss_markov quantity in s.")] = None,
     signal_mean: Annotated[float, typer.Option("--signal-mean", help="Known mean of a gauss_markov quantity.")] = 0.0,
     covariate_reference: Annotated[Optional[float], typer.Option("--covariate-reference", help="Covariate value of zero bias (default: its mean, with a warning when that fixes the offset).")] = None,
+    covariate_lag: Annotated[Optional[str], typer.Option("--covariate-lag", help="Known first-order lag between the covariate and the bias, in s (0: none, e.g. a sensor reading its own temperature); without it a lag the record cannot exclude is checked for.")] = None,
     bias_dynamics: Annotated[str, typer.Option("--bias-dynamics", help="random_walk | ramp (bias plus a wandering slope: a linear drift without lag).")] = "random_walk",
     true_value: Annotated[float, typer.Option("--true-value", help="Preset known: the true reading of every channel (0 for a gyro at rest).")] = 0.0,
     compare: Annotated[bool, typer.Option("--compare/--no-compare", help="Also fit the alternative signal/bias models and warn when one has a lower AIC.")] = True,

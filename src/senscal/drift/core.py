@@ -274,7 +274,7 @@ def _alternatives(setup: DriftSetup) -> list[tuple[str, DriftSetup, bool]]:
         out.append((f"--bias-dynamics {new}", dataclasses.replace(setup, biases=biases), False))
     if not setup.ar_noise:
         out.append(("--noise ar1", dataclasses.replace(setup, ar_noise=tuple(setup.channels)), True))
-    lag = [b for b in setup.biases if b.covariate is not None and not b.fit_lag and not b.lag]
+    lag = [b for b in setup.biases if b.covariate is not None and not b.fit_lag and b.lag is None]  # given: known
     if lag:
         # Offered like a swap, not taken on AIC alone: with one sensor a free
         # lag also absorbs other misfits (a wrong signal tau: the lag model won

@@ -67,6 +67,12 @@ class DriftOptions(ReadOptions):
         Model of the quantity; tau in s.
     covariate_reference : float, optional
         Covariate value of zero covariate-linked bias.
+    covariate_lag : float, optional
+        Known first-order lag [s] between the covariate and the bias it
+        drives (0: the bias follows the recorded covariate at once, e.g. a
+        sensor that reads its own temperature).  None: not known; the job
+        then checks whether a lag the record does not exclude would move the
+        result beyond its u (``covariate-lag-uncertain``).
     bias_dynamics : {"random_walk", "ramp"}
     true_value : float
         Preset ``known``: the true reading [unit].
@@ -99,6 +105,7 @@ class DriftOptions(ReadOptions):
     signal_tau: float | None = None
     signal_mean: float = 0.0
     covariate_reference: float | None = None
+    covariate_lag: float | None = None
     bias_dynamics: str = "random_walk"
     true_value: float = 0.0
     compare: bool = True
@@ -126,6 +133,11 @@ class DriftOptions(ReadOptions):
         if self.state is None and (self.fit_levels or self.flush):
             raise InputError("--fit-levels and --flush are for --state runs (without a state the levels are always "
                              "estimated and every sample is output)")
+        if self.covariate_lag is not None:
+            if self.covariate is None:
+                raise InputError("--covariate-lag is the lag of a covariate-linked bias: give --covariate NAME too")
+            if not (math.isfinite(self.covariate_lag) and self.covariate_lag >= 0):
+                raise InputError(f"--covariate-lag must be a time >= 0 s, got {self.covariate_lag}")
         if self.window is not None and (int(self.window) != self.window or self.window < 1):
             raise InputError(f"--window must be a whole number of samples >= 1, got {self.window}")
 
@@ -143,9 +155,23 @@ def drift_setup_for(rec, opts: DriftOptions):
     if preset == "model":
         if opts.model is None:
             raise InputError("--preset model needs --model FILE.yaml")
+        if opts.covariate_lag is not None:
+            raise InputError("with --preset model give each covariate lag in the model file (lag: SECONDS), not "
+                             "--covariate-lag")
         return load_model_yaml(opts.model)
     if opts.model is not None:
         raise InputError("--model is only used with --preset model")
+    setup = _preset_setup(rec, opts, preset, covariate, trusted)
+    if opts.covariate_lag is None:
+        return setup
+    return dataclasses.replace(setup, biases=tuple(
+        dataclasses.replace(b, lag=float(opts.covariate_lag)) if b.covariate is not None else b
+        for b in setup.biases))
+
+
+def _preset_setup(rec, opts: DriftOptions, preset: str, covariate: str | None, trusted: list[str]):
+    from senscal.drift import covariate_setup, known_setup, redundant_setup
+
     if covariate is not None and covariate not in rec:
         raise InputError(f"covariate channel '{covariate}' is not in the file (channels: {', '.join(rec.names)})")
     chans = list(opts.channels) if opts.channels else [c for c in rec.names if c != covariate]
