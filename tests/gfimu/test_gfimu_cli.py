@@ -83,7 +83,7 @@ def test_gfimu_custom_layout_equals_default(cli, sim):
     (["--method", "gyro"], "--method"),
     (["--observation", "magic"], "--observation"),
     (["--initial-omega", "1,2"], "three numbers"),
-    (["--initial-omega", "a,b,c"], "comma-separated"),
+    (["--initial-omega", "a,b,c"], "not a number"),
     (["--distance", "0.04", "--layout", "LAYOUT"], "not both"),
     (["--distance", "-1"], "positive"),
     (["--lag", "0"], "lag"),

@@ -43,6 +43,9 @@ INVOCATIONS: dict[str, list[str]] = {
     "triaxial calibrate": ["{mag}", "--channels", "x,y,z"],
     "triaxial apply": ["{mag}", "--params", "{mag_params}", "--channels", "x,y,z"],
     "triaxial import": ["{ab}"],
+    "primary": ["{ifm}"],
+    "imu calibrate": ["{imu}"],
+    "imu apply": ["{imu}", "--params", "{imu_params}"],
 }
 NO_INPUTS = {"demo"}  # and every simulator: they write a folder from options alone
 # Positional outputs (the FILE of 'registry export'): where in the command line they go.
@@ -136,6 +139,12 @@ def corpus(tmp_path_factory):
     c["mag"] = str(d / "mag" / "magnetometer.csv")
     _quiet("triaxial", "calibrate", c["mag"], "--channels", "x,y,z", "--out", d / "mag" / "params.json")
     c["mag_params"] = str(d / "mag" / "params.json")
+    _quiet("simulate", "interferometer", "--out", d / "ifm", "--seed", "1", "--freqs", "160", "--duration", "0.05")
+    c["ifm"] = str(next((d / "ifm").glob("interferometer_*.csv")))
+    _quiet("simulate", "imu", "--out", d / "imu", "--seed", "1")
+    c["imu"] = str(d / "imu" / "imu.csv")
+    _quiet("imu", "calibrate", c["imu"], "--out", d / "imu" / "cal.json")
+    c["imu_params"] = str(d / "imu" / "cal.json")
     (d / "ab.txt").write_text("1 0 0\n0 1 0\n0 0 1\n0 0 0\n")
     c["ab"] = str(d / "ab.txt")
     import h5py
