@@ -399,10 +399,10 @@ def test_serve_answers_on_loopback_and_stops_cleanly(tmp_path):
     finally:
         proc.send_signal(__import__("signal").SIGINT)
         try:
-            proc.wait(timeout=30)
+            proc.wait(timeout=120)  # a loaded CI machine (load 20 on 2 cores) took over 30 s
         except subprocess.TimeoutExpired:
             proc.kill()
-            raise
+            pytest.fail(f"registry serve did not stop within 120 s of Ctrl+C; it printed {seen}")
     assert proc.returncode == 0, seen
     assert hashlib.sha256(db.read_bytes()).hexdigest() == before
 
