@@ -379,8 +379,13 @@ def test_serve_answers_on_loopback_and_stops_cleanly(tmp_path):
     before = hashlib.sha256(db.read_bytes()).hexdigest()
     src = Path(__file__).resolve().parents[2] / "src"
     env = {**__import__("os").environ, "PYTHONPATH": str(src)}
+    # Started with Ctrl+C ignored, as a job runner or a pytest-xdist worker starts it: it must stop all the same
+    # (a child inherits the ignored SIGINT, and Python then leaves it ignored).
+    import signal as _signal
+
     proc = subprocess.Popen([sys.executable, "-m", "senscal", "registry", "serve", "--db", str(db), "--port", "0",
-                             "--tolerance", "2%"], stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path)
+                             "--tolerance", "2%"], stderr=subprocess.PIPE, text=True, env=env, cwd=tmp_path,
+                            preexec_fn=lambda: _signal.signal(_signal.SIGINT, _signal.SIG_IGN))
     lines: "queue.Queue[str]" = queue.Queue()
     threading.Thread(target=lambda: [lines.put(ln) for ln in proc.stderr], daemon=True).start()
     try:

@@ -67,6 +67,7 @@ def serve_cmd(
         shown = f"[{host.strip('[]')}]" if ":" in host else host
         err_console.print(f"serving {reg.url} read-only at http://{shown}:{server.port}/ (Ctrl+C stops)",
                           highlight=False, soft_wrap=True)
+        _stop_on_interrupt()
         try:
             server.serve_forever()
         except KeyboardInterrupt:
@@ -75,3 +76,24 @@ def serve_cmd(
             server.server_close()
     finally:
         reg.close()
+
+
+def _stop_on_interrupt() -> None:
+    """Ctrl+C and SIGTERM stop the server, whatever the parent left behind.
+
+    A process started with SIGINT ignored (by a job runner, ``nohup`` or a
+    test worker) inherits that, and Python then leaves Ctrl+C ignored: the
+    view would run until killed, without closing its database.
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return
+
+    def stop(signum, frame):
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGINT, stop)
+    if hasattr(signal, "SIGTERM"):
+        signal.signal(signal.SIGTERM, stop)
