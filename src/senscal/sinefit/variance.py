@@ -129,12 +129,14 @@ def phase_variance_batch(resid: np.ndarray, cos2: np.ndarray, sin2: np.ndarray):
         xinv = np.linalg.inv(xtx)
     except np.linalg.LinAlgError:
         xinv = np.full((3, 3), np.nan)
-    coef = (r2 @ x) @ xinv
-    # Residual sum of squares without forming the (C, N) fit: |r2|^2 - b' X'X b.
-    rss = np.einsum("ij,ij->i", r2, r2) - np.einsum("ij,jk,ik->i", coef, xtx, coef)
-    tss = np.einsum("ij,ij->i", r2, r2) - n * r2.mean(axis=1) ** 2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        stat = np.where(tss > 0, n * (1.0 - rss / tss), 0.0)
+    # Residuals near the float range (|r| > 1e77) overflow the fourth powers below: the statistic is then not
+    # finite, and np.where gives 0 (no evidence of heteroscedasticity), so the overflow is not news to print.
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        coef = (r2 @ x) @ xinv
+        # Residual sum of squares without forming the (C, N) fit: |r2|^2 - b' X'X b.
+        rss = np.einsum("ij,ij->i", r2, r2) - np.einsum("ij,jk,ik->i", coef, xtx, coef)
+        tss = np.einsum("ij,ij->i", r2, r2) - n * r2.mean(axis=1) ** 2
+        stat = np.where(np.isfinite(tss) & np.isfinite(rss) & (tss > 0), n * (1.0 - rss / tss), 0.0)
     return stat, coef, xinv, np.maximum(rss, 0.0) / max(n - 3, 1)
 
 
