@@ -134,6 +134,9 @@ class DriftOptions(ReadOptions):
             raise InputError("--fit-levels and --flush are for --state runs (without a state the levels are always "
                              "estimated and every sample is output)")
         if self.covariate_lag is not None:
+            if self.preset == "model":
+                raise InputError("with --preset model give each covariate lag in the model file (lag: SECONDS), "
+                                 "not --covariate-lag")
             if self.covariate is None:
                 raise InputError("--covariate-lag is the lag of a covariate-linked bias: give --covariate NAME too")
             if not (math.isfinite(self.covariate_lag) and self.covariate_lag >= 0):
@@ -149,15 +152,12 @@ class DriftOptions(ReadOptions):
 
 def drift_setup_for(rec, opts: DriftOptions):
     """The :class:`~senscal.drift.DriftSetup` a preset and its options describe for recording ``rec``."""
-    from senscal.drift import covariate_setup, known_setup, load_model_yaml, redundant_setup
+    from senscal.drift import load_model_yaml
 
     preset, covariate, trusted = opts.preset, opts.covariate, list(opts.trusted)
     if preset == "model":
         if opts.model is None:
             raise InputError("--preset model needs --model FILE.yaml")
-        if opts.covariate_lag is not None:
-            raise InputError("with --preset model give each covariate lag in the model file (lag: SECONDS), not "
-                             "--covariate-lag")
         return load_model_yaml(opts.model)
     if opts.model is not None:
         raise InputError("--model is only used with --preset model")
