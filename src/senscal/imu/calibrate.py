@@ -177,6 +177,9 @@ class ImuResult(ResultMixin):
     temperature : TemperatureTerms or None
         With a temperature channel.
     warnings : tuple of str
+    rate_table : senscal.imu.ratetable.RateTableFit or None
+        With known-rate segments: the pose-only and combined gyro estimates, the consistency check and the
+        budget (``gyroscope`` then holds the combined matrix).
     """
 
     accelerometer: Any
@@ -197,6 +200,7 @@ class ImuResult(ResultMixin):
     gravity: float
     temperature: TemperatureTerms | None = None
     warnings: tuple[str, ...] = field(default=())
+    rate_table: Any = None
 
 
 def _unit_rows(x: np.ndarray) -> np.ndarray:
@@ -367,8 +371,8 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
                   window_s: float = 1.0, min_pose_s: float = 1.0, init_s: float | None = None,
                   multiples: Sequence[float] = MULTIPLES, accel_unit: str = "", gyro_unit: str = "",
                   accel_channels: Sequence[str] = ("ax", "ay", "az"), source: str = "the recording",
-                  temperature: np.ndarray | None = None, temp_unit: str = "", g_sensitivity: bool = False
-                  ) -> ImuResult:
+                  temperature: np.ndarray | None = None, temp_unit: str = "", g_sensitivity: bool = False,
+                  rate_table: Any = None) -> ImuResult:
     """Calibrate accelerometer and gyroscope from one multi-pose session.
 
     Parameters
@@ -393,6 +397,9 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         Its unit (K or degC: the swing check counts in it).
     g_sensitivity : bool
         Fit the gyro's sensitivity to specific force (3x3, from the static poses' bias against orientation).
+    rate_table : senscal.io.ratetable.RateTable, optional
+        Segments of known rate after the multi-pose session (:mod:`senscal.imu.ratetable`): the poses are taken
+        from the samples before the table's first motion, and the segments join the gyro estimate.
 
     Returns
     -------
@@ -425,6 +432,15 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         raise InputError(f"{source}: time must increase sample by sample and hold more than 10 samples")
     fs = 1.0 / float(np.median(dts))
     warnings: list[str] = []
+    full = None
+    if rate_table is not None:
+        from senscal.imu.ratetable import pose_cut, segment_data
+
+        segment_data(t, gyro, rate_table, source=source)  # bad segments refused before any fit
+        full = (t, accel, gyro, temp)
+        cut = pose_cut(t, gyro, rate_table)
+        t, accel, gyro = t[:cut], accel[:, :cut], gyro[:, :cut]
+        temp = None if temp is None else temp[:cut]
 
     def quick_rms(means):
         try:
@@ -636,6 +652,19 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     mg = phi[9 + n_tc:].reshape(3, 3) * s0
     cov_m = cov_phi[9 + n_tc:, 9 + n_tc:] * s0 * s0
     u_m = np.sqrt(np.clip(np.diag(cov_m), 0, None))
+    rt_fit = None
+    if full is not None:
+        from senscal.imu.ratetable import combine_rate_table, segment_data
+
+        tf, af, gf, tpf = full
+        seg = segment_data(tf, gf, rate_table, gyro_noise=gnoise, source=source)
+        d = np.array([bd.matrix(tf[ix], None if tpf is None else tpf[ix],
+                                np.linalg.solve(ma0, af[:, ix] - ba0[:, None])).mean(axis=0) for ix in seg.index])
+        cov_seg = np.array([d @ cov_ax[i] @ d.T for i in range(3)])
+        rt_fit = combine_rate_table(rate_table, seg, d @ coef, cov_seg, mg, cov_m)
+        warnings.extend(rt_fit.warnings)
+        mg, cov_m = rt_fit.matrix, rt_fit.covariance
+        u_m = np.sqrt(np.clip(np.diag(cov_m), 0, None))
     der, cov_d = _delta(_derived, mg.ravel(), cov_m, np.maximum(u_m, 1e-12 * abs(s0)))
     u_d = np.sqrt(np.clip(np.diag(cov_d), 0, None))
     # Identifiability: how much each axis was turned about.
@@ -682,4 +711,4 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
                      accel_chi2=chi2_a, accel_dof=dof_a, gyroscope=gyro_cal, poses=sweep,
                      residual_before_deg=before, residual_after_deg=after, nominal_scale=nominal, chi2=chi2, dof=dof,
                      noise_scale=ns, excitation_rad=exc, gyro_noise=gnoise, gravity=float(gravity),
-                     temperature=temperature, warnings=tuple(dict.fromkeys(warnings)))
+                     temperature=temperature, warnings=tuple(dict.fromkeys(warnings)), rate_table=rt_fit)

@@ -55,7 +55,8 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
                  accel_bias_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  accel_scale_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  gyro_bias_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
-                 gyro_g_sensitivity: Any = None, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
+                 gyro_g_sensitivity: Any = None, rate_table: Any = None,
+                 seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
     """Simulate an IMU calibration session.
 
     Parameters
@@ -102,6 +103,9 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
         Gyro bias change, rad/s per K.
     gyro_g_sensitivity : array_like (3, 3), optional
         Gyro reading per m/s^2 of specific force (rad/s per m/s^2).
+    rate_table : senscal.simulate.imu_table.TableSpec, optional
+        Rate-table runs after the poses (:func:`senscal.simulate.imu_table.table_motion`); the stated table is
+        ``truth["rate_table"]`` (:func:`senscal.simulate.imu_table.rate_table_of`).
     seed : int, optional
 
     Returns
@@ -132,6 +136,11 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
         r_now = r_now @ _rot(e, th)
         f_list.append(np.repeat((r_now.T @ up)[:, None], n_pose, axis=1))
         w_list.append(np.zeros((3, n_pose)))
+    table = None
+    if rate_table is not None:
+        from senscal.simulate.imu_table import table_motion
+
+        r_now, table, table_truth = table_motion(rate_table, r_now, gravity, fs, f_list, w_list, rng)
     f = np.concatenate(f_list, axis=1)
     w = np.concatenate(w_list, axis=1)
     n = f.shape[1]
@@ -177,4 +186,6 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
                  "range": list(map(float, temperature)), "nominal": temp_nominal, "accel_bias_tc": list(accel_bias_tc),
                  "accel_scale_tc": list(accel_scale_tc), "gyro_bias_tc": list(gyro_bias_tc)},
              "g_sensitivity": None if gyro_g_sensitivity is None else np.asarray(gyro_g_sensitivity, float).tolist()}
+    if table is not None:
+        truth["rate_table"] = {**table.to_dict(), "truth": table_truth}
     return rec, truth

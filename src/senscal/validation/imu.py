@@ -178,3 +178,7 @@ SCENARIOS = {"white": run_white, "bias-drift": run_bias_drift, "coloured-gyro": 
              "axis-unexcited": run_unexcited, "temperature": run_temperature,
              "temperature-small-swing": run_small_swing, "g-sensitivity": run_g_sensitivity,
              "g-sensitivity-unmodelled": run_g_unmodelled}
+
+from senscal.validation._imu_ratetable import SCENARIOS as _RATE_TABLE  # noqa: E402 - rate-table cases (their own module)
+
+SCENARIOS.update(_RATE_TABLE)
