@@ -11,6 +11,9 @@ from typing_extensions import Annotated
 
 from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
+from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, CustomerOpt, DccOpt, EnvOpt, ItemOpt, LabOpt, LocationOpt,
+                                   ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt, SensorIdOpt, SignCertOpt,
+                                   SignKeyOpt, cert_fields, certify)
 from senscal.cli.common import JsonOpt, StrictOpt, console, emit_warnings, print_json, progress_bar, table
 from senscal.cli.option_groups import READ, REGISTRY, command_params, save_registered, with_options
 from senscal.cli.registry_opts import StandardOpt, note_standards, use_standards
@@ -25,13 +28,14 @@ app.add_typer(imu_app, name="imu")
 @with_read_options
 def _imu_options(*, accel_channels: str = "ax,ay,az", gyro_channels: str = "gx,gy,gz", gravity: float = 9.80665,
                  static_window: float = 1.0, min_pose: float = 1.0, init_static: float | None = None,
-                 temperature_channel: str | None = None, g_sensitivity: bool = False, **_):
+                 temperature_channel: str | None = None, g_sensitivity: bool = False, rate_table: Path | None = None,
+                 **_):
     """``ImuOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.imu import ImuOptions
 
     return ImuOptions(accel_channels=accel_channels, gyro_channels=gyro_channels, gravity=gravity,
                       static_window=static_window, min_pose=min_pose, init_static=init_static,
-                      temperature_channel=temperature_channel, g_sensitivity=g_sensitivity)
+                      temperature_channel=temperature_channel, g_sensitivity=g_sensitivity, rate_table=rate_table)
 
 
 @with_read_options
@@ -74,19 +78,25 @@ def imu_calibrate_cmd(
     init_static: Annotated[Optional[str], typer.Option("--init-static", help="Length of the still start, s (reference variance of the threshold sweep; default: estimated).")] = None,
     temperature_channel: TempChannelOpt = None,
     g_sensitivity: Annotated[bool, typer.Option("--g-sensitivity", help="Fit the gyro's sensitivity to specific force (3x3, from the bias against orientation).")] = False,
+    rate_table: Annotated[Optional[Path], typer.Option("--rate-table", metavar="FILE", help="Rate-table segments of known rate after the poses (CSV or YAML: start, stop, axis, rate, u_rate[, u_axis], every number with its unit; docs/imu.md): combined with the multi-pose gyro estimate.")] = None,
     out: Annotated[Optional[Path], typer.Option("--out", help="Write the calibration for 'senscal imu apply' (JSON, or HDF5 for .h5; - for stdout).")] = None,
     plot: Annotated[Optional[Path], typer.Option("--plot", help="|f| - g per pose and gravity-direction error per rotation, before/after (PNG, SVG, PDF).")] = None,
     noise_yaml: Annotated[Optional[Path], typer.Option("--noise-yaml", help="Write the still start's Allan noise as a kalibr imu.yaml block (ROS covariances in --json).")] = None,
     strict: StrictOpt = False,
     json_out: JsonOpt = False,
     standard: StandardOpt = None,
+    report: ReportOpt = None, dcc: DccOpt = None, sensor_id: SensorIdOpt = None, model: ModelOpt = None,
+    lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None, item: ItemOpt = None,
+    manufacturer: ManufacturerOpt = None, location: LocationOpt = None, certificate_id: CertIdOpt = None,
+    calibration_date: CalDateOpt = None, env: EnvOpt = None, sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
     **opts,
 ) -> None:
     """Accelerometer and gyroscope scale, misalignment and bias from one multi-pose session."""
     from senscal.jobs.imu import imu_calibrate
 
+    # before the job: a typo costs nothing
+    used_standards = use_standards(standard, db=opts["db"], date=opts["date"], calibration_date=calibration_date)
     params = command_params(locals(), opts)
-    used_standards = use_standards(standard, db=opts["db"], date=opts["date"])  # before the job: a typo costs nothing
     with progress_bar("calibrating", None):
         res = imu_calibrate(file, _imu_options(**params))
     doc = res.to_dict()
@@ -104,8 +114,21 @@ def imu_calibrate_cmd(
     if doc["temperature"] is not None:
         te = doc["temperature"]
         conditions = {"reference_temperature": te["reference"], "temperature_unit": te["unit"]}
-    save_registered(res, opts, job="imu", method="multi-pose (IMU-TK protocol), joint ML", input_files=[file],
-                    conditions=conditions, standards=used_standards)
+    method = "multi-pose (IMU-TK protocol), joint ML" + (", with rate-table segments" if rate_table else "")
+    cond = {"static poses": doc["static"]["n_poses"], "local gravity": f"{doc['gravity']:g} m/s^2",
+            "accelerometer channels": ",".join(res.accel_channels), "gyroscope channels": ",".join(res.gyro_channels)}
+    if rate_table is not None:
+        cond["rate table"] = f"{rate_table} ({doc['rate_table']['n_segments']} segments)"
+    if conditions:
+        cond["reference temperature"] = f"{conditions['reference_temperature']:.4g} {conditions['temperature_unit']}"
+    cert_warns = certify("imu", res, report=report, dcc=dcc, unit="", method=method, conditions=cond,
+                         files=[str(file)], warnings=warnings, **cert_fields(params))
+    warnings = [*warnings, *cert_warns]
+    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
+    if report is not None:
+        doc["report"] = str(report)
+    save_registered(res, opts, job="imu", method=method, input_files=[file], conditions=conditions,
+                    standards=used_standards, certificate=report)
     if plot is not None:
         from senscal.imu.plots import plot_imu
 
@@ -130,6 +153,14 @@ def imu_calibrate_cmd(
                   f"|g| spread after {a['g_spread']['std']:.3g} m/s^2")
     console.print(f"gravity-direction residual per rotation: rms {gd['rms_before']:.3g} deg before, "
                   f"{gd['rms_after']:.3g} deg after the gyroscope calibration")
+    rt = doc["rate_table"]
+    if rt is not None:
+        c, mp = rt["consistency"], rt["multi_pose_only"]
+        console.print(f"rate table: {rt['n_segments']} segments, consistency chi2 {c['chi2']:.3g} for {c['dof']} dof; "
+                      f"gyro scale u {', '.join(f'{u:.2g}' for u in g['u_scale'])} with it, "
+                      f"{', '.join(f'{u:.2g}' for u in mp['u_scale'])} from the poses alone")
+    if report is not None:
+        console.print(f"certificate written to {report}")
     te = doc["temperature"]
     if te is not None:
         console.print(f"temperature: reference {te['reference']:.4g} {te['unit']} (poses {te['range'][0]:.4g} .. "
@@ -172,7 +203,8 @@ def imu_apply_cmd(
 @simulate_app.command("imu")
 @units(fs='Hz', init_s='s', pose_s='s', rotation_s='s', accel_noise='m/s^2', gyro_noise='rad/s',
        bias_drift=ListOf('rad/s^2'), temperature=ListOf('degC'), accel_bias_tc=ListOf('m/s^2/K'),
-       accel_scale_tc=ListOf('1/K'), gyro_bias_tc=ListOf('rad/s/K'), g_sensitivity=ListOf('rad*s/m'))
+       accel_scale_tc=ListOf('1/K'), gyro_bias_tc=ListOf('rad/s/K'), g_sensitivity=ListOf('rad*s/m'),
+       table_rate='rad/s', table_hold='s', table_tilt='deg', table_u_axis='deg')
 def simulate_imu_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     poses: Annotated[int, typer.Option("--poses", help="Static poses after the still start.")] = 30,
@@ -190,6 +222,13 @@ def simulate_imu_cmd(
     accel_scale_tc: Annotated[Optional[str], typer.Option("--accel-scale-tc", help="Relative accelerometer scale change x,y,z per K (with --temperature).")] = None,
     gyro_bias_tc: Annotated[Optional[str], typer.Option("--gyro-bias-tc", help="Gyro bias change x,y,z, rad/s per K (with --temperature).")] = None,
     g_sensitivity: Annotated[Optional[str], typer.Option("--g-sensitivity", help="Gyro g-sensitivity, 9 numbers row by row, rad/s per m/s^2.")] = None,
+    rate_table: Annotated[Optional[str], typer.Option("--rate-table", metavar="AXES", help="Rate-table runs after the poses about these body axes (e.g. x,y,z or z), each turned +rate and -rate; writes rate_table.csv for 'imu calibrate --rate-table'.")] = None,
+    table_rate: Annotated[str, typer.Option("--table-rate", help="Table rate, rad/s (or '60 deg/s').")] = "1.0",
+    table_hold: Annotated[str, typer.Option("--table-hold", help="Constant-rate part of each table run, s.")] = "20.0",
+    table_u_rate: Annotated[float, typer.Option("--table-u-rate", help="Relative standard u of the rate the table file states.")] = 5e-5,
+    table_u_axis: Annotated[str, typer.Option("--table-u-axis", help="Standard u of the axis direction the table file states, deg.")] = "0.0",
+    table_rate_error: Annotated[float, typer.Option("--table-rate-error", help="Departure: the stated rate is (1 + this) times the true one.")] = 0.0,
+    table_tilt: Annotated[str, typer.Option("--table-tilt", help="Departure: the IMU sits this far tilted on the table, deg (random direction).")] = "0.0",
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
     """A multi-pose IMU session with known errors: imu.csv + truth JSON."""
@@ -219,10 +258,33 @@ def simulate_imu_cmd(
     if temp is None and any(any(v) for v in tcs.values()):
         raise InputError("temperature coefficients need --temperature T0,T1 (the warm-up they act over)")
     gs = numbers(g_sensitivity, "--g-sensitivity", 9)
+    spec = None
+    if rate_table is not None:
+        import math
+        import re
+
+        from senscal.simulate.imu_table import TableSpec
+
+        axes = tuple(a.strip().lower() for a in rate_table.split(",") if a.strip())
+        if not axes or any(re.fullmatch(r"[+-]?[xyz]", a) is None for a in axes):
+            raise InputError(f"--rate-table takes body axes such as x,y,z or -z, got {rate_table!r}")
+        if not (table_rate > 0 and table_hold > 1.0 and table_u_rate >= 0 and table_u_axis >= 0):
+            raise InputError("--table-rate must be positive, --table-hold above 1 s, --table-u-rate and "
+                             "--table-u-axis not negative")
+        spec = TableSpec(axes=axes, rate=table_rate, hold_s=table_hold, u_rate_rel=table_u_rate,
+                         u_axis=math.radians(table_u_axis), rate_error_rel=table_rate_error,
+                         mount_tilt=math.radians(table_tilt))
     rec, truth = simulate_imu(n_poses=poses, fs=fs, init_s=init_s, pose_s=pose_s, rotation_s=rotation_s,
                               accel_noise=accel_noise, gyro_noise=gyro_noise, gyro_ar1=gyro_ar1, gyro_bias_drift=d,
                               exclude_axis=exclude_axis, temperature=temp, **tcs,
-                              gyro_g_sensitivity=None if gs is None else np.reshape(gs, (3, 3)), seed=seed)
-    p = write_recording(rec, out / "imu.csv")
+                              gyro_g_sensitivity=None if gs is None else np.reshape(gs, (3, 3)), rate_table=spec,
+                              seed=seed)
+    p = write_recording(rec, out / "imu.csv", units_in_header=True)  # ax [m/s^2]: the units travel with the data
     q = write_truth(truth, out / "imu_truth.json")
+    if spec is not None:
+        from senscal.io.guard import write_text
+        from senscal.io.ratetable import rate_table_text
+        from senscal.simulate.imu_table import rate_table_of
+
+        q = f"{q}, " + str(write_text(out / "rate_table.csv", rate_table_text(rate_table_of(truth)), what="rate table"))
     console.print(f"wrote {p} and {q}")

@@ -8,7 +8,7 @@ import numpy as np
 
 from senscal.report.plots import new_figure, save_figure
 
-__all__ = ["plot_imu"]
+__all__ = ["plot_imu", "imu_figure"]
 
 
 def plot_imu(g_before: np.ndarray, g_after: np.ndarray, dir_before: np.ndarray, dir_after: np.ndarray,
@@ -28,6 +28,13 @@ def plot_imu(g_before: np.ndarray, g_after: np.ndarray, dir_before: np.ndarray, 
     temperature : ndarray, shape (K,), optional
         Pose temperatures: a third panel.
     """
+    return save_figure(imu_figure(g_before, g_after, dir_before, dir_after, temperature=temperature,
+                                  temp_unit=temp_unit, title=title), path)
+
+
+def imu_figure(g_before: np.ndarray, g_after: np.ndarray, dir_before: np.ndarray, dir_after: np.ndarray, *,
+               temperature: np.ndarray | None = None, temp_unit: str = "", title: str = ""):
+    """The figure of :func:`plot_imu` (also the certificate's), not saved."""
     n = 3 if temperature is not None else 2
     fig, axes = new_figure(n, 1, width=8.5, height=2.9 * n)
     k = np.arange(1, g_after.size + 1)
@@ -56,4 +63,4 @@ def plot_imu(g_before: np.ndarray, g_after: np.ndarray, dir_before: np.ndarray, 
         ax.set_title("pose temperature")
     if title:
         fig.suptitle(title)
-    return save_figure(fig, path)
+    return fig

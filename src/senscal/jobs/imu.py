@@ -44,6 +44,8 @@ class ImuOptions(ReadOptions):
         The IMU's temperature: bias and scale are fitted against it (:func:`senscal.imu.calibrate_imu`).
     g_sensitivity : bool
         Fit the gyro's sensitivity to specific force.
+    rate_table : str, Path, senscal.io.ratetable.RateTable or None
+        Segments of known rate after the multi-pose session (the file format: :mod:`senscal.io.ratetable`).
     """
 
     accel_channels: str | tuple[str, str, str] = ("ax", "ay", "az")
@@ -54,6 +56,7 @@ class ImuOptions(ReadOptions):
     init_static: float | None = None
     temperature_channel: str | None = None
     g_sensitivity: bool = False
+    rate_table: Any = None
 
 
 def _pq(v: float, u: float, unit: str) -> dict[str, Any]:
@@ -80,6 +83,8 @@ class ImuCalibrateResult(JobResult):
     pose_temperature : ndarray (K,) or None
     temperature_channel, temp_unit : str or None
     warnings : tuple of str
+    rate_table : senscal.io.ratetable.RateTable or None
+        The stated rate table (``result.rate_table`` holds its fit).
     """
 
     job: ClassVar[str] = "imu-calibrate"
@@ -98,6 +103,7 @@ class ImuCalibrateResult(JobResult):
     temperature_channel: str | None = None
     temp_unit: str = ""
     warnings: tuple[str, ...] = ()
+    rate_table: Any = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
         """The ``senscal imu calibrate --json`` document."""
@@ -171,8 +177,61 @@ class ImuCalibrateResult(JobResult):
                 "before": before, "after": after,
                 "rms_before": float(np.sqrt(np.mean(before ** 2))), "rms_after": float(np.sqrt(np.mean(after ** 2))),
                 "nominal_gyro_scale": r.nominal_scale},
-            "temperature": temperature, "noise": noise,
+            "temperature": temperature, "noise": noise, "rate_table": self._rate_table_doc(),
+            "budget": self.budget(),
             "warnings": list(self.warnings)})
+
+    def _rate_table_doc(self) -> dict[str, Any] | None:
+        """The ``rate_table`` section: segments, their residuals, the consistency check, pose-only/table-only."""
+        from senscal.imu.ratetable import derived_components
+
+        fit, tab = self.result.rate_table, self.rate_table
+        if fit is None or tab is None:
+            return None
+        gunit = self.gyro_unit or "reading"
+
+        def summary(m, c):
+            if m is None:
+                return None
+            d, (cd,) = derived_components(m, [c])
+            u = np.sqrt(np.clip(np.diag(cd), 0, None))
+            return {"scale": d[:3], "u_scale": u[:3], "misalignment_deg": np.degrees(d[3:]),
+                    "u_misalignment_deg": np.degrees(u[3:])}
+
+        segs = [{"start_s": tab.start[k], "stop_s": tab.stop[k], "axis": tab.axis[k], "rate_rad_s": tab.rate[k],
+                 "rate_deg_s": math.degrees(tab.rate[k]), "u_rate_rad_s": tab.u_rate[k], "u_axis_rad": tab.u_axis[k],
+                 "residual": fit.residual[k], "u_predicted": fit.u_residual[k],
+                 "residual_from_poses": fit.predicted_from_poses[k]} for k in range(tab.n_segments)]
+        return {"file": tab.source, "n_segments": tab.n_segments, "segments": segs, "residual_unit": gunit,
+                "consistency": {"chi2": fit.chi2, "dof": fit.dof, "inflation": fit.inflation,
+                                "note": "segments against the multi-pose estimate, chi-square with 3 dof per "
+                                        "segment; beyond its 99.9 % point rate-table-inconsistent is named"},
+                "multi_pose_only": summary(fit.pose_matrix, fit.pose_covariance),
+                "table_only": summary(fit.table_matrix, fit.table_covariance),
+                "combined": summary(fit.matrix, fit.covariance)}
+
+    def budget(self) -> dict[str, Any]:
+        """Uncertainty budget (standard uncertainties, k=1) of the gyro scales and angles and the accelerometer.
+
+        With a rate table the combined gyro covariance splits exactly into the multi-pose fit, the segment means,
+        the static-pose bias, the table's stated rate and axis (:data:`senscal.imu.ratetable.SOURCES`); without
+        one the multi-pose fit is the only component.
+        """
+        from senscal.imu import ACCEL_NAMES
+        from senscal.imu.ratetable import derived_components
+
+        r, g = self.result, self.result.gyroscope
+        fit = r.rate_table
+        comps = list(fit.components) if fit is not None else [("multi-pose rotations (type A)", "A", g.covariance)]
+        _, cd = derived_components(g.matrix, [c for _, _, c in comps])
+        gyro = [{"source": src, "type": kind, "u_scale": np.sqrt(np.clip(np.diag(c)[:3], 0, None)),
+                 "u_misalignment_deg": np.degrees(np.sqrt(np.clip(np.diag(c)[3:], 0, None)))}
+                for (src, kind, _), c in zip(comps, cd)]
+        ua = np.sqrt(np.clip(np.diag(r.accel_covariance), 0, None))
+        accel = [{"source": "static pose means about |f| = g (type A)", "type": "A",
+                  "u": dict(zip(ACCEL_NAMES, ua))}]
+        return {"gyroscope": gyro, "accelerometer": accel,
+                "note": "k = 2; local g taken as exact (--gravity): its u is not in the accelerometer's budget"}
 
     def quantities(self) -> tuple[Quantity, ...]:
         """Scales, biases and misalignment angles of both triads (angles in deg)."""
@@ -254,10 +313,15 @@ def imu_calibrate(source, options: ImuOptions = ImuOptions()) -> ImuCalibrateRes
     temp = rec.data([tch])[0] if tch else None
     tunit = rec.units.get(tch, "") if tch else ""
     accel = rec.data(list(ac))
+    table = None
+    if o.rate_table is not None:
+        from senscal.io.ratetable import RateTable, read_rate_table
+
+        table = o.rate_table if isinstance(o.rate_table, RateTable) else read_rate_table(o.rate_table)
     res = calibrate_imu(rec.time, accel, gyro, gravity=o.gravity, window_s=o.static_window,
                         min_pose_s=o.min_pose, init_s=o.init_static, accel_unit=aunit, gyro_unit=gunit,
                         accel_channels=ac, source=source_name(source), temperature=temp, temp_unit=tunit,
-                        g_sensitivity=o.g_sensitivity)
+                        g_sensitivity=o.g_sensitivity, rate_table=table)
     warnings = list(merge_time_warnings(res.warnings, rec.warnings))
     cal = calibration_of(res, accel_unit=aunit, gyro_unit=gunit, accel_channels=ac, gyro_channels=gc,
                          temp_channel=tch, temp_unit=tunit)
@@ -285,7 +349,7 @@ def imu_calibrate(source, options: ImuOptions = ImuOptions()) -> ImuCalibrateRes
     return ImuCalibrateResult(result=res, source=source_name(source), accel_channels=ac, gyro_channels=gc,
                               accel_unit=aunit, gyro_unit=gunit, calibration=cal, noise=noise, g_before=g_before,
                               g_after=g_after, pose_temperature=temp_pose, temperature_channel=tch, temp_unit=tunit,
-                              warnings=tuple(warnings))
+                              warnings=tuple(warnings), rate_table=table)
 
 
 def calibration_of(res, *, accel_unit: str = "", gyro_unit: str = "", accel_channels=("ax", "ay", "az"),

@@ -400,13 +400,63 @@ def _tables(kind: str, result: Any, unit: str):
                    ("Sensitivity (slope)", f"{slope_v} {pretty_unit(unit)}, U = {slope_U} (k = {_g(k, 3)})"),
                    ("Intercept", f"{icpt_v}, U = {icpt_U} (k = {_g(k, 3)})")]
         figs = [linearity_figure(result, f"({out_unit})" if out_unit else "")]
+    elif kind == "imu":
+        cols, rows, budgets, summary, figs = _imu_tables(result)
     else:
-        raise InputError(f"unknown certificate kind {kind!r}; use response, velocity or linearity")
+        raise InputError(f"unknown certificate kind {kind!r}; use response, velocity, linearity or imu")
+    return cols, rows, budgets, summary, figs
+
+
+def _imu_budgets(job) -> list[tuple[str, list[Any]]]:
+    """(title, budgets per axis or angle) of an IMU calibration (``senscal.jobs.imu.ImuCalibrateResult``)."""
+    from senscal.imu import GYRO_ANGLES
+    from senscal.vibration.budget import make_budget
+
+    d, bud = job.to_dict(), job.budget()
+    g = d["gyroscope"]
+    unit = g["scale_unit"]
+    scale = [make_budget("gyro scale", g["scale"][i], unit, [(c["source"], c["type"], c["u_scale"][i])
+                                                              for c in bud["gyroscope"]], 2.0) for i in range(3)]
+    ang = [make_budget("gyro misalignment", g["misalignment_deg"][n]["value"], "deg",
+                       [(c["source"], c["type"], c["u_misalignment_deg"][j]) for c in bud["gyroscope"]], 2.0)
+           for j, n in enumerate(GYRO_ANGLES)]
+    return [("scale", scale), ("angle", ang)]
+
+
+def _imu_tables(job):
+    """Results, budgets, summary and figure of an IMU calibration certificate."""
+    from senscal.imu import GYRO_ANGLES
+    from senscal.imu.plots import imu_figure
+
+    d = job.to_dict()
+    cols = ["quantity", "value", "U (k=2)", "unit"]
+    qs = sorted(job.quantities(), key=lambda q: not q.name.startswith("accel"))  # the accelerometer's first
+    rows = [[q.name, *value_and_u(q.value, q.k * q.uncertainty), pretty_unit(q.unit)] for q in qs]
+    (_, scale), (_, ang) = _imu_budgets(job)
+    budgets = [_budget_table(scale, ["x", "y", "z"]), _budget_table(ang, list(GYRO_ANGLES))]
+    st, gd, a = d["static"], d["gravity_direction_residual_deg"], d["accelerometer"]
+    summary = [("Static poses", f"{st['n_poses']} (threshold x{st['threshold_multiple']:g} the still variance); "
+                                f"|f| - g spread after calibration {_g(a['g_spread']['std'], 3)} m/s²"),
+               ("Gravity direction predicted at the next pose", f"rms {_g(gd['rms_before'], 3)}° with the nominal "
+                f"gyroscope, {_g(gd['rms_after'], 3)}° calibrated")]
+    rt = d.get("rate_table")
+    if rt is not None:
+        c = rt["consistency"]
+        summary.append(("Rate table", f"{rt['n_segments']} segments of known rate combined with the multi-pose "
+                        f"estimate; consistency chi² {_g(c['chi2'], 3)} for {c['dof']} degrees of freedom"))
+    te = d.get("temperature")
+    if te is not None:
+        summary.append(("Reference temperature", f"{_g(te['reference'], 4)} {pretty_unit(te['unit'] or '')}: "
+                        "biases and scales hold there"))
+    r = job.result
+    figs = [imu_figure(job.g_before, job.g_after, r.residual_before_deg, r.residual_after_deg,
+                       temperature=job.pose_temperature, temp_unit=job.temp_unit)]
     return cols, rows, budgets, summary, figs
 
 
 _TITLES = {"response": "Accelerometer frequency response", "velocity": "Velocity-sensor sensitivity",
-           "linearity": "Accelerometer amplitude linearity"}
+           "linearity": "Accelerometer amplitude linearity",
+           "imu": "IMU accelerometer and gyroscope"}
 
 # The option that sets each type B component, for the budget-zero-component hint.
 _B_OPTIONS = {"input amplitude": "--u-input", "reference sensitivity": "--u-reference",
@@ -414,7 +464,9 @@ _B_OPTIONS = {"input amplitude": "--u-input", "reference sensitivity": "--u-refe
               "position reference": "--u-position", "laser wavelength": "--u-wavelength-rel",
               "output voltage amplitude measurement": "--u-gain-rel",
               "output voltage phase measurement": "--u-gain-phase-deg",
-              "other effects (transverse, rocking, base strain, mounting)": "--u-other-rel"}
+              "other effects (transverse, rocking, base strain, mounting)": "--u-other-rel",
+              "table rate, stated u (type B)": "u_rate in --rate-table",
+              "table axis alignment, stated u (type B)": "u_axis in --rate-table"}
 
 
 def _budgets(kind: str, result: Any) -> list[tuple[str, Any]]:
@@ -424,6 +476,11 @@ def _budgets(kind: str, result: Any) -> list[tuple[str, Any]]:
                 for b in (p.sensitivity_budget, p.normalized_budget, p.phase_delay_budget) if b is not None]
     if kind == "velocity":
         return [(f"{p.frequency:g} Hz", p.budget) for p in result.points] + [("mean", result.budget)]
+    if kind == "imu":
+        from senscal.imu import GYRO_ANGLES
+
+        (_, scale), (_, ang) = _imu_budgets(result)
+        return list(zip(("x", "y", "z"), scale)) + list(zip(GYRO_ANGLES, ang))
     return []
 
 

@@ -64,9 +64,13 @@ DCC_REQUIRED_RUN = ("certificate_id", "customer_address", "customer_email", "man
 
 _TITLES = {"response": "Accelerometer frequency response", "velocity": "Velocity-sensor sensitivity",
            "linearity": "Accelerometer amplitude linearity", "triaxial": "Three-axis sensor calibration",
-           "shaft": "Tangential accelerometer on a rotating shaft: gravity model"}
+           "shaft": "Tangential accelerometer on a rotating shaft: gravity model",
+           "imu": "IMU accelerometer and gyroscope calibration"}
 _METHODS = {"triaxial": "Three-axis sensor calibration from readings in many orientations in a field of constant "
                         "magnitude: scale factors, non-orthogonality angles and offsets (maximum likelihood)",
+            "imu": "Multi-pose IMU calibration (IMU-TK protocol): accelerometer by maximum likelihood on the static "
+                   "pose means, gyroscope by integrating the rotations between poses (quaternion RK4), optionally "
+                   "with rate-table segments of known rate",
             "shaft": "Gravity identification of a tangential accelerometer on a shaft turning at constant speed: "
                      "amplitude, phase and offset of the gravity term against the encoder angle",
             "response": "Sine-excitation calibration: sensitivity and phase delay per frequency, least-squares sine "
@@ -685,12 +689,66 @@ def _shaft_results(b: _Builder, results: ET.Element, m: Any, unit: str, job: Any
         _parameter(b, data, name, v, u, un)
 
 
+def _imu_results(b: _Builder, results: ET.Element, res: Any, unit: str, job: Any = None) -> None:
+    """Accelerometer and gyroscope of ``senscal imu calibrate`` (``ImuCalibrateResult``): U = 2 u per parameter."""
+    from senscal.imu import ACCEL_NAMES, GYRO_ANGLES
+    from senscal.units import compatible
+
+    if job is None or not hasattr(job, "budget"):
+        raise DccError("an IMU DCC needs the job's result (senscal.jobs.imu.imu_calibrate), not the engine's")
+
+    def reading(u: str, what: str) -> str:
+        if not u:
+            raise DccError(f"the {what} channels carry no unit; give it in the file header (e.g. 'ax [m/s^2]') and "
+                           "calibrate again")
+        # counts are a number: a count per m/s^2 is stated as 1/(m/s^2)
+        return "1" if compatible(u, "count") else u
+
+    def per(num: str, den: str) -> str:
+        return "1" if num == den else (f"1/({den})" if num == "1" else f"{num}/({den})")
+
+    au, gu = reading(job.accel_unit, "accelerometer"), reading(job.gyro_unit, "gyroscope")
+    ua = [float(x) for x in (res.accel_covariance.diagonal().clip(0) ** 0.5)]
+    st = res.poses.static
+    data = _result(b, results, "Accelerometer calibration parameters", "senscal_imuAccelerometer",
+                   f"reading = M f + B, M upper triangular (scale factors, non-orthogonality angles), maximum "
+                   f"likelihood on |f| = g = {res.gravity:g} m/s^2 over {st.n_poses} static poses")
+    units = {"K": per(au, "m/s^2"), "B": au}
+    for i, n in enumerate(ACCEL_NAMES):
+        _parameter(b, data, f"accelerometer_{n}", res.accel_values[i], ua[i], units.get(n[0], "rad"))
+    g = res.gyroscope
+    rt = res.rate_table
+    desc = ("reading = M w + b(t), M full (scale factors, misalignment to the accelerometer's frame), by integrating "
+            "the rotation between static poses")
+    if rt is not None:
+        desc += (f" combined with {job.rate_table.n_segments} rate-table segments of known rate (consistency chi2 "
+                 f"{rt.chi2:.3g} for {rt.dof} dof)")
+    data = _result(b, results, "Gyroscope calibration parameters", "senscal_imuGyroscope", desc)
+    for i, ax in enumerate("xyz"):
+        _parameter(b, data, f"gyroscope_scale_{ax}", g.scale[i], g.u_scale[i], per(gu, "rad/s"))
+    for i, n in enumerate(GYRO_ANGLES):
+        _parameter(b, data, f"gyroscope_misalignment_{n}", g.angles[i], g.u_angles[i], "rad")
+    for i, ax in enumerate("xyz"):
+        _parameter(b, data, f"gyroscope_bias_{ax}", g.bias[i], g.u_bias[i], gu)
+    if g.g_sensitivity is not None:
+        for i, ax in enumerate("xyz"):
+            for j, fx in enumerate("xyz"):
+                _parameter(b, data, f"gyroscope_g_sensitivity_{ax}{fx}", g.g_sensitivity[i, j],
+                           g.u_g_sensitivity[i, j], per(gu, "m/s^2"))
+    te = res.temperature
+    if te is not None:
+        data = _result(b, results, "Reference temperature", "senscal_imuReferenceTemperature",
+                       "biases and scales above hold at this temperature (the static poses' mean)")
+        _real(b, _quantity(b, data, "Reference temperature", "senscal_referenceTemperature"), "reference_temperature",
+              te.reference, job.temp_unit or "degC")
+
+
 _RESULTS = {"response": _response_results, "velocity": _velocity_results, "linearity": _linearity_results,
-            "triaxial": _triaxial_results, "shaft": _shaft_results}
+            "triaxial": _triaxial_results, "shaft": _shaft_results, "imu": _imu_results}
 # attribute of the senscal.jobs result that holds the engine result
 _ENGINE = {"response": "response", "velocity": "calibration", "linearity": "linearity", "triaxial": "calibration",
-           "shaft": "model"}
-_KIND_ALIASES = {"triaxial-calibrate": "triaxial", "shaft-calibrate": "shaft"}
+           "shaft": "model", "imu": "result"}
+_KIND_ALIASES = {"triaxial-calibrate": "triaxial", "shaft-calibrate": "shaft", "imu-calibrate": "imu"}
 
 
 def _measurement(b: _Builder, root: ET.Element, kind: str, result: Any, info: CertificateInfo, unit: str,
@@ -820,7 +878,7 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
     """
     kind = _KIND_ALIASES.get(kind, kind)
     if kind not in _RESULTS:
-        raise DccError(f"unknown DCC kind {kind!r}; use response, velocity, linearity, triaxial or shaft")
+        raise DccError(f"unknown DCC kind {kind!r}; use response, velocity, linearity, triaxial, shaft or imu")
     if not isinstance(info, CertificateInfo):
         raise DccError("info must be a CertificateInfo (lab profile + run fields); see senscal.report.lab")
     if certificate_id and not info.run.certificate_id:
