@@ -23,14 +23,17 @@ from senscal.jobs._base import with_read_options
 def _primary_options(*, quadrature: str = "I,Q", output: str = "out", wavelength_nm: float = 632.8,
                      freq: float | None = None, harmonics: int = 3, drift: bool = True, slices: int = 10,
                      u_wavelength_rel: float = 0.0, u_gain_rel: float = 0.0, u_gain_phase_deg: float = 0.0,
-                     u_other_rel: float = 0.0, u_other_phase_deg: float = 0.0, sign_check: bool = True, **_):
+                     u_other_rel: float = 0.0, u_other_phase_deg: float = 0.0, sign_check: bool = True,
+                     heterodyne: str | None = None, carrier_hz: float | None = None,
+                     carrier_channel: str | None = None, carrier_sign: int = 1, **_):
     """``PrimaryOptions`` from the command's keyword parameters (output-only ones ignored)."""
     from senscal.jobs.primary import PrimaryOptions
 
     return PrimaryOptions(quadrature=quadrature, output=output, wavelength_nm=wavelength_nm, freq=freq,
                           harmonics=harmonics, drift=drift, slices=slices, u_wavelength_rel=u_wavelength_rel,
                           u_gain_rel=u_gain_rel, u_gain_phase_deg=u_gain_phase_deg, u_other_rel=u_other_rel,
-                          u_other_phase_deg=u_other_phase_deg, sign_check=sign_check)
+                          u_other_phase_deg=u_other_phase_deg, sign_check=sign_check, heterodyne=heterodyne,
+                          carrier_hz=carrier_hz, carrier_channel=carrier_channel, carrier_sign=carrier_sign)
 
 
 # What `senscal batch` turns the job's option words into (see senscal.jobs).
@@ -38,7 +41,7 @@ JOB_OPTIONS = {"primary": _primary_options}
 
 
 @app.command("primary")
-@units(wavelength_nm='nm', freq='Hz')
+@units(wavelength_nm='nm', freq='Hz', carrier_hz='Hz')
 @with_options(READ, REGISTRY)
 def primary_cmd(
     files: Annotated[List[Path], typer.Argument(help="Recordings, one per frequency, with the interferometer's I and Q outputs and the accelerometer's output.")],
@@ -55,6 +58,10 @@ def primary_cmd(
     u_other_rel: Annotated[float, typer.Option("--u-other-rel", help="Type B: other relative standard u (transverse motion, base strain ...).")] = 0.0,
     u_other_phase_deg: Annotated[float, typer.Option("--u-other-phase-deg", help="Type B: other phase standard u, deg.")] = 0.0,
     sign_check: Annotated[bool, typer.Option("--sign-check/--no-sign-check", help="Refuse an output near 180 deg from the acceleration (I/Q swapped); off for an inverting amplifier.")] = True,
+    heterodyne: Annotated[Optional[str], typer.Option("--heterodyne", help="Channel of a heterodyne interferometer's carrier (ISO 16063-41 style), instead of --quadrature.")] = None,
+    carrier_hz: Annotated[Optional[str], typer.Option("--carrier-hz", help="Nominal carrier (frequency shift) of --heterodyne, Hz.")] = None,
+    carrier_channel: Annotated[Optional[str], typer.Option("--carrier-channel", help="Channel of the reference carrier (cancels the carrier's offset and drift).")] = None,
+    carrier_sign: Annotated[int, typer.Option("--carrier-sign", help="-1 when the Doppler phase runs against the displacement (the other arm is shifted).")] = 1,
     strict: StrictOpt = False,
     json_out: JsonOpt = False,
     output_unit: Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the accelerometer output for the certificate when the file's header gives none (default V).")] = None,
@@ -76,11 +83,14 @@ def primary_cmd(
     doc = res.to_dict()
     # certificates and the registry as for `senscal response`: the points as a frequency response
     method = ("Primary calibration by laser interferometry (ISO 16063-11 method 3): homodyne quadrature "
-              "interferometer, Heydemann correction, sine approximation of the displacement")
+              "interferometer, Heydemann correction, sine approximation of the displacement") if not heterodyne else (
+        "Primary calibration by laser interferometry: heterodyne interferometer (ISO 16063-41 style carrier), "
+        "quadrature mixing and low-pass demodulation, sine approximation of the displacement")
     resp = res.response(output_unit) if report is not None or dcc is not None else None
     cond = {} if resp is None else {
         "frequency points": len(res.points), "laser wavelength": f"{res.wavelength_nm:g} nm",
-        "quadrature channels": ",".join(res.quadrature), "output channel": res.output,
+        ("heterodyne, carrier channels" if heterodyne else "quadrature channels"): ",".join(res.quadrature),
+        "output channel": res.output,
         "type B inputs (relative u)": (f"wavelength {u_wavelength_rel:g}, output gain {u_gain_rel:g}, "
                                        f"other {u_other_rel:g}")}
     cert_warns = certify("response", resp, report=report, dcc=dcc, unit=resp.unit if resp else "", method=method,
@@ -112,7 +122,7 @@ def primary_cmd(
 
 @simulate_app.command("interferometer")
 @units(freqs=ListOf('Hz'), fs='Hz', duration='s', sensitivity='V/(m/s^2)', phase_deg='deg',
-       acceleration=ListOf('m/s^2'))
+       acceleration=ListOf('m/s^2'), carrier_hz='Hz', carrier_offset_hz='Hz', carrier_drift_hz='Hz')
 def simulate_interferometer_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     freqs: Annotated[str, typer.Option("--freqs", help="Excitation frequencies, Hz, comma separated.")] = "10,160,1000,5000",
@@ -126,6 +136,12 @@ def simulate_interferometer_cmd(
     output_drift: Annotated[float, typer.Option("--output-drift", help="Linear output drift over the record, relative.")] = 0.0,
     hum: Annotated[float, typer.Option("--hum", help="50 Hz hum on the output, relative.")] = 0.0,
     swap_iq: Annotated[bool, typer.Option("--swap-iq", help="Write I and Q swapped (a wiring mistake).")] = False,
+    heterodyne: Annotated[bool, typer.Option("--heterodyne", help="A heterodyne interferometer instead: carrier channel H and reference carrier ref.")] = False,
+    carrier_hz: Annotated[str, typer.Option("--carrier-hz", help="Heterodyne carrier (frequency shift), Hz.")] = "250000.0",
+    carrier_offset_hz: Annotated[str, typer.Option("--carrier-offset-hz", help="The true carrier's offset from --carrier-hz, Hz.")] = "0.0",
+    carrier_drift_hz: Annotated[str, typer.Option("--carrier-drift-hz", help="The carrier's linear change over the record, Hz.")] = "0.0",
+    am_depth: Annotated[float, typer.Option("--am-depth", help="Amplitude modulation depth of the carrier (37 Hz).")] = 0.0,
+    reference: Annotated[bool, typer.Option("--reference/--no-reference", help="Write the reference carrier channel ref (heterodyne).")] = True,
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
     """Quadrature interferometer and accelerometer recordings with Heydemann errors: interferometer_NN.csv + truth."""
@@ -137,6 +153,8 @@ def simulate_interferometer_cmd(
     fl = parse_floats(freqs, "--freqs")
     if not fl or not fs > 0 or not duration > 0 or any(not 0 < f < fs / 2 for f in fl):
         raise InputError("--freqs must lie between 0 and fs/2, --fs and --duration must be positive")
+    if heterodyne and not 0 < carrier_hz + carrier_offset_hz < fs / 2:
+        raise InputError(f"--carrier-hz {carrier_hz:g} Hz must lie between 0 and the Nyquist frequency {fs / 2:g} Hz")
     acc = [None] * len(fl) if acceleration is None else parse_floats(acceleration, "--acceleration")
     if len(acc) == 1:
         acc = acc * len(fl)
@@ -147,7 +165,10 @@ def simulate_interferometer_cmd(
         rec, tr = simulate_interferometer(freq=f, acceleration=acc[i], fs=fs, duration=duration, sensitivity=sensitivity,
                                           phase_deg=phase_deg, laser_noise=laser_noise,
                                           harmonic_distortion=harmonic_distortion, output_drift_rel=output_drift,
-                                          hum_rel=hum, swap_iq=swap_iq, seed=None if seed is None else seed + i)
+                                          hum_rel=hum, swap_iq=swap_iq, heterodyne=heterodyne, carrier_hz=carrier_hz,
+                                          carrier_offset_hz=carrier_offset_hz, carrier_drift_hz=carrier_drift_hz,
+                                          am_depth=am_depth, reference=reference,
+                                          seed=None if seed is None else seed + i)
         recs.append(rec)
         pts.append(tr)
     paths = write_simulation(recs, {"points": pts}, out, "interferometer")

@@ -38,7 +38,11 @@ _ANNEX_A = {
     "output_gain": ("output voltage amplitude measurement", "output voltage phase measurement"),
     "other": ("other effects (transverse, rocking, base strain, mounting)",
               "other effects (transverse, rocking, base strain, mounting)"),
+    "demodulation_filter": ("heterodyne demodulation filter (ripple, stopband)",
+                            "heterodyne demodulation filter (ripple, stopband)"),
 }
+
+HETERODYNE_METHOD = "ISO 16063-41 style heterodyne carrier (quadrature mixing, low-pass), sine approximation"
 
 
 @dataclass(frozen=True)
@@ -68,6 +72,14 @@ class PrimaryOptions(ReadOptions):
         Type B phase standard uncertainties, deg.
     sign_check : bool
         Refuse an output near 180 deg from the acceleration (I/Q swapped).
+    heterodyne : str, optional
+        Channel of a heterodyne interferometer's carrier (instead of ``quadrature``).
+    carrier_hz : float, optional
+        Its nominal carrier frequency, Hz.
+    carrier_channel : str, optional
+        Channel of the reference carrier (cancels the carrier's offset and drift).
+    carrier_sign : int
+        -1 when the Doppler phase runs against the displacement.
     """
 
     quadrature: str | tuple[str, str] = ("I", "Q")
@@ -83,6 +95,10 @@ class PrimaryOptions(ReadOptions):
     u_other_rel: float = 0.0
     u_other_phase_deg: float = 0.0
     sign_check: bool = True
+    heterodyne: str | None = None
+    carrier_hz: float | None = None
+    carrier_channel: str | None = None
+    carrier_sign: int = 1
 
 
 @dataclass(frozen=True)
@@ -112,15 +128,20 @@ class PrimaryResult(JobResult):
     wavelength_nm: float
     warnings: tuple[str, ...] = ()
     output_unit: str = ""
+    demodulations: tuple = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The ``senscal primary --json`` document."""
         pts = []
-        for src, p in zip(self.sources, self.points):
+        for i, (src, p) in enumerate(zip(self.sources, self.points)):
             d = p.to_dict()
             d["file"] = src
+            if self.demodulations:
+                d["demodulation"] = self.demodulations[i].to_dict()
             pts.append(d)
-        return to_jsonable({"method": "ISO 16063-11 method 3 (homodyne quadrature, sine approximation)",
+        method = (HETERODYNE_METHOD if self.demodulations else
+                  "ISO 16063-11 method 3 (homodyne quadrature, sine approximation)")
+        return to_jsonable({"method": method,
                             "quadrature": list(self.quadrature), "output": self.output,
                             "wavelength_nm": self.wavelength_nm, "sensitivity_unit": self.unit,
                             "phase_unit": "deg", "points": pts, "warnings": list(self.warnings)})
@@ -158,7 +179,8 @@ class PrimaryResult(JobResult):
             rms = float(p.residual.get("output_rms", float("nan")))
             snr = 20.0 * math.log10(abs(out_amp) / (math.sqrt(2.0) * rms)) if rms > 0 else float("inf")
             pts.append(ResponsePoint(
-                source=src, method="ISO 16063-11 method 3 (homodyne quadrature, sine approximation)",
+                source=src, method=(HETERODYNE_METHOD if self.demodulations else
+                                    "ISO 16063-11 method 3 (homodyne quadrature, sine approximation)"),
                 frequency=p.frequency_hz, u_frequency=0.5 * p.frequency_hz * p.budget["frequency"]["u_rel"],
                 input_amplitude=p.acceleration, output_amplitude=out_amp,
                 u_output_amplitude=abs(out_amp) * p.budget["output_fit"]["u_rel"], sensitivity=p.sensitivity,
@@ -206,6 +228,8 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
 
     o = options
     check_wavelength(o.wavelength_nm)
+    if o.heterodyne:
+        return _primary_heterodyne(source, o)
     qi, qq = _pair(o.quadrature)
     if o.output in (qi, qq):
         raise InputError(f"--output {o.output} is one of the quadrature channels; name the accelerometer's channel")
@@ -239,3 +263,52 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
     return PrimaryResult(points=tuple(r[2] for r in rows), sources=tuple(r[1] for r in rows),
                          quadrature=(qi, qq), output=o.output, unit=unit, wavelength_nm=float(o.wavelength_nm),
                          warnings=tuple(dict.fromkeys(warnings)), output_unit=raw_unit)
+
+
+def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
+    """:func:`primary` for a heterodyne carrier channel (``--heterodyne CH --carrier-hz F | --carrier-channel REF``)."""
+    from senscal.io.plausibility import merge_time_warnings
+    from senscal.primary.heterodyne import calibrate_heterodyne
+
+    het, ref = str(o.heterodyne), o.carrier_channel
+    if o.carrier_hz is None and not ref:
+        raise InputError("--heterodyne needs the carrier: give --carrier-hz F (Hz) or --carrier-channel REF")
+    if o.output in (het, ref):
+        raise InputError(f"--output {o.output} is the heterodyne or the carrier channel; name the accelerometer's")
+    if ref == het:
+        raise InputError(f"--carrier-channel {ref} is the heterodyne channel itself; name the reference carrier")
+    if int(o.carrier_sign) not in (1, -1):
+        raise InputError(f"--carrier-sign must be 1 or -1, got {o.carrier_sign!r}")
+    if int(o.harmonics) < 1 or int(o.slices) < 0:
+        raise InputError("--harmonics must be at least 1 and --slices not negative")
+    sources: Sequence[Any] = list(source) if isinstance(source, (list, tuple)) else [source]
+    if not sources:
+        raise InputError("senscal primary needs at least one recording (one per frequency)")
+    rows = []
+    units = set()
+    warnings: list[str] = []
+    for src in sources:
+        chans = [het, o.output] + ([ref] if ref else [])
+        rec = o.read(src, channels=chans, job="primary")
+        fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
+        name = source_name(src)
+        try:
+            p, dem = calibrate_heterodyne(rec.channels[het], rec.channels[o.output], fs, carrier_hz=o.carrier_hz,
+                                          reference=rec.channels[ref] if ref else None, freq=o.freq,
+                                          sign=int(o.carrier_sign), harmonics=int(o.harmonics),
+                                          wavelength_nm=o.wavelength_nm, drift=bool(o.drift), slices=int(o.slices),
+                                          u_wavelength_rel=o.u_wavelength_rel, u_gain_rel=o.u_gain_rel,
+                                          u_gain_phase_deg=o.u_gain_phase_deg, u_other_rel=o.u_other_rel,
+                                          u_other_phase_deg=o.u_other_phase_deg, sign_check=o.sign_check)
+        except InputError as exc:
+            raise type(exc)(f"{name}: {exc}") from None
+        units.add(rec.unit(o.output))
+        warnings.extend(f"{w} ({name})" for w in p.warnings)
+        warnings.extend(merge_time_warnings((), rec.warnings))
+        rows.append((p.frequency_hz, name, p, dem))
+    rows.sort(key=lambda r: r[0])
+    raw_unit = units.pop() if len(units) == 1 else ""
+    return PrimaryResult(points=tuple(r[2] for r in rows), sources=tuple(r[1] for r in rows),
+                         quadrature=(het, ref or ""), output=o.output, unit=f"{raw_unit or 'output'} per m/s^2",
+                         wavelength_nm=float(o.wavelength_nm), warnings=tuple(dict.fromkeys(warnings)),
+                         output_unit=raw_unit, demodulations=tuple(r[3] for r in rows))

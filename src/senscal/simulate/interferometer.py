@@ -33,8 +33,10 @@ def simulate_interferometer(*, freq: float = 160.0, acceleration: float | None =
                             gain_ratio: float = 1.03, quadrature_deg: float = 3.0, laser_noise: float = 2e-3,
                             output_noise_rel: float = 1e-3, harmonic_distortion: float = 0.0,
                             output_drift_rel: float = 0.0, hum_rel: float = 0.0, hum_hz: float = 50.0,
-                            intensity_drift: float = 0.0, swap_iq: bool = False,
-                            seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
+                            intensity_drift: float = 0.0, swap_iq: bool = False, heterodyne: bool = False,
+                            carrier_hz: float = 250_000.0, carrier_offset_hz: float = 0.0,
+                            carrier_drift_hz: float = 0.0, am_depth: float = 0.0, am_hz: float = 37.0,
+                            reference: bool = True, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
     """Simulate one frequency point of a primary calibration.
 
     Parameters
@@ -72,13 +74,26 @@ def simulate_interferometer(*, freq: float = 160.0, acceleration: float | None =
         Linear change of the laser intensity over the record (relative).
     swap_iq : bool
         Write I and Q swapped (a wiring mistake).
+    heterodyne : bool
+        A heterodyne interferometer (ISO 16063-41) instead: one channel ``H = A(t) cos(2 pi f_c t +
+        4 pi s / lambda) + noise`` (``laser_noise`` relative to its amplitude), and with ``reference`` the
+        carrier itself in channel ``ref`` (the frequency shifter's drive, same offset and drift, its own
+        noise). The Heydemann errors do not apply.
+    carrier_hz : float
+        Nominal carrier (frequency shift), Hz.
+    carrier_offset_hz, carrier_drift_hz : float
+        The true carrier's constant offset from ``carrier_hz``, and its linear change over the record, Hz.
+    am_depth, am_hz : float
+        Amplitude modulation of the carrier: ``A(t) = 1 + am_depth sin(2 pi am_hz t + random)``.
+    reference : bool
+        Write the reference carrier channel ``ref`` (heterodyne only).
     seed : int, optional
 
     Returns
     -------
     (Recording, dict)
-        Channels ``I``, ``Q`` (V) and ``out`` (V); truth with ``sensitivity``
-        and ``phase_deg`` at the fundamental.
+        Channels ``I``, ``Q`` (V) and ``out`` (V), or for ``heterodyne`` ``H`` (and ``ref``) and ``out``;
+        truth with ``sensitivity`` and ``phase_deg`` at the fundamental.
     """
     rng = np.random.default_rng(seed)
     acc = default_acceleration(freq) if acceleration is None else float(acceleration)
@@ -111,11 +126,26 @@ def simulate_interferometer(*, freq: float = 160.0, acceleration: float | None =
         out = out + hum_rel * out_amp * np.sin(2 * math.pi * hum_hz * t + rng.uniform(-math.pi, math.pi))
     if swap_iq:
         i_sig, q_sig = q_sig, i_sig
-    rec = Recording(channels={"I": i_sig, "Q": q_sig, "out": out}, fs=fs, units={"I": "V", "Q": "V", "out": "V"},
-                    source="<interferometer>")
+    channels = {"I": i_sig, "Q": q_sig, "out": out}
+    het: dict[str, Any] = {}
+    if heterodyne:
+        # drawn after the homodyne channels so that a heterodyne option leaves every homodyne draw as it was
+        fc = float(carrier_hz) + float(carrier_offset_hz)
+        # carrier phase 2 pi (fc t + drift t^2 / (2 T)): its frequency runs from fc to fc + drift over the record
+        cph = 2 * math.pi * ((fc * t) % 1.0 + float(carrier_drift_hz) * t * t / (2.0 * max(duration, 1e-12)))
+        th0, thr, tham = rng.uniform(-math.pi, math.pi, 3)
+        a_t = 1.0 + float(am_depth) * np.sin(2 * math.pi * am_hz * t + tham)
+        channels = {"H": a_t * np.cos(cph + th0 + phi) + laser_noise * rng.standard_normal(n)}
+        if reference:
+            channels["ref"] = np.cos(cph + thr) + laser_noise * rng.standard_normal(n)
+        channels["out"] = out
+        het = {"heterodyne": True, "carrier_hz": float(carrier_hz), "carrier_offset_hz": float(carrier_offset_hz),
+               "carrier_drift_hz": float(carrier_drift_hz), "am_depth": float(am_depth), "am_hz": float(am_hz),
+               "doppler_max_hz": 2.0 * float(np.max(np.abs(np.gradient(s, 1.0 / fs)))) / (wavelength_nm * 1e-9)}
+    rec = Recording(channels=channels, fs=fs, units={k: "V" for k in channels}, source="<interferometer>")
     truth = {"frequency_hz": freq, "sensitivity": sensitivity, "phase_deg": phase_deg, "acceleration": acc,
              "displacement_m": d1, "wavelength_nm": wavelength_nm, "offsets": list(offsets), "gain_ratio": gain_ratio,
              "quadrature_deg": quadrature_deg, "laser_noise": laser_noise, "output_noise_rel": output_noise_rel,
              "harmonic_distortion": hd, "output_drift_rel": output_drift_rel, "hum_rel": hum_rel, "hum_hz": hum_hz,
-             "intensity_drift": intensity_drift, "swap_iq": swap_iq}
+             "intensity_drift": intensity_drift, "swap_iq": swap_iq, **het}
     return rec, truth

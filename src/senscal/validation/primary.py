@@ -105,3 +105,8 @@ for _f, _ci in ((run_white, 10), (run_harmonics, 4), (run_output_drift, 3), (run
     _f.ci_seeds = _ci  # type: ignore[attr-defined]
 
 SCENARIOS = {"white": run_white, "harmonics": run_harmonics, "output-drift": run_output_drift, "hum": run_hum}
+
+# heterodyne carrier input (ISO 16063-41 style): its own module, the cases named heterodyne-*
+from senscal.validation._primary_heterodyne import HETERODYNE_SCENARIOS  # noqa: E402
+
+SCENARIOS.update(HETERODYNE_SCENARIOS)
