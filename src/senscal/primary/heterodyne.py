@@ -177,12 +177,14 @@ def _response_error(h: np.ndarray, fp: float, fst: float, fs: float) -> float:
 
 def _fir_decimate(x: np.ndarray, h: np.ndarray, d: int) -> tuple[np.ndarray, int]:
     """``y[m] = sum_k h[k] x[m d + (L-1)/2 - k]`` for every m whose window lies inside x (centred, valid)."""
-    from scipy.signal import upfirdn
+    from scipy.signal import oaconvolve, upfirdn
 
     L = h.size
     half = (L - 1) // 2
-    y = upfirdn(h, x, 1, d)
-    # upfirdn's output j is sum_k h[k] x[j d - k]: centre sample j d - half; keep the windows inside the record
+    # output j is sum_k h[k] x[j d - k]: direct (polyphase) for short filters, overlap-add FFT for long ones
+    # (O(n log L) instead of O(n L / d): 3000 taps cost a tenth of the direct sum)
+    y = upfirdn(h, x, 1, d) if L <= 64 * d else oaconvolve(x, h, mode="full")[::d]
+    # centre sample of output j is j d - half; keep the windows inside the record
     j0 = -(-(L - 1) // d)
     j1 = (x.size - 1) // d
     y = y[j0:j1 + 1]

@@ -1,0 +1,101 @@
+"""``senscal primary``'s processing time against reading the record, as ratios in one run (issue 28).
+
+Issue 28's criterion: a 1-second record at 1 MS/s per frequency is processed in about the time of reading
+it. For one simulated 1 kHz point, 1 s at 1 MS/s (three channels: ``I, Q, out`` for the homodyne
+quadrature interferometer; ``H, ref, out`` for the heterodyne carrier at 250 kHz), written once as
+``.npz`` and, with ``--csv``, as ``.csv``, each row gives the best wall time over ``--repeat`` rounds
+(after one warm-up, which compiles the engines' kernels) of:
+
+- ``read``: ``senscal.io.read_recording`` of the file (the reader every command uses);
+- ``stream``: a plain streaming read of the same file, 8 MiB at a time (the bytes only, from the page
+  cache: the floor any reader has);
+- ``process``: the calibration of the point from the arrays (``senscal.primary.calibrate_point``, or
+  ``senscal.primary.heterodyne.calibrate_heterodyne`` with the reference carrier), without reading;
+
+and the ratios ``process / read`` and ``process / stream``.
+
+Run: ``PYTHONPATH=src python3 benchmarks/bench_primary.py [--repeat 3] [--csv] [--profile]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+import time
+from pathlib import Path
+
+
+def _best(fn, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _stream(path: Path) -> int:
+    n = 0
+    with open(path, "rb") as fh:
+        while True:
+            b = fh.read(8 << 20)
+            if not b:
+                return n
+            n += len(b)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--fs", type=float, default=1_000_000.0, help="sample rate, Hz (default 1 MS/s)")
+    ap.add_argument("--duration", type=float, default=1.0, help="record length, s")
+    ap.add_argument("--freq", type=float, default=1000.0, help="vibration frequency, Hz")
+    ap.add_argument("--csv", action="store_true", help="also write and read the record as CSV (slow to write)")
+    ap.add_argument("--profile", action="store_true", help="print cProfile's 15 costliest calls of each processing")
+    args = ap.parse_args(argv)
+
+    from senscal.io import read_recording, write_recording
+    from senscal.primary import calibrate_point
+    from senscal.primary.heterodyne import calibrate_heterodyne
+    from senscal.simulate.interferometer import simulate_interferometer
+
+    fs, f = args.fs, args.freq
+    cases = []
+    rq, _ = simulate_interferometer(freq=f, fs=fs, duration=args.duration, seed=1)
+    cq = rq.channels
+    cases.append(("quadrature", rq, lambda: calibrate_point(cq["I"], cq["Q"], cq["out"], fs, freq=f)))
+    rh, _ = simulate_interferometer(freq=f, fs=fs, duration=args.duration, seed=1, heterodyne=True,
+                                    carrier_hz=fs / 4)
+    ch = rh.channels
+    cases.append(("heterodyne", rh, lambda: calibrate_heterodyne(ch["H"], ch["out"], fs, carrier_hz=fs / 4,
+                                                                 reference=ch["ref"], freq=f)))
+    exts = ["npz"] + (["csv"] if args.csv else [])
+    print(f"# {args.duration:g} s at {fs / 1e6:g} MS/s, {f:g} Hz, best of {args.repeat} (os.cpu_count() = "
+          f"{os.cpu_count()}, load {os.getloadavg()[0]:.1f})")
+    print("| input | file | MB | read / s | stream / s | process / s | process / read | process / stream |")
+    print("|---|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, rec, proc in cases:
+            proc()  # warm-up: compiles the kernels
+            t_proc = _best(proc, args.repeat)
+            if args.profile:
+                import cProfile
+                import pstats
+
+                pr = cProfile.Profile()
+                pr.runcall(proc)
+                pstats.Stats(pr).sort_stats("cumulative").print_stats(15)
+            for ext in exts:
+                path = write_recording(rec, Path(tmp) / f"{name}.{ext}")
+                read_recording(path)
+                t_read = _best(lambda: read_recording(path), args.repeat)
+                t_stream = _best(lambda: _stream(path), args.repeat)
+                mb = path.stat().st_size / 1e6
+                print(f"| {name} | {ext} | {mb:.1f} | {t_read:.3f} | {t_stream:.4f} | {t_proc:.3f} | "
+                      f"{t_proc / t_read:.2f} | {t_proc / t_stream:.0f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
