@@ -95,7 +95,8 @@ def test_coloured_noise_is_chosen_and_said():
     assert 2.0 < noise["s2_noise_ar_tau"] < 12.0  # rho 0.8 per 1-s sample: tau 4.5 s
     # The coloured noise stays in the corrected output: only the bias is removed.
     np.testing.assert_allclose(r.corrected, d["y"][0][1:] - r.bias, rtol=0, atol=1e-12)
-    assert not r.warnings
+    # The colour itself is named (its final-bias u covered 91.5 %, below the rule), and nothing else.
+    assert [w.split(":")[0] for w in r.warnings] == ["coloured-noise"]
 
 
 def test_no_compare_keeps_the_model_asked_for():
@@ -111,3 +112,37 @@ def test_level_uncertainty_widens_the_band_only():
     b = correct_drift(s, d["y"][0], d["t"], smooth=True, compare=False, level_u=False)
     np.testing.assert_allclose(a.bias, b.bias, rtol=0, atol=0)
     assert np.all(a.bias_std >= b.bias_std) and np.any(a.bias_std > b.bias_std)
+
+
+def test_a_new_time_constant_gives_the_numbers_of_a_fresh_build():
+    """LevelLikelihood rewrites only the entries a time constant moves (issue 30): equal to building anew."""
+    rng = np.random.default_rng(5)
+    T = 500
+    t = np.cumsum(rng.uniform(0.8, 1.2, T))
+    dt = _uniform_dt(np.diff(t, prepend=t[0] - 1.0))
+    y1 = rng.normal(0, 0.1, (1, T))
+    c = np.cumsum(rng.normal(0, 0.1, T))
+    ar = dataclasses.replace(known_setup(["g"]), ar_noise=("g",))
+    lag = covariate_setup("x", "c")
+    lag = dataclasses.replace(lag, biases=tuple(dataclasses.replace(b, fit_lag=True) if b.covariate else b
+                                                for b in lag.biases), ar_noise=("x",))
+    two = dataclasses.replace(redundant_setup(["s1", "s2"], trusted=["s1"]), ar_noise=("s2",))
+    cases = [(ar, y1, {}, "g_noise_ar_tau", [("g_noise_ar_tau", 2.0), ("g_noise_ar_tau", 5.0)]),
+             (lag, y1, {"c": c - c.mean()}, None, [("x_c_coefficient_lag", 3.0), ("x_noise_ar_tau", 4.0)]),
+             (two, rng.normal(0, 0.1, (2, T)), {}, None, [("s2_noise_ar_tau", 2.5)])]
+    for setup, y, cov, _, changes in cases:
+        n = len(setup.state_names)
+        x0, P0 = np.zeros(n), np.eye(n)
+        if setup.signal.kind == "known":
+            P0[0, 0] = 0.0
+        names = setup.level_names()
+        lv = {k: 0.05 for k in names}
+        lv.update({k: 1.0 for k in names if k.endswith("_tau") or k.endswith("_lag")})
+        kept = LevelLikelihood(setup, dt, y, cov, x0, P0, names)
+        kept(lv)
+        for k, v in changes:
+            lv = dict(lv, **{k: v})
+            ll, g = kept(lv)
+            ll0, g0 = LevelLikelihood(setup, dt, y, cov, x0, P0, names)(lv)
+            assert ll == ll0 and np.array_equal(g, g0), k
+            assert kept(lv, False)[0] == ll0

@@ -25,8 +25,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from senscal.drift.model import DriftSetup, augmented_arrays
-from senscal.kalman._score import score_series
+from senscal.drift.model import DriftSetup, _scalar_dynamics, augmented_arrays, lag_filter
+from senscal.kalman._score import score_series, score_series_scalar
 
 __all__ = ["LevelLikelihood"]
 
@@ -82,6 +82,26 @@ class LevelLikelihood:
         self._keep = np.arange(ns, n) if setup.signal.kind == "known" else np.arange(n)
         self._parts_key = None
         self._parts = None
+        # Where each time constant acts (positions in the kept states): a
+        # coloured-noise tau moves only its state's F and Q entries (and the
+        # unit of its std, which is free beside it), a lag only its bias's H
+        # column.  A new time constant then rewrites those entries instead of
+        # building the model again (each build is a few (T, n, n) stacks).
+        pos = {int(i): j for j, i in enumerate(self._keep)}
+        full = list(setup.state_names)
+        self._nl_at: dict[str, tuple] = {}
+        for k in self.names:
+            if k.endswith("_noise_ar_tau"):
+                c = k[: -len("_noise_ar_tau")]
+                std = f"{c}_noise_ar_std"
+                if std in self.kind and self.kind[std] == "Q":
+                    self._nl_at[k] = ("tau", pos[full.index(f"{c}_noise_ar")], std)
+            elif k.endswith("_lag"):
+                b = next((b for b in setup.biases if b.lag_name == k), None)
+                if b is not None:
+                    self._nl_at[k] = ("lag", setup.channels.index(b.channel), pos[full.index(b.name)],
+                                      b.covariate)
+        self._patch = all(self._nl_at.get(k) is not None for k in self.names if self.kind[k] == "NL")
         #: Expected information over ln(level) of the last call with the gradient.
         self.info = None
 
@@ -103,6 +123,22 @@ class LevelLikelihood:
         key = tuple(float(levels[k]) for k in self.names if self.kind[k] == "NL")
         if key == self._parts_key:
             return self._parts
+        if self._patch and self._parts is not None:
+            # Only the time constants changed: rewrite the entries they move,
+            # with the very expressions augmented_arrays evaluates (same numbers).
+            F, H, x0, Q0, R0, P00, units = self._parts
+            nl = [k for k in self.names if self.kind[k] == "NL"]
+            for k, v, old in zip(nl, key, self._parts_key):
+                if v != old:
+                    at = self._nl_at[k]
+                    if at[0] == "tau":
+                        Fa, Qa = _scalar_dynamics("gauss_markov", self.dt, 1.0, v)
+                        F[:, at[1], at[1]] = Fa[:, 0, 0]
+                        units[at[2]][0][:, at[1], at[1]] = Qa[:, 0, 0]
+                    else:
+                        H[:, at[1], at[2]] = self._lagged(at[3], v)
+            self._parts_key = key
+            return self._parts
         lin = [k for k in self.names if self.kind[k] != "NL"]
         zero = dict(levels)
         zero.update({k: 0.0 for k in lin})
@@ -115,6 +151,10 @@ class LevelLikelihood:
             units[k] = (Qk - Q0, Rk - R0, Pk - P00)
         self._parts_key, self._parts = key, (F, H, x0, Q0, R0, P00, units)
         return self._parts
+
+    def _lagged(self, covariate: str, lag: float) -> np.ndarray:
+        """The covariate through its first-order lag, as augmented_arrays puts it into H."""
+        return lag_filter(self.cov[covariate], self.dt, lag) if lag > 0 else self.cov[covariate]
 
     def _assemble(self, levels: Mapping[str, float]):
         F, H, x0, Q0, R0, P00, units = self._linear(levels)
@@ -152,6 +192,21 @@ class LevelLikelihood:
                         dP0[i] = v2 * Pk
                     continue
                 v = float(levels[k])
+                at = self._nl_at.get(k) if self._patch else None
+                if at is not None:
+                    # The central differences of the entries the time constant moves
+                    # (the rest of the two models is equal, so their differences are 0).
+                    vu, vd = v * np.exp(_H_LOG), v * np.exp(-_H_LOG)
+                    if at[0] == "tau":
+                        std = float(levels[at[2]])
+                        Fu, Qu = _scalar_dynamics("gauss_markov", self.dt, std, vu)
+                        Fd, Qd = _scalar_dynamics("gauss_markov", self.dt, std, vd)
+                        dQ[i][:, at[1], at[1]] = (Qu[:, 0, 0] - Qd[:, 0, 0]) / (2 * _H_LOG)
+                        if useF[i]:
+                            dF[i][:, at[1], at[1]] = (Fu[:, 0, 0] - Fd[:, 0, 0]) / (2 * _H_LOG)
+                    elif useH[i]:
+                        dH[i][:, at[1], at[2]] = (self._lagged(at[3], vu) - self._lagged(at[3], vd)) / (2 * _H_LOG)
+                    continue
                 up = dict(levels)
                 dn = dict(levels)
                 up[k] = v * np.exp(_H_LOG)
@@ -167,7 +222,8 @@ class LevelLikelihood:
                     dH[i] = (Hu - Hd) / (2 * _H_LOG)
         # The frozen gain needs every matrix and derivative constant in time.
         allow = self.allow_ss and max(F.shape[0], H.shape[0], Q.shape[0], dF.shape[1], dH.shape[1], dQ.shape[1]) == 1
-        ll, g, info, _ = score_series(F, H, Q, R, x0, P0, self.y, dF, dH, dQ, dR, dP0, useF, useH, bool(allow),
-                                      grad)
+        # One channel (a known quantity's channel, a sensor with a covariate): the scalar kernel, same numbers.
+        kernel = score_series_scalar if m == 1 else score_series
+        ll, g, info, _ = kernel(F, H, Q, R, x0, P0, self.y, dF, dH, dQ, dR, dP0, useF, useH, bool(allow), grad)
         self.info = info
         return float(ll), g

@@ -435,3 +435,309 @@ def score_series(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_s
                 frozen = True
                 ss_from = t + 1
     return ll, g, info, ss_from
+
+
+@nb.njit(cache=True, nogil=True)
+def score_series_scalar(F, H, Q, R, x0, P0, y, dF, dH, dQ, dR, dP0, useF, useH, allow_ss, grad):
+    """:func:`score_series` for one measurement per step (m = 1), the same numbers.
+
+    A channel fitted on its own (a known quantity's channels, one sensor
+    with a covariate) has a scalar innovation: its covariance needs no
+    factorisation, and the loops over measurement components and the
+    bookkeeping of missing components go.  Every floating-point operation of
+    the general kernel is kept, in its order (including its additions to a
+    zero accumulator), so the likelihood, score and information are
+    bit-for-bit those of :func:`score_series`; only the work around them is
+    saved (measured: about half the time per pass of a two-state model).
+    Same arguments and returns.
+    """
+    n = F.shape[1]
+    p = dQ.shape[0]
+    T = y.shape[0]
+    g = np.zeros(p)
+    info = np.zeros((p, p))
+    tt = np.zeros((p, p))
+    SdS = np.empty(p)
+    u = np.empty(p)
+    x = x0.copy()
+    P = P0.copy()
+    dx = np.zeros((p, n))
+    dP = np.empty((p, n, n))
+    for k in range(p):
+        for i in range(n):
+            for j in range(n):
+                dP[k, i, j] = dP0[k, i, j]
+    xp = np.empty(n)
+    Pp = np.empty((n, n))
+    Pp_prev = np.zeros((n, n))
+    dxp = np.empty((p, n))
+    dPp = np.empty((p, n, n))
+    dPp_prev = np.zeros((p, n, n))
+    FP = np.empty((n, n))
+    A = np.empty((n, n))
+    dv = np.empty(p)
+    M = np.empty(n)
+    Kg = np.empty(n)
+    dM = np.empty((p, n))
+    dS = np.empty(p)
+    dK = np.empty((p, n))
+    trc = np.zeros(p)
+    IKH = np.empty((n, n))
+    tmp = np.empty((n, n))
+    Sinv = 0.0
+    ll = 0.0
+    logdet = 0.0
+    frozen = False
+    hold = 0
+    ss_from = -1
+    for t in range(T):
+        f = 0 if F.shape[0] == 1 else t
+        fd = (0 if dF.shape[1] == 1 else t) if p > 0 else 0
+        # ---- predict (as score_series)
+        if t == 0:
+            for i in range(n):
+                xp[i] = x0[i]
+                for j in range(n):
+                    Pp[i, j] = P0[i, j]
+            for k in range(p):
+                for i in range(n):
+                    dxp[k, i] = 0.0
+                    for j in range(n):
+                        dPp[k, i, j] = dP0[k, i, j]
+        else:
+            for i in range(n):
+                acc = 0.0
+                for j in range(n):
+                    acc += F[f, i, j] * x[j]
+                xp[i] = acc
+            if grad:
+                for k in range(p):
+                    for i in range(n):
+                        acc = 0.0
+                        for j in range(n):
+                            acc += F[f, i, j] * dx[k, j]
+                        if useF[k]:
+                            for j in range(n):
+                                acc += dF[k, fd, i, j] * x[j]
+                        dxp[k, i] = acc
+            if not frozen:
+                q = 0 if Q.shape[0] == 1 else t
+                for i in range(n):
+                    for j in range(n):
+                        acc = 0.0
+                        for l in range(n):
+                            acc += F[f, i, l] * P[l, j]
+                        FP[i, j] = acc
+                for i in range(n):
+                    for j in range(i + 1):
+                        acc = Q[q, i, j]
+                        for l in range(n):
+                            acc += FP[i, l] * F[f, j, l]
+                        Pp[i, j] = acc
+                        Pp[j, i] = acc
+                if grad:
+                    qd = 0 if dQ.shape[1] == 1 else t
+                    for k in range(p):
+                        for i in range(n):
+                            for j in range(n):
+                                acc = 0.0
+                                for l in range(n):
+                                    acc += F[f, i, l] * dP[k, l, j]
+                                A[i, j] = acc
+                        for i in range(n):
+                            for j in range(i + 1):
+                                acc = dQ[k, qd, i, j]
+                                for l in range(n):
+                                    acc += A[i, l] * F[f, j, l]
+                                dPp[k, i, j] = acc
+                                dPp[k, j, i] = acc
+                        if useF[k]:
+                            for i in range(n):
+                                for j in range(n):
+                                    acc = 0.0
+                                    for l in range(n):
+                                        acc += dF[k, fd, i, l] * FP[j, l]
+                                    A[i, j] = acc
+                            for i in range(n):
+                                for j in range(n):
+                                    dPp[k, i, j] += A[i, j] + A[j, i]
+        # ---- innovation
+        h = 0 if H.shape[0] == 1 else t
+        hd = (0 if dH.shape[1] == 1 else t) if p > 0 else 0
+        v = y[t, 0]
+        for j in range(n):
+            v -= H[h, 0, j] * xp[j]
+        if math.isnan(v):
+            for i in range(n):
+                x[i] = xp[i]
+                for j in range(n):
+                    P[i, j] = Pp[i, j]
+            for k in range(p):
+                for i in range(n):
+                    dx[k, i] = dxp[k, i]
+                    for j in range(n):
+                        dP[k, i, j] = dPp[k, i, j]
+            continue
+        if grad:
+            for k in range(p):
+                acc = 0.0
+                for j in range(n):
+                    acc -= H[h, 0, j] * dxp[k, j]
+                if useH[k]:
+                    for j in range(n):
+                        acc -= dH[k, hd, 0, j] * xp[j]
+                dv[k] = acc
+        if not frozen:
+            rr = 0 if R.shape[0] == 1 else t
+            for i in range(n):
+                acc = 0.0
+                for j in range(n):
+                    acc += Pp[i, j] * H[h, 0, j]
+                M[i] = acc
+            S = R[rr, 0, 0]
+            for j in range(n):
+                S += H[h, 0, j] * M[j]
+            if not S > 0.0:
+                return np.nan, g, info, -2
+            L = math.sqrt(S)
+            logdet = 0.0
+            logdet += 2.0 * math.log(L)
+            Li = 1.0 / L
+            Sinv = 0.0
+            Sinv += Li * Li
+            for i in range(n):
+                acc = 0.0
+                acc += M[i] * Sinv
+                Kg[i] = acc
+            if grad:
+                rd = 0 if dR.shape[1] == 1 else t
+                for k in range(p):
+                    for i in range(n):
+                        acc = 0.0
+                        for j in range(n):
+                            acc += dPp[k, i, j] * H[h, 0, j]
+                        if useH[k]:
+                            for j in range(n):
+                                acc += Pp[i, j] * dH[k, hd, 0, j]
+                        dM[k, i] = acc
+                    acc = dR[k, rd, 0, 0]
+                    for j in range(n):
+                        acc += H[h, 0, j] * dM[k, j]
+                    if useH[k]:
+                        for j in range(n):
+                            acc += dH[k, hd, 0, j] * M[j]
+                    dS[k] = acc
+                    tr = 0.0
+                    tr += Sinv * dS[k]
+                    trc[k] = tr
+                    for i in range(n):
+                        w0 = dM[k, i]
+                        w0 -= Kg[i] * dS[k]
+                        acc = 0.0
+                        acc += w0 * Sinv
+                        dK[k, i] = acc
+        # ---- likelihood and its gradient
+        w = 0.0
+        w += Sinv * v
+        nis = 0.0
+        nis += v * w
+        ll += -0.5 * (1 * _LOG_2PI + logdet + nis)
+        if grad:
+            for k in range(p):
+                q1 = 0.0
+                q2 = 0.0
+                q1 += w * dv[k]
+                acc = 0.0
+                acc += dS[k] * w
+                q2 += w * acc
+                g[k] += -0.5 * (trc[k] + 2.0 * q1 - q2)
+            if not frozen:
+                for k in range(p):
+                    acc = 0.0
+                    acc += Sinv * dS[k]
+                    SdS[k] = acc
+                for k in range(p):
+                    for l in range(k + 1):
+                        acc = 0.0
+                        acc += SdS[k] * SdS[l]
+                        tt[k, l] = 0.5 * acc
+                        tt[l, k] = 0.5 * acc
+            for k in range(p):
+                acc = 0.0
+                acc += Sinv * dv[k]
+                u[k] = acc
+            for k in range(p):
+                for l in range(k + 1):
+                    acc = tt[k, l]
+                    acc += dv[l] * u[k]
+                    info[k, l] += acc
+                    if l != k:
+                        info[l, k] += acc
+        # ---- update: means
+        for i in range(n):
+            x[i] = xp[i] + Kg[i] * v
+        if grad:
+            for k in range(p):
+                for i in range(n):
+                    dx[k, i] = dxp[k, i] + (dK[k, i] * v + Kg[i] * dv[k])
+        if frozen:
+            continue
+        rr = 0 if R.shape[0] == 1 else t
+        for i in range(n):
+            for j in range(n):
+                acc = 1.0 if i == j else 0.0
+                acc -= Kg[i] * H[h, 0, j]
+                IKH[i, j] = acc
+        for i in range(n):
+            for j in range(n):
+                acc = 0.0
+                for l in range(n):
+                    acc += IKH[i, l] * Pp[l, j]
+                tmp[i, j] = acc
+        for i in range(n):
+            for j in range(i + 1):
+                acc = 0.0
+                for l in range(n):
+                    acc += tmp[i, l] * IKH[j, l]
+                acc += Kg[i] * R[rr, 0, 0] * Kg[j]
+                P[i, j] = acc
+                P[j, i] = acc
+        if grad:
+            for k in range(p):
+                for i in range(n):
+                    for j in range(i + 1):
+                        acc = dPp[k, i, j] - (dK[k, i] * M[j] + Kg[i] * dM[k, j])
+                        acc2 = dPp[k, j, i] - (dK[k, j] * M[i] + Kg[j] * dM[k, i])
+                        val = 0.5 * (acc + acc2)
+                        dP[k, i, j] = val
+                        dP[k, j, i] = val
+        if allow_ss and t > 0:
+            scale = 0.0
+            diff = 0.0
+            for i in range(n):
+                for j in range(n):
+                    scale = max(scale, abs(Pp[i, j]))
+                    diff = max(diff, abs(Pp[i, j] - Pp_prev[i, j]))
+                    Pp_prev[i, j] = Pp[i, j]
+            ok = diff <= _SS_TOL * scale
+            if grad and ok:
+                for k in range(p):
+                    sk = 0.0
+                    dk = 0.0
+                    for i in range(n):
+                        for j in range(n):
+                            sk = max(sk, abs(dPp[k, i, j]))
+                            dk = max(dk, abs(dPp[k, i, j] - dPp_prev[k, i, j]))
+                            dPp_prev[k, i, j] = dPp[k, i, j]
+                    if dk > _SS_TOL * max(sk, 1e-300) and sk > 0.0:
+                        ok = False
+            elif grad:
+                for k in range(p):
+                    for i in range(n):
+                        for j in range(n):
+                            dPp_prev[k, i, j] = dPp[k, i, j]
+            hold = hold + 1 if ok else 0
+            if hold >= _SS_HOLD:
+                frozen = True
+                ss_from = t + 1
+    return ll, g, info, ss_from
