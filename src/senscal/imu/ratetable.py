@@ -120,7 +120,8 @@ def segment_data(t: np.ndarray, gyro: np.ndarray, table, *, gyro_noise: np.ndarr
     Parameters
     ----------
     t : ndarray, shape (N,)
-        Sample times, s (the table's times count from ``t[0]``).
+        Sample times, s: the table's times are on this axis (the recording's time column; a record without
+        one starts at 0), so ``--start``/``--stop`` leave them valid.
     gyro : ndarray, shape (3, N)
     table : senscal.io.ratetable.RateTable
     gyro_noise : ndarray (3,), optional
@@ -132,14 +133,13 @@ def segment_data(t: np.ndarray, gyro: np.ndarray, table, *, gyro_noise: np.ndarr
         A segment outside the record or with fewer than 10 samples; a gyro axis clipped at its extreme
         reading during a segment (the stated rate is beyond the gyro's range).
     """
-    rel = np.asarray(t, float) - float(t[0])
-    span = float(rel[-1])
+    rel = np.asarray(t, float)
     idx, means, var = [], [], []
     for k in range(table.n_segments):
         lab = table.label(k)
-        if table.start[k] < rel[0] or table.stop[k] > span:
-            raise InputError(f"rate table {table.source}: {lab} lies outside {source} (0 .. {span:.6g} s from its "
-                             "first sample); give the segments' times from the recording's first sample")
+        if table.start[k] < rel[0] or table.stop[k] > rel[-1]:
+            raise InputError(f"rate table {table.source}: {lab} lies outside {source} ({rel[0]:.6g} .. {rel[-1]:.6g} "
+                             "s); give the segments' times on the recording's time axis")
         ix = np.flatnonzero((rel >= table.start[k]) & (rel <= table.stop[k]))
         if ix.size < 10:
             raise InputError(f"rate table {table.source}: {lab} holds {ix.size} samples of {source}; a segment "
@@ -168,9 +168,9 @@ def pose_cut(t: np.ndarray, gyro: np.ndarray, table) -> int:
     within :data:`MOVING_SIGMA` still-noise deviations of the pre-table median; the noise from the record's
     first second, the IMU-TK protocol's still start).
     """
-    rel = np.asarray(t, float) - float(t[0])
+    rel = np.asarray(t, float)
     i_seg = int(np.searchsorted(rel, float(np.min(table.start))))
-    fs = (rel.size - 1) / max(float(rel[-1]), 1e-300)
+    fs = (rel.size - 1) / max(float(rel[-1] - rel[0]), 1e-300)
     n0 = max(int(round(fs)), 20)
     if i_seg <= n0:
         return i_seg

@@ -5,7 +5,7 @@ of constant rate is one row.  The file is CSV (``.csv``, ``.txt``) or YAML
 (``.yaml``, ``.yml``); every number carries its unit (a quantity, parsed by
 :mod:`senscal.units`), a bare number is refused::
 
-    # senscal rate table: times from the recording's first sample
+    # senscal rate table: times on the recording's time axis
     start, stop, axis, rate, u_rate, u_axis
     160 s, 170 s, +z, 30 deg/s, 0.002 deg/s, 0.05 deg
     175 s, 185 s, +z, -30 deg/s, 0.002 deg/s, 0.05 deg
@@ -19,7 +19,8 @@ or::
 Columns
 -------
 start, stop
-    The constant-rate part of the segment (time: ``s``, ``ms``, ``min``), from the recording's first sample.
+    The constant-rate part of the segment (time: ``s``, ``ms``, ``min``) on the recording's time axis (its
+    time column; a record without one starts at 0 at its first sample).
 axis
     The table's axis in the IMU's accelerometer frame: ``x``, ``+y``, ``-z`` or a vector (``0 0.6 0.8``
     in CSV, a list in YAML; normalised).
@@ -62,7 +63,7 @@ class RateTable(ResultMixin):
     Attributes
     ----------
     start, stop : ndarray, shape (K,)
-        Constant-rate part of each segment, s from the recording's first sample.
+        Constant-rate part of each segment, s on the recording's time axis.
     axis : ndarray, shape (K, 3)
         Unit vectors of the table axis in the accelerometer frame.
     rate : ndarray, shape (K,)
@@ -215,7 +216,7 @@ def read_rate_table(path: str | Path) -> RateTable:
 
 def rate_table_text(table: RateTable) -> str:
     """The CSV form of ``table`` (what ``senscal simulate imu --rate-table`` writes), rates in deg/s."""
-    lines = ["# senscal rate table: constant-rate segments, times from the recording's first sample",
+    lines = ["# senscal rate table: constant-rate segments, times on the recording's time axis",
              "start, stop, axis, rate, u_rate, u_axis"]
     for k in range(table.n_segments):
         a = table.axis[k]
