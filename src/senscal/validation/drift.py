@@ -167,13 +167,21 @@ def run_reference_defaulted(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 
 def run_wrong_tau(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
-    """Issue 14 item 2: a Gauss-Markov quantity fitted with a tau 10x too short."""
+    """Issue 14 item 2: a Gauss-Markov quantity fitted with a tau 10x too short.
+
+    Where the innovations reject the model asked for, the job uses the
+    better tau (``model used``, no warning), so a seed passes when its
+    interval covers or a listed warning fired (per seed, as the lag cases):
+    counting warnings alone gave 73 % (seeds 0-99) once the job began to
+    use, instead of name, a rejected model's better swap (commit eaa9b04).
+    """
     sim = _COVARIATE_SIM
     return _run("covariate, wrong signal tau", n_seeds, seed0, sim,
                 lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=20.0,
                                           covariate_reference=20.0),
-                "quantity tau 200 s, model tau 20 s: its innovations pass, so the better tau is named",
-                warn=("model-inadequate", "better-model"), expect="warn", compare=True,
+                "quantity tau 200 s, model tau 20 s: the better tau is used when the innovations reject the "
+                "model asked for, named otherwise",
+                warn=("model-inadequate", "better-model"), expect="named", compare=True,
                 terms={"x_c_coefficient": 0.2})
 
 
@@ -181,13 +189,15 @@ def run_ar1_noise(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """Issue 26 item 4: the drifting channel's noise is AR(1) with rho 0.8
     (same std); the job offers coloured noise as a model option chosen by
     AIC.  Before it, the bias band covered 74 % and ``model-inadequate``
-    fired in 3 % of records."""
+    fired in 3 % of records; with it the band covered 93.1 % and the final
+    bias 91.5 %, so the colour is named (``coloured-noise``): each seed
+    passes when covered or named."""
     sim = dict(n=_N, noise=0.1, signal="random_walk", signal_level=0.1, bias="random_walk", bias_rate=0.01,
                noise_rho=0.8)
     return _run("coloured noise AR(1) 0.8", n_seeds, seed0, sim,
                 lambda d: redundant_setup(["s1", "s2"], trusted=["s1"]),
                 "redundant pair, s2's noise AR(1) rho 0.8 (model chosen by the job)",
-                warn=("better-model", "model-inadequate"), expect="cover", compare=True)
+                warn=("coloured-noise", "better-model", "model-inadequate"), expect="named", compare=True)
 
 
 def _run_lag(lag: float):
@@ -208,18 +218,56 @@ def _run_lag(lag: float):
 run_lag3, run_lag20, run_lag60 = _run_lag(3.0), _run_lag(20.0), _run_lag(60.0)
 
 
+def run_lag0(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """The lag check's false alarms: the same one-sensor records with no lag.
+
+    The model asked for is the truth, so everything covers; ``warned`` is
+    the share of records named ``covariate-lag-uncertain`` (or
+    ``better-model`` / ``model-inadequate``), a false alarm that makes
+    ``--strict`` refuse a good record.  Issue 26 item 5: the check named a
+    lag in 63 % of these records; the likelihood-ratio test of "no lag" at
+    5 % bounds it at its level.
+    """
+    rows = _run("covariate lag 0 s", n_seeds, seed0, _COVARIATE_SIM,
+                lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0,
+                                          covariate_reference=20.0),
+                "no lag (model = truth, comparison on): coverage, and how often a lag is named",
+                warn=("covariate-lag-uncertain", "better-model", "model-inadequate"), expect="cover",
+                compare=True, terms={"x_c_coefficient": 0.2})
+    return rows + [_quiet_row(rows[0], "lag-free")]
+
+
+def _quiet_row(row: CoverageRow, what: str) -> CoverageRow:
+    """The false alarms as a row of their own: with the model asked for true, "no named
+    warning" should hold in 95 % of records (the checks are 5 % tests), judged by the
+    coverage rule."""
+    return CoverageRow(JOB, row.case, "no warning (false-alarm check)", row.n, 1.0 - row.warned, float("nan"),
+                       note=f"share of {what} records without the scenario's named warnings; 5 % tests keep 95 %")
+
+
+def run_white_compare(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """The white records with the comparison on (the job's default): coverage, and how
+    often coloured noise (or a better model) is named where the noise is white."""
+    sim = dict(n=_N, noise=0.1, signal="random_walk", signal_level=0.1, bias="random_walk", bias_rate=0.01)
+    rows = _run("white, comparison on", n_seeds, seed0, sim, lambda d: redundant_setup(["s1", "s2"], trusted=["s1"]),
+                "redundant pair, s1 trusted, model = truth, alternatives fitted",
+                warn=("coloured-noise", "model-inadequate"), expect="cover", compare=True)
+    return rows + [_quiet_row(rows[0], "white-noise")]
+
+
 for _f in (run_white, run_gm_ramp, run_known, run_covariate, run_reference_defaulted):
     _f.full_seeds = FULL
 # Warn-only scenarios whose every record also fits the alternative models
 # (two to four more likelihood searches): 100 seeds put the warning rate
 # within +/- 5 % (99.9 % Wilson) at a third of the cost.
 run_ramp_rw.full_seeds = 100
-run_wrong_tau.full_seeds = 100
 # The issue-26 departures: the rule asks for >= 200 seeds.
-for _f in (run_ar1_noise, run_lag3, run_lag20, run_lag60):
+for _f in (run_wrong_tau, run_ar1_noise, run_white_compare, run_lag0, run_lag3, run_lag20, run_lag60):
     _f.full_seeds = FULL
 
 SCENARIOS = {"white": run_white, "gm-signal+ramp": run_gm_ramp, "ramp-rw-model": run_ramp_rw, "known": run_known,
              "covariate": run_covariate, "reference-defaulted": run_reference_defaulted,
-             "wrong-tau": run_wrong_tau, "ar1-noise": run_ar1_noise, "covariate-lag-3": run_lag3,
+             "wrong-tau": run_wrong_tau, "ar1-noise": run_ar1_noise, "white-compare": run_white_compare,
+             "covariate-lag-0": run_lag0,
+             "covariate-lag-3": run_lag3,
              "covariate-lag-20": run_lag20, "covariate-lag-60": run_lag60}
