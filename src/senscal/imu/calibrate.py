@@ -123,6 +123,13 @@ class TemperatureTerms(ResultMixin):
         Gyro bias change, reading per unit^j.
     scores_accel, scores_gyro : tuple of float
         Held-out chi-square per degree tried (the smallest wins).
+    degree_gyro_scale : int
+        Degree of the gyro's relative scale change, chosen on held-out rotations (0: none detected).
+    gyro_scale, u_gyro_scale : ndarray, shape (degree_gyro_scale, 3)
+        Relative gyro scale change per unit^j, per gyro axis: ``g = (1 + S_g(dT)) M_g w + ...`` (each row of
+        ``M_g`` scaled: the misalignment angles do not change with temperature).
+    scores_gyro_scale : tuple of float
+        Held-out chi-square of the rotations per degree tried.
     """
 
     reference: float
@@ -140,6 +147,10 @@ class TemperatureTerms(ResultMixin):
     u_gyro_bias: np.ndarray
     scores_accel: tuple = ()
     scores_gyro: tuple = ()
+    degree_gyro_scale: int = 0
+    gyro_scale: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    u_gyro_scale: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    scores_gyro_scale: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -223,7 +234,10 @@ class _GyroProblem:
     """The rotations between consecutive poses as a function of the gyro model and the nuisance parameters.
 
     ``nu`` = the accelerometer's 9 parameters, then the gyro bias coefficients (``design`` columns x 3 axes,
-    row-major); ``design_rot`` is the bias design at every sample of the rotations.
+    row-major); ``design_rot`` is the bias design at every sample of the rotations.  ``stc`` (optional, in
+    every method) = the gyro's relative scale change against temperature, ``(d, 3)`` flattened: coefficient
+    ``j`` multiplies ``dtemp^(j+1)`` (``dtemp`` set by the caller: temperature minus the reference at every
+    sample of the rotations).
     """
 
     def __init__(self, t, gyro, starts, stops, means, gravity, design_of):
@@ -251,6 +265,7 @@ class _GyroProblem:
         self.duration = self.t[self.last] - self.t[self.first]
         self.bases = None
         self.white = None
+        self.dtemp = None
 
     def directions(self, accel_theta, means=None):
         from senscal.triaxial.estimators import unpack
@@ -258,17 +273,22 @@ class _GyroProblem:
         m, b, _ = unpack("full", accel_theta, self.gravity)
         return _unit_rows(np.linalg.solve(m, (self.means if means is None else means) - b[:, None]))
 
-    def rates(self, mg, coef):
+    def rates(self, mg, coef, stc=None):
         b = (self.design @ np.asarray(coef, float).reshape(-1, 3)).T
-        return np.ascontiguousarray(np.linalg.inv(mg) @ (self.w - b))
+        y = self.w - b
+        if stc is not None and len(stc):
+            c = np.asarray(stc, float).reshape(-1, 3)
+            pw = self.dtemp[:, None] ** np.arange(1, c.shape[0] + 1)[None, :]
+            y = y / (1.0 + (pw @ c).T)
+        return np.ascontiguousarray(np.linalg.inv(mg) @ y)
 
-    def rotations(self, mg, coef):
-        return self._rk4(self.rates(mg, coef), self.t, self.first, self.last)
+    def rotations(self, mg, coef, stc=None):
+        return self._rk4(self.rates(mg, coef, stc), self.t, self.first, self.last)
 
-    def raw(self, mg, nu, means=None):
+    def raw(self, mg, nu, means=None, stc=None):
         """Residuals (2 per rotation, rad) before whitening."""
         a = self.directions(nu[:9], means)
-        rot = self.rotations(mg, nu[9:])
+        rot = self.rotations(mg, nu[9:], stc)
         pred = np.einsum("kji,jk->ki", rot, a[:, :-1])  # R_k^T a_k
         if self.bases is None:
             self.bases = _tangent_bases(a)
@@ -276,15 +296,15 @@ class _GyroProblem:
         # direction moves with the accelerometer's parameters.
         return np.einsum("kcj,kj->kc", self.bases[1:], pred - a[:, 1:].T).ravel()
 
-    def angles_deg(self, mg, nu, means=None):
+    def angles_deg(self, mg, nu, means=None, stc=None):
         a = self.directions(nu[:9], means)
-        rot = self.rotations(mg, nu[9:])
+        rot = self.rotations(mg, nu[9:], stc)
         pred = np.einsum("kji,jk->ki", rot, a[:, :-1])
         c = np.clip(np.einsum("ki,ik->k", pred, a[:, 1:]), -1.0, 1.0)
         return np.degrees(np.arccos(c))
 
-    def whitened(self, mg, nu, means=None):
-        r = self.raw(mg, nu, means)
+    def whitened(self, mg, nu, means=None, stc=None):
+        r = self.raw(mg, nu, means, stc)
         return r if self.white is None else linalg.solve_triangular(self.white, r, lower=True)
 
 
@@ -355,6 +375,69 @@ def _derived(mvec: np.ndarray) -> np.ndarray:
     sc = np.sign(np.diag(m)) * rn
     ang = [math.asin(max(-1.0, min(1.0, m[i, j] / rn[i]))) for i, j in _PAIRS]
     return np.concatenate([sc, ang])
+
+
+#: Highest degree of the gyro's scale against temperature tried.
+MAX_SCALE_DEGREE = 2
+
+
+def _gyro_scale_degree(prob: _GyroProblem, nu: np.ndarray, s0: float, x0: np.ndarray,
+                       max_degree: int = MAX_SCALE_DEGREE, folds: int = 5) -> tuple[int, list[float], list]:
+    """Degree of the gyro's scale against temperature by ``folds``-fold cross-validation over the rotations.
+
+    For each degree the gyro-only problem (accelerometer and bias fixed, ``prob.white`` the residuals' noise)
+    is fitted on all rotations; each fold then leaves out every ``folds``-th rotation (interleaved in time, so
+    each fold spans the temperature range), refits the rest in the linearisation about that solution (the
+    problem is nearly linear there: one generalised least-squares step) and scores the left-out rotations'
+    predicted residuals by their chi-square under their own noise covariance.
+
+    Returns
+    -------
+    (degree, scores, solutions)
+        ``scores[d]``: held-out chi-square (NaN where the model has too many parameters for the rotations);
+        ``solutions[d]``: the full-data fit's parameters (``M_g / s0`` row-major, then the coefficients).
+    """
+    n_r = prob.first.size
+    sig = prob.white @ prob.white.T
+    rot_of = np.repeat(np.arange(n_r), 2)
+    scores, sols, chi2s = [], [], []
+    for d in range(max_degree + 1):
+        p = 9 + 3 * d
+        if 2 * (n_r - -(-n_r // folds)) - p < 3:
+            scores.append(math.nan)
+            sols.append(None)
+            chi2s.append(math.nan)
+            continue
+
+        def fun(th, d=d):
+            return prob.whitened(th[:9].reshape(3, 3) * s0, nu, stc=th[9:])
+
+        sol = optimize.least_squares(fun, np.concatenate([x0, np.zeros(3 * d)]), method="lm", x_scale="jac",
+                                     xtol=1e-12, ftol=1e-12)
+        sols.append(sol.x)
+        chi2s.append(float(sol.fun @ sol.fun))
+        r = prob.raw(sol.x[:9].reshape(3, 3) * s0, nu, stc=sol.x[9:])
+        jr = prob.white @ sol.jac  # the raw residuals' Jacobian
+        tot = 0.0
+        for f in range(folds):
+            hold = rot_of % folds == f
+            keep = ~hold
+            lk = linalg.cholesky(sig[np.ix_(keep, keep)], lower=True)
+            a_ = linalg.solve_triangular(lk, jr[keep], lower=True)
+            b_ = linalg.solve_triangular(lk, r[keep], lower=True)
+            step = np.linalg.lstsq(a_, -b_, rcond=None)[0]
+            e = r[hold] + jr[hold] @ step
+            tot += float(e @ np.linalg.solve(sig[np.ix_(hold, hold)], e))
+        scores.append(tot)
+    finite = [s if math.isfinite(s) else math.inf for s in scores]
+    best = int(np.argmin(finite))
+    # As for the accelerometer (senscal.imu.terms.accel_temperature_degree): a degree the noise rejects
+    # (chi-square above its 99.9 % point) steps up while the next lowers the chi-square significantly.
+    while (best < max_degree and math.isfinite(chi2s[best + 1])
+           and chi2s[best] > stats.chi2.ppf(0.999, 2 * n_r - 9 - 3 * best)
+           and chi2s[best] - chi2s[best + 1] > stats.chi2.ppf(0.999, 3)):
+        best += 1
+    return best, scores, sols
 
 
 def _delta(fun, x, cov, step):
@@ -472,8 +555,10 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         temp_ref = float(np.sum(nk * tk) / nk.sum())
         dtk = tk - temp_ref
         swing = float(tk.max() - tk.min())
-        tvar = sum(float(np.var(temp[a:b], ddof=1)) * (b - a - 1) for a, b in zip(st.starts, st.stops))
-        tnoise = math.sqrt(tvar / max(float(nk.sum() - st.n_poses), 1.0))
+        # The channel's per-sample noise from successive differences within the poses: a warm-up's trend
+        # within a long still start must not pass for noise (the scatter about the pose mean would count it).
+        tvar = sum(float(np.sum(np.diff(temp[a:b]) ** 2)) for a, b in zip(st.starts, st.stops))
+        tnoise = math.sqrt(tvar / (2.0 * max(float(nk.sum() - st.n_poses), 1.0)))
         # A swing within ten times the channel's own per-sample noise is no temperature change at all.
         if not swing > 10.0 * tnoise or swing == 0.0:
             raise InputError(f"{source}: the temperature channel spans {swing:.3g} {temp_unit or 'units'} over the "
@@ -557,12 +642,19 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     s0 = float(10.0 ** fine[int(np.argmin([cost(g) for g in fine]))])
     nominal = 1.0 if gyro_unit.strip().lower() in ("rad/s", "rad s^-1", "rad/sec") else s0
     n_r = st.n_poses - 1
+    # An axis the rotations barely turn about leaves a column of M_g undetermined: the fit then wanders along a
+    # flat valley (minutes of CPU for nothing; the result is named gyro-axis-unexcited below).  Seen from the
+    # nominal gyro before any fit, it caps the iterations and skips the temperature-scale search.
+    exc0 = np.abs(prob.rates(s0 * np.eye(3), coef) * np.gradient(prob.t)[None, :]).sum(axis=1)
+    weak = bool(np.any(exc0 < MIN_EXCITATION * exc0.max()))
+    # (least_squares' "lm" counts evaluations outside its finite-difference Jacobians: about one per step.)
+    nfev = (lambda n: 40) if weak else (lambda n: None)
 
     def gyro_only(th):
         return prob.whitened(th.reshape(3, 3) * s0, nu)
 
     sol = optimize.least_squares(gyro_only, np.eye(3).ravel(), method="lm", x_scale="jac", xtol=1e-12,
-                                 ftol=1e-12)
+                                 ftol=1e-12, max_nfev=nfev(9))
     mg1 = sol.x.reshape(3, 3) * s0
     # The noise model at the first estimate: integrated gyro noise per rotation, pose-mean direction noise.
     a = prob.directions(nu[:9])
@@ -596,6 +688,15 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         h[9 + i] = hi
         jb[:, i] = (prob.raw(mg1, nu + h) - prob.raw(mg1, nu - h)) / (2 * hi)
     prob.white = linalg.cholesky(sig + jb @ cov_b @ jb.T, lower=True)
+    # The gyro's scale against temperature: its degree on held-out rotations (the rotations at different
+    # temperatures are what determine it), then fitted jointly with the rest.
+    deg_s, scores_s = 0, []
+    x_g = sol.x
+    if temp is not None and not weak:
+        prob.dtemp = np.ascontiguousarray(temp[prob.idx] - temp_ref)
+        deg_s, scores_s, sols_s = _gyro_scale_degree(prob, nu, s0, sol.x)
+        x_g = sols_s[deg_s]
+    n_sc = 3 * deg_s
     # Joint maximum likelihood: the pose means' magnitude (radial noise) and the rotations' predicted
     # directions (tangential noise) share the accelerometer's parameters (and its temperature terms); fitting
     # them together carries the accelerometer's error into the gyro's u with its correlations (a two-step fit
@@ -603,20 +704,21 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     inflate = np.ones(2)
 
     def joint(phi):
-        th, tc, mgv = phi[:9], phi[9:9 + n_tc], phi[9 + n_tc:]
+        th, tc, mgv, stc = phi[:9], phi[9:9 + n_tc], phi[9 + n_tc:18 + n_tc], phi[18 + n_tc:]
         m = means_c(tc)
         ra_ = residuals("full", th, m, gravity) / sd_a
-        rg_ = prob.whitened(mgv.reshape(3, 3) * s0, np.concatenate([th, nu[9:]]), m)
+        rg_ = prob.whitened(mgv.reshape(3, 3) * s0, np.concatenate([th, nu[9:]]), m, stc)
         return np.concatenate([ra_ / inflate[0], rg_ / inflate[1]])
 
-    phi = np.concatenate([theta0, tc0, sol.x])
+    phi = np.concatenate([theta0, tc0, x_g])
     n_a = st.n_poses
-    dof_a, dof = n_a - 9 - n_tc, 2 * n_r - 9
+    dof_a, dof = n_a - 9 - n_tc, 2 * n_r - 9 - n_sc
     q_a, q_g = stats.chi2.ppf(0.999, max(dof_a, 1)), stats.chi2.ppf(0.999, dof)
     # A block whose residuals exceed its noise model (chi-square above the 99.9 % point) gets its noise scaled
     # by its excess and the fit is repeated: a misfitting gyro must not drag the accelerometer's parameters.
     for _ in range(4):
-        sol = optimize.least_squares(joint, phi, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12)
+        sol = optimize.least_squares(joint, phi, method="lm", x_scale="jac", xtol=1e-12, ftol=1e-12,
+                                     max_nfev=nfev(phi.size))
         if not np.all(np.isfinite(sol.x)):
             raise ConvergenceError("the gyroscope fit did not converge; check --gyro-channels and that the IMU "
                                    "rotates between still poses")
@@ -649,8 +751,10 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     cov_tc = cov_phi[9:9 + n_tc, 9:9 + n_tc]
     means_f = means_c(tc_f)
     nu = np.concatenate([fa_values, coef.ravel()])
-    mg = phi[9 + n_tc:].reshape(3, 3) * s0
-    cov_m = cov_phi[9 + n_tc:, 9 + n_tc:] * s0 * s0
+    mg = phi[9 + n_tc:18 + n_tc].reshape(3, 3) * s0
+    cov_m = cov_phi[9 + n_tc:18 + n_tc, 9 + n_tc:18 + n_tc] * s0 * s0
+    stc_f = phi[18 + n_tc:]
+    u_stc = np.sqrt(np.clip(np.diag(cov_phi)[18 + n_tc:], 0, None))
     u_m = np.sqrt(np.clip(np.diag(cov_m), 0, None))
     rt_fit = None
     if full is not None:
@@ -668,7 +772,7 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     der, cov_d = _delta(_derived, mg.ravel(), cov_m, np.maximum(u_m, 1e-12 * abs(s0)))
     u_d = np.sqrt(np.clip(np.diag(cov_d), 0, None))
     # Identifiability: how much each axis was turned about.
-    rates = prob.rates(mg, coef)
+    rates = prob.rates(mg, coef, stc_f)
     dtv = np.gradient(prob.t)
     exc = np.abs(rates * dtv[None, :]).sum(axis=1)
     low = [i for i in range(3) if exc[i] < MIN_EXCITATION * exc.max()]
@@ -688,7 +792,7 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
                               "more samples in a row during the rotations: the rate was clipped and the rotation "
                               "under-counted; rotate slower or use a wider gyro range"))
     before = prob.angles_deg(nominal * np.eye(3), nu, means_f)
-    after = prob.angles_deg(mg, nu, means_f)
+    after = prob.angles_deg(mg, nu, means_f, stc_f)
     gs = coef[-3:].T.copy() if g_sensitivity else None
     u_gs = u_coef[-3:].T.copy() if g_sensitivity else None
     tsl = slice(1, 1 + deg_g)
@@ -706,7 +810,9 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
             accel_bias=tc_f[:3 * deg_a].reshape(deg_a, 3), u_accel_bias=u_tc[:3 * deg_a].reshape(deg_a, 3),
             accel_scale=tc_f[3 * deg_a:].reshape(deg_a, 3), u_accel_scale=u_tc[3 * deg_a:].reshape(deg_a, 3),
             gyro_bias=coef[tsl].copy(), u_gyro_bias=u_coef[tsl].copy(),
-            scores_accel=tuple(scores_a), scores_gyro=tuple(scores_g))
+            scores_accel=tuple(scores_a), scores_gyro=tuple(scores_g), degree_gyro_scale=deg_s,
+            gyro_scale=stc_f.reshape(deg_s, 3), u_gyro_scale=u_stc.reshape(deg_s, 3),
+            scores_gyro_scale=tuple(scores_s))
     return ImuResult(accelerometer=ra, accel_values=np.asarray(fa_values, float), accel_covariance=cov_a,
                      accel_chi2=chi2_a, accel_dof=dof_a, gyroscope=gyro_cal, poses=sweep,
                      residual_before_deg=before, residual_after_deg=after, nominal_scale=nominal, chi2=chi2, dof=dof,

@@ -7,7 +7,8 @@ engine's upper-triangular ``K S``), the gyroscope ``Mg w + b(t) + noise``
 (``Mg`` full: scales and misalignment to the accelerometer's frame).
 Departures are options: a drifting gyro bias, coloured gyro noise, short
 poses, fast rotations, few poses, rotations that leave an axis unturned, a
-temperature warm-up with bias and scale temperature coefficients, a gyro
+temperature warm-up with bias and scale temperature coefficients (accelerometer bias and scale, gyro bias and
+scale), a gyro
 sensitive to specific force (g-sensitivity).
 """
 
@@ -55,6 +56,7 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
                  accel_bias_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  accel_scale_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  gyro_bias_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                 gyro_scale_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  gyro_g_sensitivity: Any = None, rate_table: Any = None,
                  seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
     """Simulate an IMU calibration session.
@@ -101,6 +103,9 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
         ``a = (1 + s dT) (Ma f + Ba) + c dT``, ``dT = T - temp_nominal``.
     gyro_bias_tc : 3 floats
         Gyro bias change, rad/s per K.
+    gyro_scale_tc : 3 floats
+        Relative gyro scale change per K, per gyro axis: ``g = (1 + s_g dT) Mg w + ...`` (each row of ``Mg``
+        scaled, so the misalignment angles stay).
     gyro_g_sensitivity : array_like (3, 3), optional
         Gyro reading per m/s^2 of specific force (rad/s per m/s^2).
     rate_table : senscal.simulate.imu_table.TableSpec, optional
@@ -130,7 +135,9 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
         e /= np.linalg.norm(e)
         th = math.radians(rng.uniform(*angle_deg)) * rng.choice([-1.0, 1.0])
         prof = th * (tau - np.sin(2 * np.pi * tau) / (2 * np.pi))
-        rate = th / rotation_s * (1 - np.cos(2 * np.pi * tau))
+        # The rate over the n_rot samples actually drawn (rotation_s * fs rounds to whole samples): its sum
+        # is the angle turned.
+        rate = th / (n_rot * dt) * (1 - np.cos(2 * np.pi * tau))
         f_list.append(np.stack([(r_now @ _rot(e, p)).T @ up for p in prof], axis=1))
         w_list.append(e[:, None] * rate[None, :])
         r_now = r_now @ _rot(e, th)
@@ -172,6 +179,7 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
         a_meas[:] = ((1 + np.asarray(accel_scale_tc, float)[:, None] * dtn[None, :]) * (ma @ f + ba[:, None])
                      + np.asarray(accel_bias_tc, float)[:, None] * dtn[None, :] + noise_a)
         g_meas += np.asarray(gyro_bias_tc, float)[:, None] * dtn[None, :]
+        g_meas += np.asarray(gyro_scale_tc, float)[:, None] * dtn[None, :] * (mg @ w)
         chans["temp"] = temp + temp_noise * rng.normal(size=n)
         units["temp"] = "degC"
     rec = Recording(chans, t=t, units=units, source="<simulated imu>")
@@ -184,7 +192,8 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
              "accel_noise": accel_noise,
              "temperature": None if temperature is None else {
                  "range": list(map(float, temperature)), "nominal": temp_nominal, "accel_bias_tc": list(accel_bias_tc),
-                 "accel_scale_tc": list(accel_scale_tc), "gyro_bias_tc": list(gyro_bias_tc)},
+                 "accel_scale_tc": list(accel_scale_tc), "gyro_bias_tc": list(gyro_bias_tc),
+                 "gyro_scale_tc": list(gyro_scale_tc)},
              "g_sensitivity": None if gyro_g_sensitivity is None else np.asarray(gyro_g_sensitivity, float).tolist()}
     if table is not None:
         truth["rate_table"] = {**table.to_dict(), "truth": table_truth}

@@ -27,7 +27,7 @@ from senscal.diagnostics import has_warning
 from senscal.validation import CoverageRow, coverage_row
 
 __all__ = ["SCENARIOS", "run_white", "run_bias_drift", "run_coloured", "run_unexcited", "run_temperature",
-           "run_small_swing", "run_g_sensitivity", "run_g_unmodelled", "truth_at_reference"]
+           "run_temperature_scale", "run_small_swing", "run_g_sensitivity", "run_g_unmodelled", "truth_at_reference"]
 
 JOB = "imu"
 
@@ -35,6 +35,8 @@ JOB = "imu"
 #: Departures' settings (shared by the scenarios and the tests).
 TEMPERATURE = {"temperature": (15.0, 45.0), "accel_bias_tc": (2e-3, -1.5e-3, 1e-3),
                "accel_scale_tc": (1e-4, -8e-5, 5e-5), "gyro_bias_tc": (2e-4, -1e-4, 1.5e-4)}
+#: The warm-up with the gyro's scale changing too (MEMS gyros: 0.01-0.05 % per K).
+TEMPERATURE_SCALE = {**TEMPERATURE, "gyro_scale_tc": (3e-4, -2e-4, 1e-4)}
 G_SENSITIVITY = {"gyro_g_sensitivity": ((2e-4, -1e-4, 5e-5), (-5e-5, 2e-4, 1e-4), (1e-4, 5e-5, -2e-4))}
 
 
@@ -44,7 +46,10 @@ def truth_at_reference(tr: dict, temp_ref: float | None) -> tuple[dict, np.ndarr
     The simulator's accelerometer is ``(1 + s dTn) (Ma f + Ba) + c dTn`` about its nominal temperature; about
     ``T_ref`` (``D = T_ref - T_nominal``) the same is ``(1 + s' dT) (Ma' f + Ba') + c' dT`` with
     ``Ma' = (1 + s D) Ma`` (gains scale, angles stay), ``Ba' = (1 + s D) Ba + c D``, ``s' = s / (1 + s D)``,
-    ``c' = c (1 - s' D)``; the gyro bias shifts by ``g D``.
+    ``c' = c (1 - s' D)``; the gyro bias shifts by ``g D``.  The gyro's rows scale alike: ``(1 + s_g dTn) Mg =
+    (1 + s_g' dT) Mg'`` with ``Mg' = (1 + s_g D) Mg`` (scales ``(1 + s_g D)`` times, angles stay) and
+    ``s_g' = s_g / (1 + s_g D)``: returned as ``tc["gyro_scale_factor"]`` (``1 + s_g D``) and
+    ``tc["gyro_scale_tc"]``.
     """
     acc = dict(tr["accelerometer"])
     te = tr.get("temperature")
@@ -52,15 +57,17 @@ def truth_at_reference(tr: dict, temp_ref: float | None) -> tuple[dict, np.ndarr
         return acc, np.zeros(3), {}
     d = temp_ref - te["nominal"]
     s, c, gb = (np.asarray(te[k], float) for k in ("accel_scale_tc", "accel_bias_tc", "gyro_bias_tc"))
+    sg = np.asarray(te.get("gyro_scale_tc", (0.0, 0.0, 0.0)), float)
     for i, a in enumerate("xyz"):
         acc[f"K{a}"] = acc[f"K{a}"] * (1 + s[i] * d)
         acc[f"B{a}"] = acc[f"B{a}"] * (1 + s[i] * d) + c[i] * d
     sp = s / (1 + s * d)
-    return acc, gb * d, {"accel_scale_tc": sp, "accel_bias_tc": c * (1 - sp * d), "gyro_bias_tc": gb}
+    return acc, gb * d, {"accel_scale_tc": sp, "accel_bias_tc": c * (1 - sp * d), "gyro_bias_tc": gb,
+                         "gyro_scale_tc": sg / (1 + sg * d), "gyro_scale_factor": 1 + sg * d}
 
 
 def _one(seed: int, sim_kw: dict, cal_kw: dict | None = None):
-    from senscal.imu import ACCEL_NAMES, GYRO_ANGLES, calibrate_imu
+    from senscal.imu import calibrate_imu
     from senscal.simulate.imu import simulate_imu
 
     cal_kw = dict(cal_kw or {})
@@ -68,6 +75,20 @@ def _one(seed: int, sim_kw: dict, cal_kw: dict | None = None):
     temp = rec.data(["temp"])[0] if cal_kw.pop("temperature", False) else None
     r = calibrate_imu(rec.time, rec.data(["ax", "ay", "az"]), rec.data(["gx", "gy", "gz"]), gyro_unit="rad/s",
                       temperature=temp, **cal_kw)
+    return score(r, tr), r.warnings
+
+
+def score(r, tr: dict) -> dict[str, tuple[float, float, float]]:
+    """Every number a calibration quotes, as ``name -> (estimate, u, truth)`` (truth at the job's reference).
+
+    Parameters
+    ----------
+    r : senscal.imu.ImuResult
+    tr : dict
+        The simulator's truth (:func:`senscal.simulate.imu.simulate_imu`).
+    """
+    from senscal.imu import ACCEL_NAMES, GYRO_ANGLES
+
     g, tg = r.gyroscope, tr["gyroscope"]
     te = r.temperature
     acc, db, tc = truth_at_reference(tr, te.reference if te is not None else None)
@@ -75,13 +96,14 @@ def _one(seed: int, sim_kw: dict, cal_kw: dict | None = None):
     ua = np.sqrt(np.clip(np.diag(r.accel_covariance), 0, None))
     for i, n in enumerate(ACCEL_NAMES):
         out[f"accel_{n}"] = (r.accel_values[i], ua[i], acc[n])
+    gsf = tc.get("gyro_scale_factor", np.ones(3))
     for i, a in enumerate("xyz"):
-        out[f"gyro_scale_{a}"] = (g.scale[i], g.u_scale[i], tg[f"scale_{a}"])
+        out[f"gyro_scale_{a}"] = (g.scale[i], g.u_scale[i], tg[f"scale_{a}"] * gsf[i])
     for i, n in enumerate(GYRO_ANGLES):
         out[f"gyro_angle_{n}"] = (g.angles[i], g.u_angles[i], tg[f"angle_{n}"])
+    # The bias is the reading at zero input (zero rate, zero specific force): with an unmodelled G the job's
+    # bias absorbs G f over the poses and misses it unless the departure is named.
     bt = np.asarray(tg["bias"]) + np.asarray(tg["bias_drift"]) * (g.t_ref - tr["t_mid"]) + db
-    if tr.get("g_sensitivity") is not None and g.g_sensitivity is None:
-        bt = bt + np.full(3, math.nan)  # the bias absorbs G f over the poses: nothing to compare
     for i, a in enumerate("xyz"):
         out[f"gyro_bias_{a}"] = (g.bias[i], g.u_bias[i], bt[i])
     if g.g_sensitivity is not None and tr.get("g_sensitivity") is not None:
@@ -92,11 +114,14 @@ def _one(seed: int, sim_kw: dict, cal_kw: dict | None = None):
     if te is not None and tc:
         for key, est, u, deg in (("accel_bias_tc", te.accel_bias, te.u_accel_bias, te.degree_accel),
                                  ("accel_scale_tc", te.accel_scale, te.u_accel_scale, te.degree_accel),
-                                 ("gyro_bias_tc", te.gyro_bias, te.u_gyro_bias, te.degree_gyro)):
+                                 ("gyro_bias_tc", te.gyro_bias, te.u_gyro_bias, te.degree_gyro),
+                                 ("gyro_scale_tc", te.gyro_scale, te.u_gyro_scale, te.degree_gyro_scale)):
+            if not np.any(tc[key]):
+                continue  # no such dependence in the truth: nothing to cover (the held-out choice may add a term)
             for i, a in enumerate("xyz"):
                 # The linear coefficient; a seed whose held-out choice dropped the term quotes none: a miss.
                 out[f"{key}_{a}"] = (est[0, i], u[0, i], tc[key][i]) if deg else (math.nan, math.nan, tc[key][i])
-    return out, r.warnings
+    return out
 
 
 def _run(case: str, sim_kw: dict, n_seeds: int, seed0: int, note: str, warn: str | None = None,
@@ -151,6 +176,12 @@ def run_temperature(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
                 cal_kw={"temperature": True})
 
 
+def run_temperature_scale(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """The warm-up with the gyro scale changing 1-3e-4 per K too: must cover, the scale coefficients too."""
+    return _run("temperature-gyro-scale", TEMPERATURE_SCALE, n_seeds, seed0,
+                "15->45 degC warm-up, linear tempcos incl. gyro scale", cal_kw={"temperature": True})
+
+
 def run_small_swing(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """25 -> 27 degC only: ``temperature-swing-small`` must fire."""
     return _run("temperature-small-swing", {**TEMPERATURE, "temperature": (25.0, 27.0)}, n_seeds, seed0,
@@ -170,12 +201,13 @@ def run_g_unmodelled(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 
 for _f, _ci in ((run_white, 3), (run_bias_drift, 2), (run_coloured, 2), (run_unexcited, 2), (run_temperature, 3),
-                (run_small_swing, 2), (run_g_sensitivity, 2), (run_g_unmodelled, 2)):
+                (run_temperature_scale, 2), (run_small_swing, 2), (run_g_sensitivity, 2), (run_g_unmodelled, 2)):
     _f.full_seeds = 200  # type: ignore[attr-defined]
     _f.ci_seeds = _ci  # type: ignore[attr-defined]
 
 SCENARIOS = {"white": run_white, "bias-drift": run_bias_drift, "coloured-gyro": run_coloured,
              "axis-unexcited": run_unexcited, "temperature": run_temperature,
+             "temperature-gyro-scale": run_temperature_scale,
              "temperature-small-swing": run_small_swing, "g-sensitivity": run_g_sensitivity,
              "g-sensitivity-unmodelled": run_g_unmodelled}
 
