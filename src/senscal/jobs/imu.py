@@ -156,7 +156,10 @@ class ImuCalibrateResult(JobResult):
                                   "scale": te.accel_scale, "u_scale": te.u_accel_scale,
                                   "scale_unit": f"relative per {tu}^j"},
                 "gyroscope": {"degree": te.degree_gyro, "heldout_chi2": list(te.scores_gyro),
-                              "bias": te.gyro_bias, "u_bias": te.u_gyro_bias, "bias_unit": f"{gunit} per {tu}^j"}}
+                              "bias": te.gyro_bias, "u_bias": te.u_gyro_bias, "bias_unit": f"{gunit} per {tu}^j",
+                              "scale_degree": te.degree_gyro_scale,
+                              "scale_heldout_chi2": list(te.scores_gyro_scale), "scale": te.gyro_scale,
+                              "u_scale": te.u_gyro_scale, "scale_unit": f"relative per {tu}^j"}}
         nz = self.noise
         noise = None if nz is None else {
             "still_start_s": nz.duration_s, "accel_noise_density": nz.accel_density,
@@ -265,6 +268,11 @@ class ImuCalibrateResult(JobResult):
                     for i, ax in enumerate("xyz"):
                         out.append(Quantity(f"{sec[:5] if sec == 'accelerometer' else 'gyro'}_{key}_tc{j + 1}_{ax}",
                                             blk[key][j][i], blk[f"u_{key}"][j][i], unit.replace("^j", f"^{j + 1}")))
+            gb = te["gyroscope"]
+            for j in range(gb.get("scale_degree") or 0):
+                for i, ax in enumerate("xyz"):
+                    out.append(Quantity(f"gyro_scale_tc{j + 1}_{ax}", gb["scale"][j][i], gb["u_scale"][j][i],
+                                        gb["scale_unit"].replace("^j", f"^{j + 1}")))
         return tuple(out)
 
 
@@ -368,7 +376,7 @@ def calibration_of(res, *, accel_unit: str = "", gyro_unit: str = "", accel_chan
         temp_reference=None if te is None else te.reference, temp_unit=temp_unit,
         temp_channel=temp_channel if te is not None else None,
         accel_bias_tc=z if te is None else te.accel_bias, accel_scale_tc=z if te is None else te.accel_scale,
-        gyro_bias_tc=z if te is None else te.gyro_bias)
+        gyro_bias_tc=z if te is None else te.gyro_bias, gyro_scale_tc=z if te is None else te.gyro_scale)
 
 
 # ---------------------------------------------------------------------------
