@@ -203,7 +203,8 @@ def imu_apply_cmd(
 @simulate_app.command("imu")
 @units(fs='Hz', init_s='s', pose_s='s', rotation_s='s', accel_noise='m/s^2', gyro_noise='rad/s',
        bias_drift=ListOf('rad/s^2'), temperature=ListOf('degC'), accel_bias_tc=ListOf('m/s^2/K'),
-       accel_scale_tc=ListOf('1/K'), gyro_bias_tc=ListOf('rad/s/K'), g_sensitivity=ListOf('rad*s/m'),
+       accel_scale_tc=ListOf('1/K'), gyro_bias_tc=ListOf('rad/s/K'), gyro_scale_tc=ListOf('1/K'),
+       g_sensitivity=ListOf('rad*s/m'),
        table_rate='rad/s', table_hold='s', table_tilt='deg', table_u_axis='deg')
 def simulate_imu_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
@@ -221,6 +222,7 @@ def simulate_imu_cmd(
     accel_bias_tc: Annotated[Optional[str], typer.Option("--accel-bias-tc", help="Accelerometer bias change x,y,z, m/s^2 per K (with --temperature).")] = None,
     accel_scale_tc: Annotated[Optional[str], typer.Option("--accel-scale-tc", help="Relative accelerometer scale change x,y,z per K (with --temperature).")] = None,
     gyro_bias_tc: Annotated[Optional[str], typer.Option("--gyro-bias-tc", help="Gyro bias change x,y,z, rad/s per K (with --temperature).")] = None,
+    gyro_scale_tc: Annotated[Optional[str], typer.Option("--gyro-scale-tc", help="Relative gyro scale change x,y,z per K (with --temperature).")] = None,
     g_sensitivity: Annotated[Optional[str], typer.Option("--g-sensitivity", help="Gyro g-sensitivity, 9 numbers row by row, rad/s per m/s^2.")] = None,
     rate_table: Annotated[Optional[str], typer.Option("--rate-table", metavar="AXES", help="Rate-table runs after the poses about these body axes (e.g. x,y,z or z), each turned +rate and -rate; writes rate_table.csv for 'imu calibrate --rate-table'.")] = None,
     table_rate: Annotated[str, typer.Option("--table-rate", help="Table rate, rad/s (or '60 deg/s').")] = "1.0",
@@ -254,7 +256,8 @@ def simulate_imu_cmd(
 
     temp = numbers(temperature, "--temperature", 2)
     tcs = {k: numbers(v, f"--{k.replace('_', '-')}", 3) or (0.0, 0.0, 0.0) for k, v in
-           (("accel_bias_tc", accel_bias_tc), ("accel_scale_tc", accel_scale_tc), ("gyro_bias_tc", gyro_bias_tc))}
+           (("accel_bias_tc", accel_bias_tc), ("accel_scale_tc", accel_scale_tc), ("gyro_bias_tc", gyro_bias_tc),
+            ("gyro_scale_tc", gyro_scale_tc))}
     if temp is None and any(any(v) for v in tcs.values()):
         raise InputError("temperature coefficients need --temperature T0,T1 (the warm-up they act over)")
     gs = numbers(g_sensitivity, "--g-sensitivity", 9)

@@ -5,10 +5,10 @@ Written by ``senscal imu calibrate --out FILE`` (JSON, or HDF5 for ``.h5``) in s
 and :func:`load_calibration`.  The model it inverts, per sample:
 
     a = (1 + S(dT)) (Ma f + Ba) + C(dT)                 accelerometer reading
-    g = Mg w + Bg + P(dT) + G f                         gyroscope reading
+    g = (1 + Q(dT)) Mg w + Bg + P(dT) + G f            gyroscope reading
 
 ``f`` specific force (m/s^2), ``w`` rate (rad/s) in the accelerometer's frame, ``dT = T - T_ref``,
-``S``, ``C``, ``P`` polynomials without constant term (absent without a temperature channel), ``G`` the
+``S``, ``C``, ``P``, ``Q`` polynomials without constant term (absent without a temperature channel), ``G`` the
 gyro's g-sensitivity (absent unless fitted).
 """
 
@@ -62,6 +62,8 @@ class ImuCalibration(ResultMixin):
     temp_unit, temp_channel : str
     accel_bias_tc, accel_scale_tc, gyro_bias_tc : ndarray, shape (d, 3)
         Polynomial coefficients of ``C``, ``S``, ``P`` (row ``j`` multiplies ``dT^(j+1)``).
+    gyro_scale_tc : ndarray, shape (d, 3)
+        Coefficients of ``Q``: the gyro's relative scale change per gyro axis (row ``j`` multiplies ``dT^(j+1)``).
     parameters : dict
         The reported numbers with their u (informational: ``apply`` does not use them).
     """
@@ -83,10 +85,12 @@ class ImuCalibration(ResultMixin):
     accel_scale_tc: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     gyro_bias_tc: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     parameters: dict = field(default_factory=dict)
+    gyro_scale_tc: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     @property
     def has_temperature(self) -> bool:
-        return self.temp_reference is not None and (self.accel_bias_tc.size + self.gyro_bias_tc.size) > 0
+        return self.temp_reference is not None and (self.accel_bias_tc.size + self.gyro_bias_tc.size
+                                                    + self.gyro_scale_tc.size) > 0
 
     def _dtemp(self, temperature, n: int) -> np.ndarray:
         if self.temp_reference is None or temperature is None:
@@ -137,6 +141,8 @@ class ImuCalibration(ResultMixin):
         g = g - self.gyro_bias[:, None] - _poly(self.gyro_bias_tc, dt)
         if self.g_sensitivity is not None:
             g = g - self.g_sensitivity @ f
+        if self.gyro_scale_tc.size:
+            g = g / (1.0 + _poly(self.gyro_scale_tc, dt))
         return f, np.linalg.solve(self.gyro_matrix, g)
 
     def save(self, path: str | Path, extra: Mapping[str, Any] | None = None) -> Path:
@@ -180,6 +186,7 @@ class ImuCalibration(ResultMixin):
                    temp_reference=None if tr is None else float(tr), temp_unit=str(d.get("temp_unit") or ""),
                    temp_channel=d.get("temp_channel"), accel_bias_tc=tc("accel_bias_tc"),
                    accel_scale_tc=tc("accel_scale_tc"), gyro_bias_tc=tc("gyro_bias_tc"),
+                   gyro_scale_tc=tc("gyro_scale_tc"),
                    parameters=dict(d.get("parameters") or {}))
 
 
