@@ -189,7 +189,9 @@ def imu_apply_cmd(
     result = imu_apply(file, _apply_options(**command_params(locals(), opts)))
     if Path(out).resolve() == Path(file).resolve():
         raise InputError("--out must differ from the input file; input files are never modified")
-    p = write_recording(result.recording, out)
+    # 'gx [rad/s]': the corrected units travel with the data (a deg/s input's header would otherwise be read back
+    # as deg/s, or as nothing)
+    p = write_recording(result.recording, out, units_in_header=True)
     summary = result.to_dict()
     summary["out"] = str(p)
     if json_out:

@@ -14,9 +14,6 @@ from senscal.jobs._base import JobResult, Quantity, ReadOptions, source_name
 
 __all__ = ["ImuOptions", "ImuCalibrateResult", "imu_calibrate", "ImuApplyOptions", "ImuApplyResult", "imu_apply"]
 
-_ANG_RATE = {"rad/s": 1.0, "deg/s": math.pi / 180.0, "dps": math.pi / 180.0, "°/s": math.pi / 180.0}
-
-
 def _three(names: Any, what: str) -> tuple[str, str, str]:
     listed = [s.strip() for s in names.split(",") if s.strip()] if isinstance(names, str) else list(names or ())
     if len(listed) != 3:
@@ -313,13 +310,19 @@ def imu_calibrate(source, options: ImuOptions = ImuOptions()) -> ImuCalibrateRes
         raise InputError(f"{source_name(source)}: the three axes of a triad must share one unit, got "
                          f"{sorted(units_a)} and {sorted(units_g)}; convert them first")
     aunit, gunit = units_a.pop(), units_g.pop()
+    from senscal.jobs._units import celsius_if_other_degree, check_triad_unit, rate_factor
+
+    check_triad_unit(aunit, accel=True, channels=ac, source=source_name(source))
+    check_triad_unit(gunit, accel=False, channels=gc, source=source_name(source))
     gyro = rec.data(list(gc))
-    key = gunit.strip().lower()
-    if key in _ANG_RATE:
-        gyro = gyro * _ANG_RATE[key]
+    k_rate = rate_factor(gunit)  # every angular rate (deg/s, deg/h, mrad/s, rpm) in rad/s: one scale for all files
+    if k_rate is not None:
+        gyro = gyro * k_rate
         gunit = "rad/s"
     temp = rec.data([tch])[0] if tch else None
     tunit = rec.units.get(tch, "") if tch else ""
+    if temp is not None:
+        temp, tunit = celsius_if_other_degree(temp, tunit)  # the swing check and the coefficients count kelvins
     accel = rec.data(list(ac))
     table = None
     if o.rate_table is not None:
@@ -484,15 +487,30 @@ def imu_apply(source, options: ImuApplyOptions = ImuApplyOptions()) -> ImuApplyR
     src = source_name(source)
     fa = [unit_factor(rec.units.get(c, ""), cal.accel_unit, what=f"channel '{c}' of {src}",
                       fix="convert the data or calibrate again") for c in ac]
+    from senscal.jobs._units import rate_factor, temperature_in
+
     fg = []
     for c in gc:
         u = rec.units.get(c, "")
-        k = _ANG_RATE.get(u.strip().lower())
+        k = rate_factor(u)
         fg.append(k if k is not None and cal.gyro_unit == "rad/s" else
                   unit_factor(u, cal.gyro_unit, what=f"channel '{c}' of {src}", fix="convert the data or calibrate again"))
+    # A unit on one side only is read as the other side's: named, since deg/s read as rad/s is a factor of 57.
+    assumed = []
+    for cs, cu in ((ac, cal.accel_unit), (gc, cal.gyro_unit), ((tch,) if tch else (), cal.temp_unit)):
+        odd = [c for c in cs if bool(rec.units.get(c, "").strip()) != bool((cu or "").strip())]
+        if odd:
+            du = rec.units.get(odd[0], "")
+            assumed.append(f"{','.join(odd)} in {du} read as the calibration's unknown unit" if du else
+                           f"{','.join(odd)} without a unit read as the calibration's {cu}")
+    if assumed:
+        warnings.append(named("imu-units-assumed", f"{src}: {'; '.join(assumed)}; write the units in the header "
+                              "('ax [m/s^2]', 'gx [deg/s]', 'temp [degC]'), or calibrate from a file that states them"))
     a = rec.data(list(ac)) * np.asarray(fa)[:, None]
     g = rec.data(list(gc)) * np.asarray(fg)[:, None]
     temp = rec.data([tch])[0] if tch else None
+    if temp is not None:  # degF or K data against a degC calibration: converted, offsets included
+        temp = temperature_in(temp, rec.units.get(tch, ""), cal.temp_unit, channel=tch, source=src)
     f, w = cal.apply(a, g, temp)
     new, units = dict(rec.channels), dict(rec.units)
     for i, c in enumerate(ac):

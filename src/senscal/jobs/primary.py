@@ -169,6 +169,11 @@ class PrimaryResult(JobResult):
         from senscal.vibration.budget import make_budget
         from senscal.vibration.response import FrequencyResponse, ResponsePoint
 
+        from senscal.units import same_unit
+
+        if self.output_unit and output_unit and not same_unit(self.output_unit, output_unit):
+            raise InputError(f"--output-unit {output_unit} contradicts the recordings, whose header gives "
+                             f"{self.output} in {self.output_unit}; drop --output-unit (it is for files without one)")
         unit = f"{self.output_unit or output_unit or 'V'}/(m/s^2)"
         pts = []
         for src, p in zip(self.sources, self.points):
@@ -241,19 +246,23 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
     rows = []
     units = set()
     warnings: list[str] = []
+    from senscal.jobs._units import CommonUnit
+
+    common = CommonUnit(o.output, "--output")  # one file in mV, another in V: all in the first's unit
     for src in sources:
         rec = o.read(src, channels=[qi, qq, o.output], job="primary")
         fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
         name = source_name(src)
+        out = common.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)
         try:
-            p = calibrate_point(rec.channels[qi], rec.channels[qq], rec.channels[o.output], fs, freq=o.freq, wavelength_nm=o.wavelength_nm, harmonics=int(o.harmonics),
+            p = calibrate_point(rec.channels[qi], rec.channels[qq], out, fs, freq=o.freq, wavelength_nm=o.wavelength_nm, harmonics=int(o.harmonics),
                                 drift=bool(o.drift), slices=int(o.slices), u_wavelength_rel=o.u_wavelength_rel,
                                 u_gain_rel=o.u_gain_rel, u_gain_phase_deg=o.u_gain_phase_deg,
                                 u_other_rel=o.u_other_rel, u_other_phase_deg=o.u_other_phase_deg,
                                 sign_check=o.sign_check)
         except InputError as exc:
             raise type(exc)(f"{name}: {exc}") from None
-        units.add(rec.unit(o.output))
+        units.add(common.unit)
         warnings.extend(f"{w} ({name})" for w in p.warnings)
         warnings.extend(merge_time_warnings((), rec.warnings))
         rows.append((p.frequency_hz, name, p))
@@ -287,13 +296,17 @@ def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
     rows = []
     units = set()
     warnings: list[str] = []
+    from senscal.jobs._units import CommonUnit
+
+    common = CommonUnit(o.output, "--output")  # one file in mV, another in V: all in the first's unit
     for src in sources:
         chans = [het, o.output] + ([ref] if ref else [])
         rec = o.read(src, channels=chans, job="primary")
         fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
         name = source_name(src)
+        out = common.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)
         try:
-            p, dem = calibrate_heterodyne(rec.channels[het], rec.channels[o.output], fs, carrier_hz=o.carrier_hz,
+            p, dem = calibrate_heterodyne(rec.channels[het], out, fs, carrier_hz=o.carrier_hz,
                                           reference=rec.channels[ref] if ref else None, freq=o.freq,
                                           sign=int(o.carrier_sign), harmonics=int(o.harmonics),
                                           wavelength_nm=o.wavelength_nm, drift=bool(o.drift), slices=int(o.slices),
@@ -302,7 +315,7 @@ def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
                                           u_other_phase_deg=o.u_other_phase_deg, sign_check=o.sign_check)
         except InputError as exc:
             raise type(exc)(f"{name}: {exc}") from None
-        units.add(rec.unit(o.output))
+        units.add(common.unit)
         warnings.extend(f"{w} ({name})" for w in p.warnings)
         warnings.extend(merge_time_warnings((), rec.warnings))
         rows.append((p.frequency_hz, name, p, dem))

@@ -123,6 +123,14 @@ def _laser_quantity(unit: str, given: str | None, channel: str) -> tuple[str, fl
     raise InputError(f"the laser channel {channel} is in {unit}: a laser gives velocity (m/s) or displacement (m)")
 
 
+def _is_bare_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def shock(source, options: ShockOptions = ShockOptions()) -> ShockResult:
     """Shock sensitivity of an accelerometer from half-sine pulses, one or more per recording.
 
@@ -167,14 +175,28 @@ def shock(source, options: ShockOptions = ShockOptions()) -> ShockResult:
     pulses, names, units, warnings = [], [], set(), []
     method = ("ISO 16063-22 comparison with a reference accelerometer (peak ratio, transfer function)"
               if o.reference else "ISO 16063-13 primary by laser (differentiated, peak ratio, transfer function)")
+    from senscal.diagnostics import named
+    from senscal.jobs._units import CommonUnit
+
+    # One file in mV, another in V: every file in the first's unit (a bare --reference-sensitivity too).
+    common_out = CommonUnit(o.output, "--output")
+    common_ref = CommonUnit(o.reference or "", "--reference")
     for src in sources:
         rec = o.read(src, channels=[o.output, other], job="shock")
         fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
         name = source_name(src)
         ref = np.asarray(rec.channels[other], float)
+        out = common_out.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)
         kw: dict[str, Any] = {}
         if o.reference:
-            runit = rec.unit(o.reference) or "V"
+            ref = common_ref.factor(rec.unit(o.reference), name) * ref
+            runit = common_ref.unit or "V"
+            if not common_ref.unit and isinstance(o.reference_sensitivity, str) and \
+                    not _is_bare_number(o.reference_sensitivity):
+                warnings.append(named("reference-unit-assumed", f"{name} gives no unit for the reference channel "
+                                      f"{o.reference}: read in V to match --reference-sensitivity "
+                                      f"{o.reference_sensitivity}; write its unit in the header "
+                                      f"(e.g. '{o.reference} [V]')"))
             kw["reference_sensitivity"] = parse_quantity(o.reference_sensitivity, f"{runit}/(m/s^2)",
                                                          option="--reference-sensitivity")
             kw["u_reference_rel"] = float(o.u_reference)
@@ -185,11 +207,11 @@ def shock(source, options: ShockOptions = ShockOptions()) -> ShockResult:
             if "by laser (" in method:
                 method = method.replace("by laser (", f"by laser {q} (")
         try:
-            ps = shock_pulses(ref, rec.channels[o.output], fs, cutoff_hz=o.lowpass_hz,
+            ps = shock_pulses(ref, out, fs, cutoff_hz=o.lowpass_hz,
                               filter_order=int(o.lowpass_order), u_other_rel=float(o.u_other), **kw)
         except InputError as exc:
             raise type(exc)(f"{name}: {exc}") from None
-        units.add(rec.unit(o.output))
+        units.add(common_out.unit)
         for p in ps:
             pulses.append(p)
             names.append(name)

@@ -418,6 +418,9 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
     if not np.all(np.isfinite(x)) or not np.all(np.isfinite(y)) or not np.all(np.isfinite(out)):
         raise DataError("NaN or inf in the interferometer or output samples: cut them out with --start/--stop")
     sx, sy = float(np.std(x)), float(np.std(y))
+    if sx == 0.0 or sy == 0.0:  # a dead or unwired output: the pair check below needs two signals
+        raise DataError(f"the {'I' if sx == 0.0 else 'Q'} channel is constant: a single channel is not a quadrature "
+                        "pair; give both quadrature outputs with --quadrature I,Q")
     if sx > 0 and sy > 0:
         r = abs(float(np.mean((x - x.mean()) * (y - y.mean()))) / (sx * sy))
         if r > 0.995:

@@ -1,0 +1,146 @@
+"""Units of the channels a job reads, as quantities: one unit per channel across files, triads checked.
+
+The jobs ``imu``, ``primary`` and ``shock`` take the units written in a file's
+header (``ax [g]``, ``gx [deg/s]``, ``out [mV]``, ``temp [degF]``) and
+convert where the physics allows it, refusing with one line where it does not
+(:mod:`senscal.units`).  A number whose unit is only a label (a sensitivity of
+one file in V per m/s^2 beside another's in mV per m/s^2, both called
+"output per m/s^2") is what this module prevents.
+"""
+
+from __future__ import annotations
+
+from senscal.errors import InputError
+
+__all__ = ["CommonUnit", "rate_factor", "check_triad_unit", "temperature_in", "celsius_if_other_degree"]
+
+
+class CommonUnit:
+    """The unit of one channel across several recordings: later files are converted to the first file's unit.
+
+    Parameters
+    ----------
+    channel : str
+        The channel's name (for messages).
+    option : str
+        The option that names it (``--output``), for messages.
+
+    Attributes
+    ----------
+    unit : str or None
+        The first file's unit ('' when its header gives none; None before any file).
+    """
+
+    def __init__(self, channel: str, option: str):
+        self.channel, self.option = channel, option
+        self.unit: str | None = None
+        self._first = ""
+
+    def factor(self, unit: str, source: str) -> float:
+        """The number this file's channel (in ``unit``) is multiplied by to be in the first file's unit.
+
+        Raises
+        ------
+        InputError
+            One file states a unit and another none, or the units are of different dimensions.
+        """
+        from senscal.units import factor, same_unit
+
+        u = (unit or "").strip()
+        if self.unit is None:
+            self.unit, self._first = u, source
+            return 1.0
+        if bool(u) != bool(self.unit):
+            said, silent = (source, self._first) if u else (self._first, source)
+            shown = u or self.unit
+            raise InputError(f"{self.option} {self.channel}: {said} gives its unit ({shown}) and {silent} none, so "
+                             f"their results cannot be put on one scale; write the unit in every file's header "
+                             f"('{self.channel} [{shown}]') or in none")
+        if same_unit(u, self.unit):
+            return 1.0
+        return factor(u, self.unit, what=f"channel '{self.channel}' of {source}",
+                      fix=f"every file's {self.option} channel must measure the same quantity "
+                          f"({self.unit} in {self._first})")
+
+
+def _dimension_ok(unit: str, want: str) -> bool:
+    """Whether a triad channel's ``unit`` fits: the physical quantity ``want``, a raw reading, or unknown text."""
+    from senscal.units import compatible, is_unit, is_voltage
+
+    if not unit or not is_unit(unit):
+        return True  # no unit, or a label senscal cannot parse ('raw', 'adc'): a reading of unknown scale
+    return compatible(unit, want) or compatible(unit, "1") or is_voltage(unit)
+
+
+def check_triad_unit(unit: str, *, accel: bool, channels, source: str) -> None:
+    """Refuse an accelerometer triad in a unit of another dimension (or a gyro's), naming the likely swap.
+
+    A triad may be in its physical unit (m/s^2, g; rad/s, deg/s, deg/h), in counts or volts (raw
+    readings), or unlabelled.
+
+    Raises
+    ------
+    InputError
+        ``--accel-channels`` in rad/s, ``--gyro-channels`` in m/s^2, either in m, T, degC ...
+    """
+    from senscal.units import dimension_of
+
+    want, opt, other = ("m/s^2", "--accel-channels", "--gyro-channels") if accel else \
+        ("rad/s", "--gyro-channels", "--accel-channels")
+    if _dimension_ok(unit, want):
+        return
+    dim = dimension_of(unit)
+    hint = (f"swapped {opt} and {other}?" if dim == ("an angular velocity" if accel else "an acceleration") else
+            f"name the {'accelerometer' if accel else 'gyroscope'}'s channels")
+    raise InputError(f"{opt} {','.join(channels)} of {source} are in {unit} ({dim}), not {dimension_of(want)}, "
+                     f"counts or volts: {hint}")
+
+
+def rate_factor(unit: str) -> float | None:
+    """The factor from a gyro's ``unit`` to rad/s (``deg/s``, ``deg/h``, ``mrad/s``, ``rpm``), None when not a rate."""
+    from senscal.units import compatible, factor, is_unit
+
+    if not unit or not is_unit(unit) or not compatible(unit, "rad/s"):
+        return None
+    return factor(unit, "rad/s")
+
+
+def celsius_if_other_degree(values, unit: str):
+    """Temperatures whose degree differs from the kelvin's (degF, mK) in degC; others as they are.
+
+    The temperature terms count their swing and coefficients per unit of the channel: a degF or a mK is
+    not the kelvin the swing check (``senscal.imu.calibrate.MIN_SWING_K``) and the reader expect.
+
+    Returns
+    -------
+    values : ndarray
+    unit : str
+    """
+    import numpy as np
+
+    from senscal.units import compatible, convert, is_unit
+
+    if not unit or not is_unit(unit) or not compatible(unit, "K"):
+        return values, unit
+    step = np.diff(convert(np.array([0.0, 1.0]), unit, "K"))[0]
+    if abs(step - 1.0) <= 1e-12:
+        return values, unit  # K, degC
+    return convert(values, unit, "degC", what="the temperature channel"), "degC"
+
+
+def temperature_in(values, have: str, want: str, *, channel: str, source: str):
+    """A temperature channel in the calibration's unit (offsets included: degF, K into degC).
+
+    Either unit unknown: the values as they are (the caller names the assumption).
+
+    Raises
+    ------
+    InputError
+        A unit of another dimension (a temperature channel in V against degC).
+    """
+    from senscal.units import convert, is_unit
+
+    if not have or not want or not is_unit(have) or not is_unit(want):
+        return values
+    return convert(values, have, want, what=f"temperature channel '{channel}' of {source}",
+                   fix="give the IMU's temperature channel, or convert it")
