@@ -5,6 +5,7 @@ test_coverage_shock.py."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -170,3 +171,114 @@ def test_simulate_shock_cli(cli, tmp_path):
     assert truth["points"][0]["file"] == "shock_01.csv"
     r = cli("shock", tmp_path / "s" / "shock_01.csv", "--laser", "laser", "--lowpass-hz", "20000", "--json")
     assert r.code == 0, r.err
+
+
+# --- certificates, DCC and the registry, through the code every job uses ------------------------------------
+
+_LAB = """name = "Shock Lab Nord"
+address = "Hafenstr. 7, 20457 Hamburg"
+country = "DE"
+email = "lab@example.org"
+approvers = [{name = "Dr. Ada Pruefer", role = "Head of laboratory"}]
+
+[[standards]]
+name = "Reference accelerometer (back to back)"
+serial = "REF-0042"
+certificate = "PTB-1.21-0816"
+traceability = "PTB"
+due = "2099-12-31"
+u_relative = 0.002
+
+[run]
+location = "Laboratory hall 2"
+customer = "ACME"
+customer_email = "qa@acme.example"
+customer_address = "Am Markt 1, 10115 Berlin"
+manufacturer = "Qfab"
+item = "shock accelerometer"
+"""
+
+SHARED_SCHEMAS = Path(__file__).resolve().parents[3] / "shared" / "schemas" / "dcc"
+
+
+def _cert_env(tmp_path, monkeypatch):
+    monkeypatch.delenv("SENSCAL_LAB", raising=False)
+    monkeypatch.setenv("XDG_CONFIG_HOME", str(tmp_path / "config"))
+    lab = tmp_path / "lab.toml"
+    lab.write_text(_LAB)
+    return lab
+
+
+def test_cli_report_dcc_and_save(cli, sim_dir, tmp_path, monkeypatch):
+    """--report, --dcc, --save: the pulses, their ISO 16063-22 budget by name, the DCC's values as in --json."""
+    import xml.etree.ElementTree as ET
+    from html import unescape
+
+    lab = _cert_env(tmp_path, monkeypatch)
+    db = tmp_path / "reg.db"
+    r = cli("shock", sim_dir / "cmp.csv", "--reference", "ref", "--reference-sensitivity", "0.1 mV/(m/s^2)",
+            "--u-reference", "0.5%", "--u-other", "0.3%", "--json", "--report", tmp_path / "cert.html", "--dcc",
+            tmp_path / "cert.xml", "--lab", lab, "--sensor-id", "SN-7", "--calibration-date", "2026-11-27",
+            "--env", "temperature=23.0+-0.3 degC", "--save", "--sensor", "SN-7", "--create-sensor",
+            "shock accelerometer", "--db", db)
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    assert doc["report"].endswith("cert.html")
+    assert not [w for w in doc["warnings"] if w.startswith(("certificate-draft", "budget-zero-component",
+                                                               "u-below-reference"))], doc["warnings"]
+    html = (tmp_path / "cert.html").read_text()
+    assert "ISO 16063-22" in html and "reference accelerometer's sensitivity" in unescape(html)
+    assert "Accelerometer shock sensitivity" in html
+    root = ET.parse(tmp_path / "cert.xml").getroot()
+    si = "{https://ptb.de/si}"
+    sens = [q for q in root.iter("{https://ptb.de/dcc}quantity") if q.get("refType") == "senscal_sensitivity"]
+    vals = [float(v) for v in sens[0].find(f"{si}realListXMLList/{si}valueXMLList").text.split()]
+    assert vals == pytest.approx([p["sensitivity"] for p in doc["pulses"]], rel=1e-11)
+    U = [float(v) for v in sens[0].find(f"{si}realListXMLList/{si}expandedUncXMLList/{si}uncertaintyXMLList").text
+         .split()]
+    assert U == pytest.approx([2 * p["u_sensitivity"] for p in doc["pulses"]], rel=1e-9)
+    assert len([r_ for r_ in root.iter("{https://ptb.de/dcc}result")
+                if r_.get("refType") == "senscal_shockTransferFunction"]) == len(doc["pulses"])
+    r = cli("registry", "history", "SN-7", "--db", db, "--json")
+    assert r.code == 0, r.err
+    assert "shock_sensitivity@" in r.out
+
+
+def test_cli_laser_certificate_names_iso_16063_13_and_zero_inputs(cli, sim_dir, tmp_path, monkeypatch):
+    """A laser calibration has no reference sensitivity in its budget; --u-other left at 0 is named."""
+    lab = _cert_env(tmp_path, monkeypatch)
+    r = cli("shock", sim_dir / "laser.csv", "--laser", "laser", "--lowpass-hz", "10 kHz", "--report",
+            tmp_path / "cert.html", "--lab", lab, "--sensor-id", "SN-8", "--calibration-date", "2026-11-27",
+            "--env", "temperature=23.0+-0.3 degC", "--json")
+    assert r.code == 0, r.err
+    doc = json.loads(r.out)
+    zero = [w for w in doc["warnings"] if w.startswith("budget-zero-component")]
+    assert len(zero) == 1 and "--u-other" in zero[0] and "reference accelerometer" not in zero[0]
+    html = (tmp_path / "cert.html").read_text()
+    assert "ISO 16063-13" in html and "zero-phase Butterworth" in html
+
+
+@pytest.mark.skipif(not (SHARED_SCHEMAS / "dcc.xsd").is_file(), reason="../shared/schemas/dcc not present")
+def test_dcc_is_valid_against_the_shared_schema(sim_dir):
+    import xmlschema
+
+    from senscal.jobs.shock import ShockOptions, shock
+    from senscal.report.dcc import dcc_xml
+    from senscal.report.lab import CertificateInfo, Condition, LabProfile, Person, RunInfo, Standard
+
+    lab = LabProfile(name="Shock Lab", address="Hafenstr. 7\n20457 Hamburg", email="lab@example.org", country="DE",
+                     approvers=(Person("A. Approver", "Head of laboratory"),),
+                     standards=(Standard("Reference accelerometer", "REF-1", "PTB-1.21-0816", "PTB", "2099-12-31",
+                                         0.002),))
+    run = RunInfo(certificate_id="SHK-1", customer="ACME", customer_address="1 Main St", customer_email="qa@acme.example",
+                  item="shock accelerometer", manufacturer="Qfab", model="S-1", serial="SN-9",
+                  calibration_date="2026-11-27", issue_date="2026-11-27", location="laboratory",
+                  conditions=(Condition("temperature", 23.1, 0.5, "degC"),))
+    d = SHARED_SCHEMAS
+    si = d / "SI_Format.xsd" if (d / "SI_Format.xsd").is_file() else d.parent / "SI_Format.xsd"
+    schema = xmlschema.XMLSchema(str(d / "dcc.xsd"), locations={"https://ptb.de/si": str(si)}, allow="local")
+    for opts in (ShockOptions(reference="ref", reference_sensitivity=1e-4, u_reference=0.005, u_other=0.003),):
+        res = shock(sim_dir / "cmp.csv", opts)
+        schema.validate(dcc_xml("shock", res, CertificateInfo(lab, run)).decode())  # unit from the result: V
+    res = shock(sim_dir / "laser.csv", ShockOptions(laser="laser", lowpass_hz=10_000.0, u_other=0.003))
+    schema.validate(dcc_xml("shock", res, CertificateInfo(lab, run), unit="V/(m/s^2)").decode())

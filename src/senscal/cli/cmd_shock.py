@@ -10,9 +10,13 @@ from typing_extensions import Annotated
 
 from senscal.cli._quantities import ListOf, units
 from senscal.cli.app import app, simulate_app
+from senscal.cli.cert_opts import (CalDateOpt, CertIdOpt, CustomerOpt, DccOpt, EnvOpt, ItemOpt, LabOpt, LocationOpt,
+                                   ManufacturerOpt, ModelOpt, ReportOpt, RunFileOpt, SensorIdOpt, SignCertOpt,
+                                   SignKeyOpt, cert_fields, certify)
 from senscal.cli.common import (JsonOpt, StrictOpt, console, emit_warnings, parse_relative, print_json, progress_bar,
                                 table)
-from senscal.cli.option_groups import READ, command_params, with_options
+from senscal.cli.option_groups import READ, REGISTRY, command_params, save_registered, with_options
+from senscal.cli.registry_opts import StandardOpt, use_standards
 from senscal.jobs._base import with_read_options
 
 
@@ -37,7 +41,7 @@ JOB_OPTIONS = {"shock": _shock_options}
 
 @app.command("shock")
 @units(lowpass_hz="Hz")
-@with_options(READ)
+@with_options(READ, REGISTRY)
 def shock_cmd(
     files: Annotated[List[Path], typer.Argument(help="Recordings of half-sine shock pulses: the accelerometer's output and a reference accelerometer or a laser.")],
     output: Annotated[str, typer.Option("--output", help="Channel of the accelerometer under test.")] = "out",
@@ -51,25 +55,50 @@ def shock_cmd(
     u_other: Annotated[Optional[str], typer.Option("--u-other", help="Type B: other relative standard u (transverse motion, mounting ...), e.g. 0.3%.")] = None,
     strict: StrictOpt = False,
     json_out: JsonOpt = False,
+    output_unit: Annotated[Optional[str], typer.Option("--output-unit", help="Unit of the accelerometer output for the certificate when the file's header gives none (default V).")] = None,
+    report: ReportOpt = None, dcc: DccOpt = None, sensor_id: SensorIdOpt = None, model: ModelOpt = None,
+    lab: LabOpt = None, run_file: RunFileOpt = None, customer: CustomerOpt = None, item: ItemOpt = None,
+    manufacturer: ManufacturerOpt = None, location: LocationOpt = None, certificate_id: CertIdOpt = None,
+    calibration_date: CalDateOpt = None, env: EnvOpt = None, sign_key: SignKeyOpt = None, sign_cert: SignCertOpt = None,
+    standard: StandardOpt = None,
     **opts,
 ) -> None:
     """Shock sensitivity (peak ratio) and transfer function from half-sine pulses (ISO 16063-22, -13)."""
     from senscal.jobs.shock import shock
 
+    used_standards = use_standards(standard, db=opts["db"], date=opts["date"], calibration_date=calibration_date)
     params = command_params(locals(), opts)
     params.pop("files")
     with progress_bar("calibrating", None):
         res = shock(list(files), _shock_options(**params))
     doc = res.to_dict()
+    # certificates and the registry through the code every job uses; the budget names ISO 16063-22 / -13
+    method = (f"Shock calibration, {res.method}, from half-sine pulses; uncertainty budget with the components of "
+              f"ISO {'16063-22' if res.comparison else '16063-13'}")
+    unit = res.sensitivity_unit(output_unit)
+    cond = {} if report is None and dcc is None else {
+        "pulses": len(res.pulses), "records": len(set(res.sources)), "filter": res.filter,
+        "output channel": output,
+        ("reference channel" if res.comparison else "laser channel"): reference or laser,
+        "type B inputs (relative u)": (f"reference sensitivity {u_reference or 0}, other {u_other or 0}"
+                                       if res.comparison else f"other {u_other or 0}")}
+    cert_warns = certify("shock", res, report=report, dcc=dcc, unit=unit, method=method, conditions=cond,
+                         files=[str(f) for f in files], warnings=res.warnings, **cert_fields(params))
+    doc["warnings"] = [*doc.get("warnings", []), *cert_warns]
+    if report is not None:
+        doc["report"] = str(report)
+    save_registered(res, opts, method=method, input_files=files, certificate=report, standards=used_standards)
     if json_out:
         print_json(doc)
-        emit_warnings(res.warnings, strict)
+        emit_warnings([*res.warnings, *cert_warns], strict)
         return
     rows = [[p["file"], str(p["index"]), f"{p['duration_ms']:.3g}", f"{p['peak_acceleration']:.4g}", p["sensitivity"],
              2 * p["u_sensitivity"]] for p in doc["pulses"]]
     console.print(table(f"Shock calibration ({doc['method']}; filter: {doc['filter']}); U at k=2",
                         ["file", "pulse", "T / ms", "peak / m/s^2", f"S / {doc['sensitivity_unit']}", "U(S)"], rows))
-    emit_warnings(res.warnings, strict)
+    if report is not None:
+        console.print(f"certificate written to {report}")
+    emit_warnings([*res.warnings, *cert_warns], strict)
 
 
 @simulate_app.command("shock")

@@ -16,6 +16,16 @@ __all__ = ["ShockOptions", "ShockResult", "shock"]
 
 _LASER_UNITS = {"velocity": "m/s", "displacement": "m"}
 
+# budget keys -> the components as the certificate names them (ISO 16063-22 comparison, ISO 16063-13 primary)
+_ISO_16063 = {
+    "reference_peak": "reference accelerometer's peak: noise, zero line and filter (ISO 16063-22)",
+    "laser_peak": "laser's peak: noise, differentiation and filter (ISO 16063-13)",
+    "output_peak": "output's peak: noise, zero line and filter",
+    "reference_sensitivity": "reference accelerometer's sensitivity (its calibration, ISO 16063-22)",
+    "zero_shift": "zero shift of the output (half the shift, rectangular)",
+    "other": "other effects (transverse motion, mounting, amplitude linearity)",
+}
+
 
 @dataclass(frozen=True)
 class ShockOptions(ReadOptions):
@@ -81,6 +91,42 @@ class ShockResult(JobResult):
     unit: str
     filter: str
     warnings: tuple[str, ...] = ()
+    output_unit: str = ""
+
+    @property
+    def comparison(self) -> bool:
+        """ISO 16063-22 comparison (True) or ISO 16063-13 laser primary (False)."""
+        return "16063-22" in self.method
+
+    def sensitivity_unit(self, output_unit: str | None = None) -> str:
+        """The sensitivity's unit as a quantity, ``'<output unit>/(m/s^2)'`` (V when neither file nor option says)."""
+        return f"{self.output_unit or output_unit or 'V'}/(m/s^2)"
+
+    def budgets(self, output_unit: str | None = None) -> tuple:
+        """Each pulse's sensitivity budget with its components named after ISO 16063-22 / -13.
+
+        Parameters
+        ----------
+        output_unit : str, optional
+            The output's unit when the files give none (default V).
+
+        Returns
+        -------
+        tuple of senscal.vibration.budget.UncertaintyBudget
+            Standard u of each component in the sensitivity's unit; k = 2.
+        """
+        from senscal.vibration.budget import make_budget
+
+        unit = self.sensitivity_unit(output_unit)
+
+        def kept(k: str, v: dict) -> bool:
+            # a laser has no reference sensitivity, and a zero shift not found beyond chance is not applied:
+            # neither is a type B input given as 0 (which the certificate's budget-zero-component would name)
+            return not ((k == "reference_sensitivity" and not self.comparison) or (k == "zero_shift" and not v["u_rel"]))
+
+        return tuple(make_budget("shock sensitivity", p.sensitivity, unit,
+                                 [(_ISO_16063.get(k, k), v["type"], abs(p.sensitivity) * v["u_rel"])
+                                  for k, v in p.budget.items() if kept(k, v)], 2.0) for p in self.pulses)
 
     def to_dict(self) -> dict[str, Any]:
         """The ``senscal shock --json`` document."""
@@ -221,4 +267,5 @@ def shock(source, options: ShockOptions = ShockOptions()) -> ShockResult:
     filt = "none" if o.lowpass_hz is None else (f"zero-phase Butterworth order {int(o.lowpass_order)}, "
                                                  f"-6 dB at {o.lowpass_hz:g} Hz, on both channels")
     return ShockResult(pulses=tuple(pulses), sources=tuple(names), method=method,
-                       unit=f"{unit or 'output'} per m/s^2", filter=filt, warnings=tuple(dict.fromkeys(warnings)))
+                       unit=f"{unit or 'output'} per m/s^2", filter=filt, warnings=tuple(dict.fromkeys(warnings)),
+                       output_unit=unit)

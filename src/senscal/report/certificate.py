@@ -402,8 +402,33 @@ def _tables(kind: str, result: Any, unit: str):
         figs = [linearity_figure(result, f"({out_unit})" if out_unit else "")]
     elif kind == "imu":
         cols, rows, budgets, summary, figs = _imu_tables(result)
+    elif kind == "shock":
+        cols, rows, budgets, summary, figs = _shock_tables(result, unit)
     else:
-        raise InputError(f"unknown certificate kind {kind!r}; use response, velocity, linearity or imu")
+        raise InputError(f"unknown certificate kind {kind!r}; use response, velocity, linearity, imu or shock")
+    return cols, rows, budgets, summary, figs
+
+
+def _shock_labels(job) -> list[str]:
+    return [f"{src} #{p.index}" for src, p in zip(job.sources, job.pulses)]
+
+
+def _shock_tables(job, unit: str):
+    """Results, budgets, summary and figure of a shock certificate (``senscal.jobs.shock.ShockResult``)."""
+    from senscal.shock.plots import shock_figure
+
+    cols = ["record, pulse", "duration (ms)", "peak acceleration (m/s²)", "U", f"shock sensitivity ({pretty_unit(unit)})",
+            "U"]
+    rows = [[lab, _g(p.duration_ms, 3), *value_and_u(abs(p.peak_acceleration), 2 * p.u_peak_acceleration),
+             *value_and_u(p.sensitivity, 2 * p.u_sensitivity)] for lab, p in zip(_shock_labels(job), job.pulses)]
+    labels = _shock_labels(job)
+    budgets = [_budget_table(list(job.budgets(unit.split("/(m/s^2)")[0] or None)), labels)]
+    summary = [("Shock sensitivity", "ratio of the output's peak to the peak acceleration, each the vertex of a "
+                "4th-degree polynomial through the samples above 80 % of the peak"),
+               ("Filter", job.filter),
+               ("Transfer function", "ratio of the spectra of the output and the acceleration over each pulse "
+                "and its settling (figure; values in the JSON result)")]
+    figs = [shock_figure(job.pulses, pretty_unit(unit), labels)]
     return cols, rows, budgets, summary, figs
 
 
@@ -456,7 +481,7 @@ def _imu_tables(job):
 
 _TITLES = {"response": "Accelerometer frequency response", "velocity": "Velocity-sensor sensitivity",
            "linearity": "Accelerometer amplitude linearity",
-           "imu": "IMU accelerometer and gyroscope"}
+           "imu": "IMU accelerometer and gyroscope", "shock": "Accelerometer shock sensitivity"}
 
 # The option that sets each type B component, for the budget-zero-component hint.
 _B_OPTIONS = {"input amplitude": "--u-input", "reference sensitivity": "--u-reference",
@@ -466,7 +491,9 @@ _B_OPTIONS = {"input amplitude": "--u-input", "reference sensitivity": "--u-refe
               "output voltage phase measurement": "--u-gain-phase-deg",
               "other effects (transverse, rocking, base strain, mounting)": "--u-other-rel",
               "table rate, stated u (type B)": "u_rate in --rate-table",
-              "table axis alignment, stated u (type B)": "u_axis in --rate-table"}
+              "table axis alignment, stated u (type B)": "u_axis in --rate-table",
+              "reference accelerometer's sensitivity (its calibration, ISO 16063-22)": "--u-reference",
+              "other effects (transverse motion, mounting, amplitude linearity)": "--u-other"}
 
 
 def _budgets(kind: str, result: Any) -> list[tuple[str, Any]]:
@@ -481,6 +508,8 @@ def _budgets(kind: str, result: Any) -> list[tuple[str, Any]]:
 
         (_, scale), (_, ang) = _imu_budgets(result)
         return list(zip(("x", "y", "z"), scale)) + list(zip(GYRO_ANGLES, ang))
+    if kind == "shock":
+        return list(zip(_shock_labels(result), result.budgets()))
     return []
 
 
@@ -489,7 +518,7 @@ def _sensitivity_u(kind: str, result: Any) -> list[tuple[str, float]]:
     if kind == "linearity":
         return [("slope", abs(result.u_slope / result.slope))] if result.slope else []
     return [(f"{b.quantity} at {label}" if label != "mean" else b.quantity, abs(b.combined / b.value))
-            for label, b in _budgets(kind, result) if b.quantity in ("sensitivity", "mean sensitivity") and b.value]
+            for label, b in _budgets(kind, result) if b.quantity in ("sensitivity", "mean sensitivity", "shock sensitivity") and b.value]
 
 
 def budget_warnings(kind: str, result: Any, standards: Sequence[Any] = ()) -> tuple[str, ...]:

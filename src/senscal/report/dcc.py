@@ -65,8 +65,11 @@ DCC_REQUIRED_RUN = ("certificate_id", "customer_address", "customer_email", "man
 _TITLES = {"response": "Accelerometer frequency response", "velocity": "Velocity-sensor sensitivity",
            "linearity": "Accelerometer amplitude linearity", "triaxial": "Three-axis sensor calibration",
            "shaft": "Tangential accelerometer on a rotating shaft: gravity model",
-           "imu": "IMU accelerometer and gyroscope calibration"}
-_METHODS = {"triaxial": "Three-axis sensor calibration from readings in many orientations in a field of constant "
+           "imu": "IMU accelerometer and gyroscope calibration", "shock": "Accelerometer shock sensitivity"}
+_METHODS = {"shock": "Shock calibration from half-sine pulses: peak ratio of the output to the acceleration (a reference "
+                     "accelerometer, ISO 16063-22, or a laser differentiated with a stated filter, ISO 16063-13) and "
+                     "the transfer function from the pulses' spectra",
+            "triaxial": "Three-axis sensor calibration from readings in many orientations in a field of constant "
                         "magnitude: scale factors, non-orthogonality angles and offsets (maximum likelihood)",
             "imu": "Multi-pose IMU calibration (IMU-TK protocol): accelerometer by maximum likelihood on the static "
                    "pose means, gyroscope by integrating the rotations between poses (quaternion RK4), optionally "
@@ -743,8 +746,34 @@ def _imu_results(b: _Builder, results: ET.Element, res: Any, unit: str, job: Any
               te.reference, job.temp_unit or "degC")
 
 
+def _shock_results(b: _Builder, results: ET.Element, job: Any, unit: str, _job: Any = None) -> None:
+    """``senscal shock`` (``ShockResult``): a list of pulses (duration, peak, shock sensitivity with the budget's
+    U), then each pulse's transfer function (magnitude with U, phase as si:hybrid)."""
+    pulses, labels = job.pulses, [f"{src} #{p.index}" for src, p in zip(job.sources, job.pulses)]
+    lst = _point_list(b, _result(b, results, "Shock sensitivity", "senscal_shockSensitivity",
+                                 f"Pulses in order: {'; '.join(labels)}. Filter: {job.filter}"), "Pulses")
+    _list_quantity(b, lst, "Pulse duration", "senscal_pulseDuration", [1e-3 * p.duration_ms for p in pulses], "s")
+    _list_quantity(b, lst, "Peak acceleration", "senscal_peakAcceleration", [abs(p.peak_acceleration) for p in pulses],
+                   "m/s^2", [2.0 * p.u_peak_acceleration for p in pulses], [2.0] * len(pulses))
+    U, k = _budget_U(job.budgets(_output_unit(unit)), [p.u_sensitivity for p in pulses], "shock sensitivity")
+    _list_quantity(b, lst, "Shock sensitivity (peak ratio)", "senscal_sensitivity", [p.sensitivity for p in pulses],
+                   unit, U, k)
+    for lab, p in zip(labels, pulses):
+        tf = p.transfer_function
+        n = len(tf.frequency_hz)
+        tl = _point_list(b, _result(b, results, f"Transfer function, {lab}", "senscal_shockTransferFunction",
+                                    "Ratio of the spectra of the output and the acceleration over the pulse and its "
+                                    "settling; U from the noise (magnitude also the type B terms)"), "Frequencies")
+        _list_quantity(b, tl, "Frequency", "senscal_frequency", list(tf.frequency_hz), "Hz")
+        _list_quantity(b, tl, "Magnitude", "senscal_transferMagnitude", list(tf.magnitude), unit,
+                       [2.0 * u for u in tf.u_magnitude], [2.0] * n)
+        _phase_quantity(b, tl, "Phase (output minus acceleration)", "senscal_transferPhase",
+                        [math.radians(v) for v in tf.phase_deg], [2.0 * math.radians(u) for u in tf.u_phase_deg],
+                        [2.0] * n)
+
+
 _RESULTS = {"response": _response_results, "velocity": _velocity_results, "linearity": _linearity_results,
-            "triaxial": _triaxial_results, "shaft": _shaft_results, "imu": _imu_results}
+            "triaxial": _triaxial_results, "shaft": _shaft_results, "imu": _imu_results, "shock": _shock_results}
 # attribute of the senscal.jobs result that holds the engine result
 _ENGINE = {"response": "response", "velocity": "calibration", "linearity": "linearity", "triaxial": "calibration",
            "shaft": "model", "imu": "result"}
@@ -834,7 +863,8 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
         ``TriaxialCalibrateResult``: scale factors, angles, offsets, field;
         an accelerometer calibrated alongside adds its own result) or
         ``"shaft"`` (``GravityModel`` or ``ShaftCalibrateResult``: gravity
-        amplitude, phase, offset, tilt, bias). Parameters are stated with
+        amplitude, phase, offset, tilt, bias) or ``"shock"`` (``ShockResult``:
+        the pulses' shock sensitivities, each pulse's transfer function). Parameters are stated with
         ``U = 2 u``; one the data do not determine is stated as not determined.
     result : object
         The result of that calibration (SI units; phases in rad; standard
@@ -878,7 +908,7 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
     """
     kind = _KIND_ALIASES.get(kind, kind)
     if kind not in _RESULTS:
-        raise DccError(f"unknown DCC kind {kind!r}; use response, velocity, linearity, triaxial, shaft or imu")
+        raise DccError(f"unknown DCC kind {kind!r}; use response, velocity, linearity, triaxial, shaft, imu or shock")
     if not isinstance(info, CertificateInfo):
         raise DccError("info must be a CertificateInfo (lab profile + run fields); see senscal.report.lab")
     if certificate_id and not info.run.certificate_id:
@@ -898,9 +928,11 @@ def dcc_xml(kind: str, result: Any, info: CertificateInfo, *, unit: str = "", me
 
     job = result if isinstance(result, JobResult) else None
     if job is not None:  # a senscal.jobs result: the engine result inside, its unit and warnings around it
-        result = getattr(job, _ENGINE[kind])
+        result = getattr(job, _ENGINE[kind]) if kind in _ENGINE else job  # shock: the job result itself
+    if kind == "shock" and job is not None and not unit:
+        unit = job.sensitivity_unit()  # its `unit` is prose ("V per m/s^2")
     unit = unit or getattr(job, "unit", "") or getattr(result, "unit", "")
-    if not unit and kind in ("response", "velocity", "linearity"):
+    if not unit and kind in ("response", "velocity", "linearity", "shock"):
         raise DccError(f"the {kind} result carries no sensitivity unit; give unit=, e.g. 'V/(m/s^2)'")
     today = today or _dt.datetime.now(_dt.timezone.utc).date()
     b = _Builder(language)
