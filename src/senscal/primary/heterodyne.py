@@ -19,16 +19,20 @@ demodulation can err, and its effect enters u (component ``demodulation_filter``
   the filtered envelope is ``z + e`` with ``rms(e) <= delta rms(z)`` (Parseval), so the phase error has an RMS of
   at most ``delta`` rad; its projection on the fundamental is a sine of at most ``sqrt(2) delta`` rad, i.e.
   ``sqrt(2) delta / phi_peak`` relative in magnitude and ``sqrt(2) delta / phi_peak`` rad in phase. The output
-  channel passes the same filter: its gain at ``f`` is ``1 +/- delta`` and its phase exact (the delay is an
-  integer number of samples). Taken as rectangular bounds (divided by sqrt 3).
+  channel passes the same filter: its gain at ``f`` is within ``1 +/- delta`` and its phase exact (the delay is an
+  integer number of samples): its gain at the fitted frequency is computed from the taps and divided out.
+  The envelope's bound is taken as rectangular (divided by sqrt 3).
 * the envelope's band: the passband edge is at least ``1.1`` times the largest Doppler shift ``f_D`` measured
   from the carrier's analytic signal plus ``(2 + 5 beta^(1/3)) f`` with ``beta = f_D / f``: the Bessel
   sidebands ``J_k(beta)`` of a sinusoidal phase beyond ``k = beta`` follow the Airy function,
   ``J_(beta + x (beta/2)^(1/3)) ~ (2 / beta)^(1/3) Ai(x)``, under 1e-6 from ``x = 6``, so nothing of the envelope
   falls in the transition band.
-* the noise: filtering and decimating colour the noise where the transition band folds; the noise's density
-  at the vibration frequency over the white equivalent of its variance is ``kappa = 1 / (D sum h^2)``
-  (reported; the sine fit's own whiteness test and coloured model see the rest).
+* the noise: filtering and decimating would colour the noise where the transition band folds (the sine fit's
+  white-noise u then misses the ratio ``kappa = 1 / (D sum h^2)`` of the noise density at low frequency to the
+  white equivalent of its variance). The transition is centred on ``fs / (2 D)`` and power-complementary,
+  ``|H(f)|^2 + |H(fs/D - f)|^2 = 1``, so the decimated noise stays white: ``kappa`` is 1 within 1 % (reported,
+  tested). Without room to decimate (``D = 1``) a Kaiser low-pass cuts the noise beyond the image, and the
+  sine fit's whiteness test switches to its coloured-noise model.
 """
 
 from __future__ import annotations
@@ -98,6 +102,18 @@ class Demodulation(ResultMixin):
 
     def to_dict(self) -> dict[str, Any]:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+def _crossing_frequency(x: np.ndarray, fs: float) -> float:
+    """Mean frequency (Hz) of a carrier from its first and last zero crossings and their count."""
+    x = x - float(np.median(x))
+    neg = np.signbit(x)
+    idx = np.flatnonzero(neg[1:] != neg[:-1])
+    if idx.size < 3:
+        raise DataError("the carrier reference channel has no carrier (fewer than three zero crossings): name it "
+                        "with --carrier-channel")
+    tc = idx[[0, -1]] + x[idx[[0, -1]]] / (x[idx[[0, -1]]] - x[idx[[0, -1]] + 1])
+    return 0.5 * (idx.size - 1) * fs / float(tc[1] - tc[0])
 
 
 def _instantaneous(x: np.ndarray, fs: float) -> tuple[float, np.ndarray]:
@@ -250,9 +266,11 @@ def _demodulate(sig, fs, carrier_hz, reference, freq, harmonics, sign, ripple):
     warnings: list[str] = []
     n = x.size
     f_meas, f_inst = _instantaneous(x, fs)
-    nominal = float(carrier_hz) if carrier_hz is not None else _instantaneous(ref, fs)[0]
     if ref is not None:
-        f_ref = _instantaneous(ref, fs)[0] if carrier_hz is not None else nominal
+        # the reference only places the band (its phase cancels in z conj(z_ref)): its zero crossings suffice
+        f_ref = _crossing_frequency(ref, fs)
+    nominal = float(carrier_hz) if carrier_hz is not None else f_ref
+    if ref is not None:
         if carrier_hz is not None and abs(f_ref - carrier_hz) > 0.01 * carrier_hz:
             warnings.append(named("carrier-offset", f"the reference carrier runs at {f_ref:.6g} Hz, "
                                   f"{f_ref - carrier_hz:+.3g} Hz from --carrier-hz; the reference's was used"))
@@ -398,13 +416,17 @@ def calibrate_heterodyne(sig, output, fs: float, *, carrier_hz: float | None = N
         raise
     lam = kwargs.get("wavelength_nm", 632.8) * 1e-9
     phi_peak = 4 * math.pi * p.displacement_m / lam
+    # the output passed the filter: its gain at the fitted frequency is known exactly (the phase is exactly 0,
+    # the filter being symmetric), so it is divided out rather than bounded
+    kk = np.arange(h.size) - (h.size - 1) / 2
+    gain = float(h @ np.cos(2 * math.pi * p.frequency_hz / fs * kk))
+    # the envelope's phase error: at most sqrt(2) delta rad on the fundamental (module docstring), rectangular
     b = math.sqrt(2.0) * dem.ripple / max(phi_peak, 1e-300)
-    u_rel = math.hypot(b, dem.ripple) / math.sqrt(3.0)
-    u_ph = math.degrees(b / math.sqrt(3.0))
     budget = dict(p.budget)
-    budget["demodulation_filter"] = {"type": "B", "u_rel": u_rel, "u_phase_deg": u_ph}
+    budget["demodulation_filter"] = {"type": "B", "u_rel": b / math.sqrt(3.0), "u_phase_deg": math.degrees(b / math.sqrt(3.0))}
     ur = math.sqrt(sum(v["u_rel"] ** 2 for v in budget.values()))
     up = math.sqrt(sum(v["u_phase_deg"] ** 2 for v in budget.values()))
-    p = dataclasses.replace(p, u_sensitivity=abs(p.sensitivity) * ur, u_phase_deg=up, budget=budget,
+    sens = p.sensitivity / gain
+    p = dataclasses.replace(p, sensitivity=sens, u_sensitivity=abs(sens) * ur, u_phase_deg=up, budget=budget,
                             warnings=tuple(dict.fromkeys([*warns, *p.warnings])))
     return p, dem
