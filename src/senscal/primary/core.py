@@ -312,6 +312,12 @@ def _amp_phase(fit, idx):
 
 
 def _wrap(x):
+    if isinstance(x, np.ndarray):
+        # in place: the record-long arrays of the Heydemann projection are wrapped several times
+        y = x + math.pi
+        np.remainder(y, 2 * math.pi, out=y)
+        y -= math.pi
+        return y
     return (x + math.pi) % (2 * math.pi) - math.pi
 
 
@@ -330,8 +336,15 @@ def _model(fit, n: int, fs: float) -> np.ndarray:
     out = np.asarray(fit.offset, float).reshape(-1, 1) + np.zeros((amp.shape[0], n))
     if fit.drift is not None:
         out = out + np.asarray(fit.drift, float).reshape(-1, 1) * (t - fit.t_ref)
+    # sin((k+1) w t + ph) = sin((k+1) w t) cos ph + cos((k+1) w t) sin ph, the harmonics' sines and cosines
+    # by angle addition from the fundamental's: two record-long trig evaluations instead of one per channel
+    # and harmonic (a million samples)
+    s1, c1 = np.sin(w * t), np.cos(w * t)
+    sk, ck = s1, c1
     for k in range(amp.shape[1]):
-        out = out + amp[:, k:k + 1] * np.sin((k + 1) * w * t + ph[:, k:k + 1])
+        if k:
+            sk, ck = sk * c1 + ck * s1, ck * c1 - sk * s1
+        out += (amp[:, k] * np.cos(ph[:, k]))[:, None] * sk + (amp[:, k] * np.sin(ph[:, k]))[:, None] * ck
     return out
 
 
