@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from senscal.errors import InputError
 
-__all__ = ["CommonUnit", "rate_factor", "check_triad_unit", "temperature_in", "celsius_if_other_degree"]
+__all__ = ["CommonUnit", "rate_factor", "check_triad_unit", "temperature_in", "celsius_if_other_degree",
+           "check_session_time", "LONGEST_SESSION_S"]
 
 
 class CommonUnit:
@@ -144,3 +145,26 @@ def temperature_in(values, have: str, want: str, *, channel: str, source: str):
         return values
     return convert(values, have, want, what=f"temperature channel '{channel}' of {source}",
                    fix="give the IMU's temperature channel, or convert it")
+
+
+#: No IMU, interferometer or shock session lasts longer (about four months); a longer time column is not in seconds.
+LONGEST_SESSION_S = 1e7
+
+
+def check_session_time(rec, source: str, job: str) -> None:
+    """Refuse a time column that cannot be seconds: spanning beyond :data:`LONGEST_SESSION_S`, or not finite.
+
+    The fits of these jobs put the time (and its square, in drift terms) into their design matrices: a
+    column in ns read as s, or scaled by 1e300, overflows them; the message names the unit instead.
+
+    Raises
+    ------
+    InputError
+    """
+    import math
+
+    span = rec.duration
+    if not math.isfinite(span) or span > LONGEST_SESSION_S:
+        raise InputError(f"{source}: the time column spans {span:.3g} s, longer than any {job} session: it is not "
+                         "in seconds; write its unit in the header ('t [ms]', 't [us]') or give --time-unit, or "
+                         "--fs when the file has no time column")
