@@ -36,7 +36,8 @@ def main(argv=None) -> int:
     ap.add_argument("--markdown", action="store_true", help="print a Markdown table")
     ap.add_argument("--sweep", type=int, default=None, metavar="N",
                     help="random departure sweep: N random cases per job (senscal.validation.sweep)")
-    ap.add_argument("--only", default=None, metavar="TEXT", help="run only the scenarios whose name contains TEXT")
+    ap.add_argument("--only", default=None, metavar="TEXT",
+                    help="run only the scenarios whose name contains TEXT (a job's exact scenario name: only that one)")
     ap.add_argument("--seed0", type=int, default=0, help="first case of the sweep")
     ap.add_argument("--show", type=int, default=25, help="silent misses listed by the sweep (worst first)")
     ap.add_argument("--summary", action="store_true",
@@ -51,8 +52,9 @@ def main(argv=None) -> int:
         if job not in allsc:
             print(f"bench_coverage: unknown job {job!r}; known: {', '.join(sorted(allsc))}", file=sys.stderr)
             return 2
+        exact = args.only in allsc[job] if args.only else False
         for name, run in allsc[job].items():
-            if args.only and args.only not in name:
+            if args.only and (name != args.only if exact else args.only not in name):
                 continue
             t0 = time.perf_counter()
             full = getattr(run, "full_seeds", 400)
