@@ -532,22 +532,28 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
     # Heydemann parameters' u propagated to magnitude and phase: the phase change a parameter step makes,
     # projected on the fundamental (a linear change of the fit, so no re-fit is needed)
     J = np.zeros((2, 4))
-    hu = hf.u
     tt = np.arange(n) / fs
     sn, cs = np.sin(w * tt + pd), np.cos(w * tt + pd)
     g_ss, g_cc, g_sc = float(sn @ sn), float(cs @ cs), float(sn @ cs)
     det = g_ss * g_cc - g_sc * g_sc
-    for j in range(4):
-        h = hu[j] if hu[j] > 0 else 1e-9
-        pp = hf.params.copy()
-        pp[j] += h
-        dd = _wrap(np.arctan2(*_corrected(x, y, pp)[::-1]) - phi_raw) * lam / (4 * math.pi)
-        bs, bc = float(sn @ dd), float(cs @ dd)
-        # d = A sin(wt + pd) + dA sin(...) + A dp cos(...): solve the 2x2 normal equations
-        da = (g_cc * bs - g_sc * bc) / det
-        dp = (g_ss * bc - g_sc * bs) / det / ad
-        J[0, j] = da / ad / h
-        J[1, j] = dp / h
+    # d phi / d(p, q, g, alpha) in closed form, phi = atan2(s, c) with c = x - p and
+    # s = ((y - q) / g - c sin alpha) / cos alpha: d phi = (c ds - s dc) / (c^2 + s^2); one pass over the record
+    # instead of a corrected pair, an arctan2 and a wrap per parameter (a million samples at 1 MS/s)
+    p_, q_, g_, al = hf.params
+    ta, ca = math.tan(al), math.cos(al)
+    c_, s_ = _corrected(x, y, hf.params)
+    r2 = c_ * c_ + s_ * s_
+    cr = c_ / r2
+    dphi = np.empty((4, n))
+    dphi[0] = cr * ta + s_ / r2
+    dphi[1] = cr * (-1.0 / (g_ * ca))
+    dphi[2] = cr * (y - q_) * (-1.0 / (g_ * g_ * ca))
+    dphi[3] = cr * (s_ * ta - c_)
+    dphi *= lam / (4 * math.pi)
+    b_s, b_c = dphi @ sn, dphi @ cs
+    # d = A sin(wt + pd) + dA sin(...) + A dp cos(...): solve the 2x2 normal equations, per parameter
+    J[0] = (g_cc * b_s - g_sc * b_c) / det / ad
+    J[1] = (g_ss * b_c - g_sc * b_s) / det / ad
     ch = J @ hf.covariance @ J.T
     u_hey_rel = math.sqrt(max(ch[0, 0], 0.0))
     u_hey_ph = math.sqrt(max(ch[1, 1], 0.0))
