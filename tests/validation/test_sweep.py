@@ -104,7 +104,9 @@ SWEEP_CASES = mc_seeds(400, 20)
 
 
 # The primary job fits 50,000-sample interferometer records (about 1 s a case): fewer in CI.
-CI_CASES = {"primary": mc_seeds(400, 8)}
+CI_CASES = {"primary": mc_seeds(400, 8),
+            # imu: a 30-pose session with the gyro fit is 0.5-2 s a case (temperature terms the slowest)
+            "imu": mc_seeds(400, 8)}
 
 
 @pytest.mark.parametrize("job", sorted(JOBS))
