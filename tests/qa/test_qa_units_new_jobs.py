@@ -208,3 +208,16 @@ def test_shock_output_and_reference_units_across_files(cli, shock_rec, tmp_path)
     assert r.code == 2 and len(r.err.strip().splitlines()) == 1 and "in every file's header" in r.err
     r = cli("shock", bare, "--reference", "ref", "--reference-sensitivity", "0.1 mV/(m/s^2)", "--strict")
     assert r.code == 3 and "reference-unit-assumed" in r.err
+
+
+def test_primary_quadrature_pair_in_one_unit(cli, pri_recs, tmp_path):
+    """Q in mV beside I in V: converted, so the Heydemann gain ratio and offsets are the interferometer's."""
+    v = _relabel(pri_recs[0], tmp_path / "v.csv", names={"I": "I [V]", "Q": "Q [V]", "out": "out [V]"})
+    mv = _relabel(pri_recs[0], tmp_path / "qmv.csv", names={"I": "I [V]", "Q": "Q [mV]", "out": "out [V]"},
+                  scale={"Q": 1e3})
+    h = [json.loads(cli("primary", p, "--json").out)["points"][0]["heydemann"] for p in (v, mv)]
+    assert h[1]["gain_ratio"] == pytest.approx(h[0]["gain_ratio"], rel=1e-9)
+    assert h[1]["offset_q"] == pytest.approx(h[0]["offset_q"], rel=1e-9)
+    bad = _relabel(pri_recs[0], tmp_path / "qacc.csv", names={"I": "I [V]", "Q": "Q [m/s^2]", "out": "out [V]"})
+    r = cli("primary", bad)
+    assert r.code == 2 and len(r.err.strip().splitlines()) == 1 and "one interferometer" in r.err

@@ -247,6 +247,7 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
     units = set()
     warnings: list[str] = []
     from senscal.jobs._units import CommonUnit, check_session_time
+    from senscal.units import factor as unit_factor, same_unit
 
     common = CommonUnit(o.output, "--output")  # one file in mV, another in V: all in the first's unit
     for src in sources:
@@ -255,8 +256,14 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
         fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
         name = source_name(src)
         out = common.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)
+        # I in V and Q in mV: Q in I's unit, so that the gain ratio and the offsets are the interferometer's
+        q_sig = np.asarray(rec.channels[qq], float)
+        ui, uq = rec.unit(qi), rec.unit(qq)
+        if ui and uq and not same_unit(ui, uq):
+            q_sig = q_sig * unit_factor(uq, ui, what=f"quadrature channel '{qq}' of {name}",
+                                        fix=f"I and Q are the two outputs of one interferometer ('{qi}' is in {ui})")
         try:
-            p = calibrate_point(rec.channels[qi], rec.channels[qq], out, fs, freq=o.freq, wavelength_nm=o.wavelength_nm, harmonics=int(o.harmonics),
+            p = calibrate_point(rec.channels[qi], q_sig, out, fs, freq=o.freq, wavelength_nm=o.wavelength_nm, harmonics=int(o.harmonics),
                                 drift=bool(o.drift), slices=int(o.slices), u_wavelength_rel=o.u_wavelength_rel,
                                 u_gain_rel=o.u_gain_rel, u_gain_phase_deg=o.u_gain_phase_deg,
                                 u_other_rel=o.u_other_rel, u_other_phase_deg=o.u_other_phase_deg,
