@@ -82,6 +82,7 @@ class LevelLikelihood:
         self._keep = np.arange(ns, n) if setup.signal.kind == "known" else np.arange(n)
         self._parts_key = None
         self._parts = None
+        self._bufs: dict = {}
         # Where each time constant acts (positions in the kept states): a
         # coloured-noise tau moves only its state's F and Q entries (and the
         # unit of its std, which is free beside it), a lag only its bias's H
@@ -156,15 +157,33 @@ class LevelLikelihood:
         """The covariate through its first-order lag, as augmented_arrays puts it into H."""
         return lag_filter(self.cov[covariate], self.dt, lag) if lag > 0 else self.cov[covariate]
 
+    def _buffer(self, name: str, shape: tuple) -> np.ndarray:
+        """A zeroed array kept for the next pass.
+
+        Passes over a long record would otherwise allocate (and fault in)
+        tens of MB each.  Each derivative row is written at the same entries
+        on every pass (by its level's kind), so entries left zero stay zero.
+        """
+        key = (name, shape)
+        buf = self._bufs.get(key)
+        if buf is None:
+            buf = self._bufs[key] = np.zeros(shape)
+        return buf
+
     def _assemble(self, levels: Mapping[str, float]):
         F, H, x0, Q0, R0, P00, units = self._linear(levels)
-        Q, R, P0 = Q0.copy(), R0.copy(), P00.copy()
+        Q = self._buffer("Q", Q0.shape)
+        np.copyto(Q, Q0)
+        R, P0 = R0.copy(), P00.copy()
+        tmp = self._buffer("tmp", Q0.shape)
         for k, (Qk, Rk, Pk) in units.items():
             v2 = float(levels[k]) ** 2
             if self.kind[k] == "R":
                 R += v2 * Rk
             else:
-                Q += v2 * Qk
+                # Q += v2 * Qk without the temporaries (the same operations).
+                np.multiply(Qk, v2, out=tmp)
+                np.add(Q, tmp, out=Q)
                 P0 += v2 * Pk
         return F, H, Q, R, x0, P0, units
 
@@ -175,9 +194,9 @@ class LevelLikelihood:
         n, m = F.shape[1], H.shape[1]
         useF = self._moves_f if grad else np.zeros(p, dtype=np.bool_)
         useH = self._moves_h if grad else np.zeros(p, dtype=np.bool_)
-        dF = np.zeros((p, F.shape[0] if useF.any() else 1, n, n))
-        dH = np.zeros((p, H.shape[0] if useH.any() else 1, m, n))
-        dQ = np.zeros((p, Q.shape[0] if grad else 1, n, n))
+        dF = self._buffer("dF" if grad else "dF0", (p, F.shape[0] if useF.any() else 1, n, n))
+        dH = self._buffer("dH" if grad else "dH0", (p, H.shape[0] if useH.any() else 1, m, n))
+        dQ = self._buffer("dQ" if grad else "dQ0", (p, Q.shape[0] if grad else 1, n, n))
         dR = np.zeros((p, 1, m, m))
         dP0 = np.zeros((p, n, n))
         if grad:
@@ -188,7 +207,7 @@ class LevelLikelihood:
                     if self.kind[k] == "R":
                         dR[i] = v2 * Rk
                     else:
-                        dQ[i] = v2 * Qk
+                        np.multiply(Qk, v2, out=dQ[i])
                         dP0[i] = v2 * Pk
                     continue
                 v = float(levels[k])

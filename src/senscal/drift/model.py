@@ -700,7 +700,12 @@ def augmented_model(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, floa
     F = F[0] if F.shape[0] == 1 else F
     Q = Q[0] if Q.shape[0] == 1 else Q
     H = H[0] if H.shape[0] == 1 else H
-    return StateSpaceModel(F=F, H=H, Q=Q, R=R[0], x0=x0_, P0=P0_)
+    if setup.signal.kind == "matrix":
+        # A signal model from a file: its Q is the user's, checked in full.
+        return StateSpaceModel(F=F, H=H, Q=Q, R=R[0], x0=x0_, P0=P0_)
+    # Q is built of non-negative levels squared times blocks PSD for any step > 0
+    # (its diagonal is still checked): no eigenvalue test per step (issue 30).
+    return StateSpaceModel._built(F=F, H=H, Q=Q, R=R[0], x0=x0_, P0=P0_)
 
 
 def check_observable(setup: DriftSetup, dt: np.ndarray, covariates: Mapping[str, np.ndarray] | None = None,
