@@ -307,3 +307,26 @@ def test_unit_change_scales_estimates(seed, s):
     assert b.loglik == pytest.approx(a.loglik - n_obs * np.log(s), rel=1e-9, abs=1e-7)
     sa, sb = rts_smoother(model, a), rts_smoother(scaled, b)
     assert close(sb.x, s * sa.x, 1e-9)
+
+
+def test_a_built_model_skips_only_the_eigenvalue_test_of_q():
+    """StateSpaceModel._built (issue 30): the same model as the constructor's; bad shapes, R and Q's diagonal refused."""
+    rng = np.random.default_rng(2)
+    Q = np.einsum("tij,tkj->tik", *(2 * [rng.normal(size=(50, 2, 2))]))
+    F, H, R = np.eye(2), np.ones((1, 2)), np.array([[0.1]])
+    a = StateSpaceModel(F=F, H=H, Q=Q, R=R, P0=np.eye(2))
+    b = StateSpaceModel._built(F=F, H=H, Q=Q, R=R, P0=np.eye(2))
+    for k in ("_F", "_H", "_Q", "_R", "_B", "x0", "P0"):
+        assert np.array_equal(getattr(a, k), getattr(b, k)), k
+    y = rng.normal(size=(1, 50))
+    assert kalman_filter(a, y).loglik == kalman_filter(b, y).loglik
+    bad_q = Q.copy()
+    bad_q[7, 1, 1] = -1e-3
+    with pytest.raises(InputError, match="Q must be positive semidefinite"):
+        StateSpaceModel._built(F=F, H=H, Q=bad_q, R=R)
+    with pytest.raises(InputError, match="R must be positive definite"):
+        StateSpaceModel._built(F=F, H=H, Q=Q, R=np.array([[0.0]]))
+    with pytest.raises(InputError, match="H must have shape"):
+        StateSpaceModel._built(F=F, H=np.ones((1, 3)), Q=Q, R=R)
+    with pytest.raises(InputError, match="NaN or inf"):
+        StateSpaceModel._built(F=F, H=H, Q=np.full((2, 2), np.nan), R=R)
