@@ -12,7 +12,9 @@ linearised at its optimum)::
 
 ``y_k = m_k - b(t_k)``.  ``S`` holds every source of the segments' error: the noise of the segment means
 (type A), the gyro bias model from the static poses evaluated at the segments (type A, correlated between
-segments), the stated rate's u and the axis direction's u (type B, through ``M_g``).  Because ``S`` and
+segments), the stated rate's u (type B: one relative error of the table common to all segments, its encoder
+or timebase scale) and the axis direction's u (type B: the mount's, common to the segments about the same
+stated axis), both through ``M_g``.  Because ``S`` and
 ``C_p`` add up linearly, the combined covariance ``(C_p^-1 + A^T S^-1 A)^-1`` splits exactly into one term
 per source: the certificate's budget.
 
@@ -240,14 +242,20 @@ def combine_rate_table(table, seg: SegmentData, bias: np.ndarray, cov_bias: np.n
     cp = 0.5 * (pose_covariance + pose_covariance.T)
     cpi = _inv(cp)
 
+    # The stated rate's error is one relative error of the table (its encoder or timebase scale), common to
+    # all segments; the axis error is the mount's, common to the segments about the same stated axis.
+    same = np.abs(table.axis @ table.axis.T - 1.0) < 1e-9
+    sgn = np.sign(table.rate)
+
     def type_b(m):
-        s_rate = np.zeros_like(s_noise)
+        v = ((m @ table.axis.T) * (table.u_rate * sgn)[None, :]).T.ravel()  # (3K,): one common error
+        s_rate = np.outer(v, v)
         s_axis = np.zeros_like(s_noise)
         for k in range(k_n):
-            ax = table.axis[k]
-            sl = slice(3 * k, 3 * k + 3)
-            s_rate[sl, sl] = m @ (table.u_rate[k] ** 2 * np.outer(ax, ax)) @ m.T
-            s_axis[sl, sl] = m @ ((table.rate[k] * table.u_axis[k]) ** 2 * (np.eye(3) - np.outer(ax, ax))) @ m.T
+            for j in np.flatnonzero(same[k]):
+                ax = table.axis[k]
+                c = table.rate[k] * table.rate[j] * table.u_axis[k] * table.u_axis[j]
+                s_axis[3 * k:3 * k + 3, 3 * j:3 * j + 3] = c * (m @ (np.eye(3) - np.outer(ax, ax)) @ m.T)
         return s_rate, s_axis
 
     m = np.asarray(pose_matrix, float)

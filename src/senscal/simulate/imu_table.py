@@ -36,9 +36,11 @@ class TableSpec:
     margin_s : float
         The stated segment starts this long after the constant rate begins and stops this long before it ends.
     u_rate_rel : float
-        The stated relative standard u of the rate (what the table file says).
+        The stated relative standard u of the rate (what the table file says); the table's true rate is off by
+        one relative error drawn with it, common to all segments.
     u_axis : float
-        The stated standard u of the axis direction, rad.
+        The stated standard u of the axis direction per tilt direction, rad; each mount is tilted by a draw
+        with it.
     rate_error_rel : float
         Departure: stated rate = true rate * (1 + rate_error_rel).
     mount_tilt : float
@@ -103,6 +105,7 @@ def table_motion(spec: TableSpec, r_now: np.ndarray, gravity: float, fs: float, 
         pos += n
 
     starts, stops, axes, rates, true_axes, true_rates = [], [], [], [], [], []
+    eps = spec.u_rate_rel * rng.normal()  # the table's own rate error, within its stated u
     n_mount, n_rest = max(int(round(spec.mount_s * fs)), 2), int(round(spec.rest_s * fs))
     n_ramp, n_hold = max(int(round(spec.ramp_s * fs)), 2), int(round(spec.hold_s * fs))
     for axis in spec.axes:
@@ -111,6 +114,13 @@ def table_motion(spec: TableSpec, r_now: np.ndarray, gravity: float, fs: float, 
         if spec.mount_tilt:
             p = np.cross(a, rng.normal(size=3))
             ta = _rot(p / np.linalg.norm(p), spec.mount_tilt) @ a
+        if spec.u_axis:
+            # The mount tilts the axis within its stated u: towards two perpendicular directions, N(0, u_axis) each.
+            e1 = np.cross(ta, rng.normal(size=3))
+            e1 /= np.linalg.norm(e1)
+            d = spec.u_axis * rng.normal(size=2)
+            ta = ta + d[0] * e1 + d[1] * np.cross(ta, e1)
+            ta /= np.linalg.norm(ta)
         # Hand rotation bringing the (true) table axis of the body up.
         v = r_now @ ta
         c = np.cross(v, [0.0, 0.0, 1.0])
@@ -128,7 +138,7 @@ def table_motion(spec: TableSpec, r_now: np.ndarray, gravity: float, fs: float, 
             r_now = r_now @ _rot(e, ang)
         still(n_rest)
         for sign in ((1.0, -1.0) if spec.both_signs else (1.0,)):
-            om = sign * spec.rate
+            om = sign * spec.rate / (1.0 + eps)  # the table turns off its stated rate by its own error
             tau = (np.arange(n_ramp) + 0.5) / n_ramp
             ramp = 0.5 * (1 - np.cos(np.pi * tau))
             # Turning about the vertical: gravity stays fixed in the body frame.
@@ -141,7 +151,7 @@ def table_motion(spec: TableSpec, r_now: np.ndarray, gravity: float, fs: float, 
             starts.append(t0 + spec.margin_s)
             stops.append(t0 + (n_hold - 1) / fs - spec.margin_s)
             axes.append(a)
-            rates.append(om * (1.0 + spec.rate_error_rel))
+            rates.append(sign * spec.rate * (1.0 + spec.rate_error_rel))
             true_axes.append(ta)
             true_rates.append(om)
             pos += 2 * n_ramp + n_hold
