@@ -202,3 +202,16 @@ def test_imu_apply_never_writes_over_its_input(cli, seeds, tmp_path):
                                 [f], CASE_TIMEOUT_S)
         assert kind == "clean" and detail is None, detail
     assert json.loads(seeds["_cal"].read_text())  # the calibration is untouched and still a document
+
+
+@pytest.mark.parametrize("name, ops", [
+    ("primary", [("scale", 0, 1e300)]),  # time x 1e300: the sine fit overflowed (internal error)
+    ("imu calibrate", [("scale", 0, 1e300)]),
+    ("shock comparison", [("scale", 0, 1e300)]),
+    ("primary", [("scale", 1, 1e300)]),  # I x 1e300: the ellipse fit's matrix went singular
+    ("imu calibrate", [("scale", 4, 1e300)]),  # gx x 1e300: the gyro residuals were not finite
+    ("shock laser", [("scale", 1, 1e300)]),
+])
+def test_found_by_the_long_run(cli, seeds, tmp_path, name, ops):
+    """What SENSCAL_FUZZ=long found (internal errors before the job refused them): one clean line now."""
+    assert _run(cli, seeds, tmp_path, name, ops) == "clean"

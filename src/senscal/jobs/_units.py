@@ -13,7 +13,7 @@ from __future__ import annotations
 from senscal.errors import InputError
 
 __all__ = ["CommonUnit", "rate_factor", "check_triad_unit", "temperature_in", "celsius_if_other_degree",
-           "check_session_time", "LONGEST_SESSION_S"]
+           "check_session_time", "LONGEST_SESSION_S", "check_magnitude", "MAX_ABS"]
 
 
 class CommonUnit:
@@ -168,3 +168,25 @@ def check_session_time(rec, source: str, job: str) -> None:
         raise InputError(f"{source}: the time column spans {span:.3g} s, longer than any {job} session: it is not "
                          "in seconds; write its unit in the header ('t [ms]', 't [us]') or give --time-unit, or "
                          "--fs when the file has no time column")
+
+
+#: Largest magnitude a channel may reach: the fits square the readings, and beyond ~1e154 squares overflow float64
+#: (the rule of senscal.sinefit, senscal.triaxial and senscal.shaft).
+MAX_ABS = 1e150
+
+
+def check_magnitude(rec, channels, source: str) -> None:
+    """Refuse a channel whose readings reach beyond :data:`MAX_ABS` (the fits' squares would overflow).
+
+    Raises
+    ------
+    InputError
+    """
+    import numpy as np
+
+    for c in channels:
+        v = np.asarray(rec.channels[c], float)
+        peak = float(np.nanmax(np.abs(v))) if v.size and not np.all(np.isnan(v)) else 0.0
+        if peak > MAX_ABS:
+            raise InputError(f"{source}: channel '{c}' reaches {peak:.3g}, beyond the 1e150 the fits can square in "
+                             "float64; check the channel and its unit, or rescale it")

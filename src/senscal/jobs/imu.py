@@ -304,9 +304,10 @@ def imu_calibrate(source, options: ImuOptions = ImuOptions()) -> ImuCalibrateRes
         raise InputError(f"--temperature-channel {tch} is one of the accelerometer or gyroscope channels; give the "
                          "IMU's temperature channel")
     rec = o.read(source, channels=list(ac) + list(gc) + ([tch] if tch else []), job="imu")
-    from senscal.jobs._units import check_session_time
+    from senscal.jobs._units import check_magnitude, check_session_time
 
     check_session_time(rec, source_name(source), "IMU calibration")
+    check_magnitude(rec, list(ac) + list(gc) + ([tch] if tch else []), source_name(source))
     units_a = {rec.units.get(c, "") for c in ac}
     units_g = {rec.units.get(c, "") for c in gc}
     if len(units_a) > 1 or len(units_g) > 1:

@@ -246,13 +246,14 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
     rows = []
     units = set()
     warnings: list[str] = []
-    from senscal.jobs._units import CommonUnit, check_session_time
+    from senscal.jobs._units import CommonUnit, check_magnitude, check_session_time
     from senscal.units import factor as unit_factor, same_unit
 
     common = CommonUnit(o.output, "--output")  # one file in mV, another in V: all in the first's unit
     for src in sources:
         rec = o.read(src, channels=[qi, qq, o.output], job="primary")
         check_session_time(rec, source_name(src), "primary vibration")
+        check_magnitude(rec, [qi, qq, o.output], source_name(src))
         fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
         name = source_name(src)
         out = common.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)
@@ -304,13 +305,14 @@ def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
     rows = []
     units = set()
     warnings: list[str] = []
-    from senscal.jobs._units import CommonUnit, check_session_time
+    from senscal.jobs._units import CommonUnit, check_magnitude, check_session_time
 
     common = CommonUnit(o.output, "--output")  # one file in mV, another in V: all in the first's unit
     for src in sources:
         chans = [het, o.output] + ([ref] if ref else [])
         rec = o.read(src, channels=chans, job="primary")
         check_session_time(rec, source_name(src), "primary vibration")
+        check_magnitude(rec, chans, source_name(src))
         fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
         name = source_name(src)
         out = common.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)

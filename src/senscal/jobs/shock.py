@@ -222,7 +222,7 @@ def shock(source, options: ShockOptions = ShockOptions()) -> ShockResult:
     method = ("ISO 16063-22 comparison with a reference accelerometer (peak ratio, transfer function)"
               if o.reference else "ISO 16063-13 primary by laser (differentiated, peak ratio, transfer function)")
     from senscal.diagnostics import named
-    from senscal.jobs._units import CommonUnit, check_session_time
+    from senscal.jobs._units import CommonUnit, check_magnitude, check_session_time
 
     # One file in mV, another in V: every file in the first's unit (a bare --reference-sensitivity too).
     common_out = CommonUnit(o.output, "--output")
@@ -230,6 +230,7 @@ def shock(source, options: ShockOptions = ShockOptions()) -> ShockResult:
     for src in sources:
         rec = o.read(src, channels=[o.output, other], job="shock")
         check_session_time(rec, source_name(src), "shock")
+        check_magnitude(rec, [o.output, other], source_name(src))
         fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
         name = source_name(src)
         ref = np.asarray(rec.channels[other], float)
