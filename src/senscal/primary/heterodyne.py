@@ -8,8 +8,8 @@ itself on a reference channel.  :func:`demodulate_heterodyne` mixes it down digi
 
 so that ``z = A exp(j (phi + theta))``; with a reference, ``z conj(z_ref) / |z_ref|`` cancels the carrier's
 phase, offset and drift; without one, the carrier's offset and linear drift (a linear and a quadratic phase)
-are fitted jointly with the vibration and removed.  ``Re z, Im z`` are then an ideal quadrature pair, and
-:func:`calibrate_heterodyne` runs the homodyne path (:func:`senscal.primary.calibrate_point`: ellipse, unwrap,
+are fitted jointly with the vibration and removed.  ``Re z, Im z`` are then an ideal quadrature pair (normalised to unit modulus, a limiter:
+amplitude modulation does not reach the phase), and :func:`calibrate_heterodyne` runs the homodyne path (:func:`senscal.primary.calibrate_point`: ellipse, unwrap,
 sine approximation, slices, fringe counting) on them.
 
 The low-pass filter (Kaiser window, odd length, linear phase: its delay is removed exactly) is where the
@@ -406,6 +406,13 @@ def calibrate_heterodyne(sig, output, fs: float, *, carrier_hz: float | None = N
         raise DataError("NaN or inf in the output samples: cut them out with --start/--stop")
     i_sig, q_sig, start, dem, warns, h = _demodulate(sig, fs, carrier_hz, reference, freq, harmonics, sign, RIPPLE)
     o, _ = _fir_decimate(out, h, dem.decimation)
+    # a limiter: the digital pair has no offsets, gain ratio or quadrature error, so the ellipse fit must see the
+    # unit circle; the carrier's amplitude (modulation, radial noise) would otherwise enter the Heydemann fit as
+    # a spurious ellipse (10 % AM: the 5 kHz sensitivity covered 81 % over 200 seeds, with u twice too large)
+    r = np.hypot(i_sig, q_sig)
+    if not np.all(r > 0):
+        raise DataError("the demodulated carrier vanishes in places (no signal): check the heterodyne channel")
+    i_sig, q_sig = i_sig / r, q_sig / r
     try:
         p = calibrate_point(i_sig, q_sig, o, dem.fs_out, freq=freq, harmonics=harmonics, **kwargs)
     except DataError as exc:

@@ -84,7 +84,7 @@ def _scenario(case: str):
     run.__name__ = "run_" + case.replace("-", "_")
     run.__doc__ = f"{case}: {_CASES[case][3]}; must cover."
     run.full_seeds = 200  # type: ignore[attr-defined]
-    run.ci_seeds = 3  # type: ignore[attr-defined]
+    run.ci_seeds = 5  # type: ignore[attr-defined]
     return run
 
 
