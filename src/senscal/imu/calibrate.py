@@ -320,6 +320,19 @@ def _pose_stats(t, gyro, temp, starts, stops):
     return tm, tk, mk, nk, noise
 
 
+def _lag_one(gyro, starts, stops) -> np.ndarray:
+    """Pooled lag-one correlation per axis of the still samples about their pose means, shape (3,)."""
+    num = np.zeros(3)
+    den = np.zeros(3)
+    for a, b in zip(starts, stops):
+        x = gyro[:, a:b] - gyro[:, a:b].mean(axis=1, keepdims=True)
+        num += np.einsum("ij,ij->i", x[:, 1:], x[:, :-1])
+        den += np.einsum("ij,ij->i", x, x)
+    # Demeaning a pose of n samples biases the estimate by about -1/n: add it back (pooled).
+    n = float(np.sum(np.asarray(stops) - np.asarray(starts)))
+    return num / np.maximum(den, 1e-300) + len(starts) / n
+
+
 def _saturated_axes(gyro: np.ndarray, idx: np.ndarray) -> list[str]:
     """Axes whose readings sit at the record's extreme for >= 3 samples in a row during the rotations."""
     out = []
@@ -590,15 +603,40 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     ma0, ba0, _ = unpack("full", theta0, gravity)
     f_pose = np.linalg.solve(ma0, means_c(tc0) - ba0[:, None])
 
-    def design(d, gs):
-        return BiasDesign(t_ref=t_ref, temp_ref=temp_ref, degree=d, g_sensitivity=gs)
+    # Coloured gyro noise: the pose means and the integrated rotations then scatter by the long-run variance,
+    # (1 + r) / (1 - r) times the per-sample one for AR(1) noise of lag-one correlation r.  The pooled lag-one
+    # correlation of the still samples about their pose means is N(0, 1/N) for white noise: beyond its 99.9 %
+    # point the u carry the long-run variance and the departure is named.
+    r1 = _lag_one(gyro, st.starts, st.stops)
+    n_still = float(nk.sum())
+    colour = np.abs(r1) > stats.norm.ppf(0.9995) / math.sqrt(n_still)
+    lr = np.where(colour, (1 + np.clip(r1, -0.99, 0.99)) / (1 - np.clip(r1, -0.99, 0.99)), 1.0)
+    gnoise_lr = gnoise * np.sqrt(lr)
+    if np.any(colour):
+        ax = ", ".join(f"{'xyz'[i]} {r1[i]:.2f}" for i in np.flatnonzero(colour))
+        warnings.append(named("gyro-noise-coloured", f"the gyro's still samples are correlated sample to sample "
+                              f"(lag-one correlation {ax}; white noise stays within "
+                              f"{stats.norm.ppf(0.9995) / math.sqrt(n_still):.3f}): the u use the long-run "
+                              "variance (AR(1)) instead of the per-sample one; check the gyro's filter settings"))
 
-    deg_g, scores_g = 0, []
+    def design(d, gs, slope=False):
+        return BiasDesign(t_ref=t_ref, temp_ref=temp_ref, degree=d, g_sensitivity=gs, time_slope=slope)
+
+    deg_g, scores_g, slope_g = 0, [], False
     if temp is not None:
-        deg_g, scores_g = press_degree(lambda d: design(d, g_sensitivity).matrix(tm, tk, f_pose), mk, nk, gnoise)
-    bd = design(deg_g, g_sensitivity)
+        # The degree, and whether the bias also drifts in time besides following the temperature, both on
+        # held-out poses (PRESS).
+        best = None
+        for sl in (False, True):
+            d_, sc_ = press_degree(lambda d, sl=sl: design(d, g_sensitivity, sl).matrix(tm, tk, f_pose), mk, nk,
+                                   gnoise_lr)
+            v_ = sc_[d_] if math.isfinite(sc_[d_]) else math.inf
+            if best is None or v_ < best[0]:
+                best = (v_, d_, sc_, sl)
+        _, deg_g, scores_g, slope_g = best
+    bd = design(deg_g, g_sensitivity, slope_g)
     xk = bd.matrix(tm, tk, f_pose)
-    coef, cov_ax, chi2_b, dof_b = fit_bias(xk, mk, nk, gnoise)
+    coef, cov_ax, chi2_b, dof_b = fit_bias(xk, mk, nk, gnoise_lr)
     p_b = bd.n_cols
     u_coef = np.sqrt(np.clip(np.array([np.diag(c_) for c_ in cov_ax]).T, 0, None))  # (p, 3)
     if temp is None:
@@ -611,8 +649,8 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     if not g_sensitivity:
         # Does the bias depend on the orientation? F-test of three specific-force columns (robust to a noise
         # level the within-pose scatter misstates).
-        x1 = design(deg_g, True).matrix(tm, tk, f_pose)
-        _, _, chi2_1, dof_1 = fit_bias(x1, mk, nk, gnoise)
+        x1 = design(deg_g, True, slope_g).matrix(tm, tk, f_pose)
+        _, _, chi2_1, dof_1 = fit_bias(x1, mk, nk, gnoise_lr)
         if dof_1 > 0:
             fstat = (chi2_b - chi2_1) / 3.0 / (chi2_1 / dof_1)
             hit = np.flatnonzero(fstat > stats.f.ppf(0.999, 3, dof_1))
@@ -660,7 +698,7 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     a = prob.directions(nu[:9])
     rot = prob.rotations(mg1, coef)
     minv = np.linalg.inv(mg1)
-    var_w = float(np.mean(np.diag(minv @ np.diag(gnoise ** 2) @ minv.T)))
+    var_w = float(np.mean(np.diag(minv @ np.diag(gnoise_lr ** 2) @ minv.T)))
     dtm = prob.duration / np.maximum(prob.n_steps, 1)
     var_th = var_w * dtm ** 2 * (prob.n_steps + 1)
     ma, ba = ma0, ba0
@@ -798,8 +836,8 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     tsl = slice(1, 1 + deg_g)
     gyro_cal = GyroCalibration(matrix=mg, covariance=cov_m, scale=der[:3], u_scale=u_d[:3], angles=der[3:],
                                u_angles=u_d[3:], bias=coef[0].copy(), u_bias=u_coef[0].copy(),
-                               bias_rate=None if temp is not None else coef[1].copy(),
-                               u_bias_rate=None if temp is not None else u_coef[1].copy(), t_ref=t_ref,
+                               bias_rate=None if bd.slope_col is None else coef[bd.slope_col].copy(),
+                               u_bias_rate=None if bd.slope_col is None else u_coef[bd.slope_col].copy(), t_ref=t_ref,
                                g_sensitivity=gs, u_g_sensitivity=u_gs)
     temperature = None
     if temp is not None:

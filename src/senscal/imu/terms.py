@@ -51,16 +51,32 @@ class BiasDesign:
         Temperature polynomial degree (0: none; with no temperature channel the time slope is column 1).
     g_sensitivity : bool
         Three columns for the specific force.
+    time_slope : bool
+        With a temperature channel: a time slope too, after the temperature columns (a bias that drifts in time
+        besides following the temperature; chosen on held-out poses like the degree).
     """
 
     t_ref: float
     temp_ref: float | None
     degree: int
     g_sensitivity: bool
+    time_slope: bool = False
+
+    @property
+    def has_slope(self) -> bool:
+        return self.temp_ref is None or self.time_slope
+
+    @property
+    def slope_col(self) -> int | None:
+        """Index of the time-slope column (None without one)."""
+        if self.temp_ref is None:
+            return 1
+        return 1 + self.degree if self.time_slope else None
 
     @property
     def n_cols(self) -> int:
-        return 1 + (self.degree if self.temp_ref is not None else 1) + (3 if self.g_sensitivity else 0)
+        return (1 + (self.degree if self.temp_ref is not None else 1) + (1 if self.temp_ref is not None and
+                self.time_slope else 0) + (3 if self.g_sensitivity else 0))
 
     def matrix(self, t: np.ndarray, temp: np.ndarray | None, f: np.ndarray | None) -> np.ndarray:
         """Design matrix, shape (n, n_cols), at times ``t`` (s), temperatures ``temp`` and forces ``f`` (3, n)."""
@@ -71,6 +87,8 @@ class BiasDesign:
         else:
             dt = np.asarray(temp, float) - self.temp_ref
             cols.extend(dt ** j for j in range(1, self.degree + 1))
+            if self.time_slope:
+                cols.append(t - self.t_ref)
         if self.g_sensitivity:
             cols.extend(np.asarray(f, float))
         return np.column_stack(cols)

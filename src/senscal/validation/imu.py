@@ -7,8 +7,8 @@ accelerometer gains, angles and offsets, gyro scales (signed row norms of ``M_g`
 misalignment angles and the gyro bias at the reported time.
 
 Scenarios: ``white``; ``bias-drift`` (gyro bias drifting 2e-5 rad/s per s on each axis: modelled, must
-cover); ``coloured-gyro`` (AR(1) 0.95 gyro noise: the rotations' residuals exceed the white-noise model,
-``gyro-residuals-inconsistent`` must fire); ``axis-unexcited`` (no rotation about Z: ``gyro-axis-unexcited``
+cover); ``coloured-gyro`` (AR(1) 0.95 gyro noise: the still samples' lag-one correlation names it,
+``gyro-noise-coloured`` must fire; the u then use the long-run variance); ``axis-unexcited`` (no rotation about Z: ``gyro-axis-unexcited``
 must fire); ``temperature`` (a 15 -> 45 degC warm-up with accelerometer bias and scale and gyro bias
 temperature coefficients, calibrated with the temperature channel: every number and the linear temperature
 coefficients must cover, at the reference temperature the job states); ``temperature-small-swing`` (25 -> 27
@@ -202,9 +202,9 @@ def run_bias_drift(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 
 
 def run_coloured(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
-    """AR(1) 0.95 gyro noise: ``gyro-residuals-inconsistent`` must fire."""
+    """AR(1) 0.95 gyro noise: ``gyro-noise-coloured`` must fire."""
     return _run("coloured-gyro", {"gyro_ar1": 0.95}, n_seeds, seed0, "AR(1) 0.95 gyro noise",
-                warn="gyro-residuals-inconsistent")
+                warn="gyro-noise-coloured")
 
 
 def run_unexcited(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
