@@ -98,3 +98,19 @@ def test_primary_wavelength_with_a_unit_is_converted(cli, pri):
     assert json.loads(r.out)["wavelength_nm"] == pytest.approx(632.8, rel=1e-12)
     _one_line(cli("primary", pri / "ok.csv", "--wavelength-nm", "6.328e-7"), "metres")
     _one_line(cli("primary", pri / "ok.csv", "--wavelength-nm", "632.8 V"), "--wavelength-nm")
+
+
+@pytest.mark.parametrize("option, value", [
+    ("--u-gain-rel", "-0.1"), ("--u-gain-rel", "nan"), ("--u-wavelength-rel", "inf"), ("--u-other-rel", "1e308"),
+    ("--u-other-rel", "abc"), ("--u-gain-phase-deg", "-1"), ("--u-other-phase-deg", "nan"),
+])
+def test_primary_type_b_inputs_refused(cli, pri, option, value):
+    """A negative, NaN, infinite or huge standard u (it entered the budget as given, or overflowed it)."""
+    _one_line(cli("primary", pri / "ok.csv", f"{option}={value}"), option)
+
+
+def test_primary_type_b_in_percent(cli, pri):
+    docs = [json.loads(cli("primary", pri / "ok.csv", "--u-gain-rel", v, "--json").out)["points"][0]
+            for v in ("0.1%", "0.001")]
+    assert docs[0]["budget"]["output_gain"]["u_rel"] == pytest.approx(1e-3, rel=1e-12)
+    assert docs[0]["u_sensitivity"] == pytest.approx(docs[1]["u_sensitivity"], rel=1e-12)

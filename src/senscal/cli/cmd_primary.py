@@ -27,11 +27,17 @@ def _primary_options(*, quadrature: str = "I,Q", output: str = "out", wavelength
                      heterodyne: str | None = None, carrier_hz: float | None = None,
                      carrier_channel: str | None = None, carrier_sign: int = 1, **_):
     """``PrimaryOptions`` from the command's keyword parameters (output-only ones ignored)."""
+    from senscal.cli.common import parse_relative
     from senscal.jobs.primary import PrimaryOptions
 
+    def rel(v, what):  # '0.2%' or a fraction, as --u-other of 'senscal shock'; numbers from batch as they are
+        return float(v) if isinstance(v, (int, float)) else parse_relative(str(v), what)
+
     return PrimaryOptions(quadrature=quadrature, output=output, wavelength_nm=wavelength_nm, freq=freq,
-                          harmonics=harmonics, drift=drift, slices=slices, u_wavelength_rel=u_wavelength_rel,
-                          u_gain_rel=u_gain_rel, u_gain_phase_deg=u_gain_phase_deg, u_other_rel=u_other_rel,
+                          harmonics=harmonics, drift=drift, slices=slices,
+                          u_wavelength_rel=rel(u_wavelength_rel, "--u-wavelength-rel"),
+                          u_gain_rel=rel(u_gain_rel, "--u-gain-rel"), u_gain_phase_deg=u_gain_phase_deg,
+                          u_other_rel=rel(u_other_rel, "--u-other-rel"),
                           u_other_phase_deg=u_other_phase_deg, sign_check=sign_check, heterodyne=heterodyne,
                           carrier_hz=carrier_hz, carrier_channel=carrier_channel, carrier_sign=carrier_sign)
 
@@ -52,10 +58,10 @@ def primary_cmd(
     harmonics: Annotated[int, typer.Option("--harmonics", help="Harmonics fitted with the fundamental (exciter distortion).")] = 3,
     drift: Annotated[bool, typer.Option("--drift/--no-drift", help="Fit a linear drift of the offsets.")] = True,
     slices: Annotated[int, typer.Option("--slices", help="Per-period (sliced) fits for the type A term of what the model lacks.")] = 10,
-    u_wavelength_rel: Annotated[float, typer.Option("--u-wavelength-rel", help="Type B: relative standard u of the wavelength.")] = 0.0,
-    u_gain_rel: Annotated[float, typer.Option("--u-gain-rel", help="Type B: relative standard u of the output voltage measurement.")] = 0.0,
+    u_wavelength_rel: Annotated[str, typer.Option("--u-wavelength-rel", help="Type B: relative standard u of the wavelength (a fraction or e.g. 0.001%).")] = "0",
+    u_gain_rel: Annotated[str, typer.Option("--u-gain-rel", help="Type B: relative standard u of the output voltage measurement (a fraction or e.g. 0.1%).")] = "0",
     u_gain_phase_deg: Annotated[float, typer.Option("--u-gain-phase-deg", help="Type B: standard u of the output channel's phase, deg.")] = 0.0,
-    u_other_rel: Annotated[float, typer.Option("--u-other-rel", help="Type B: other relative standard u (transverse motion, base strain ...).")] = 0.0,
+    u_other_rel: Annotated[str, typer.Option("--u-other-rel", help="Type B: other relative standard u (transverse motion, base strain ...; a fraction or e.g. 0.2%).")] = "0",
     u_other_phase_deg: Annotated[float, typer.Option("--u-other-phase-deg", help="Type B: other phase standard u, deg.")] = 0.0,
     sign_check: Annotated[bool, typer.Option("--sign-check/--no-sign-check", help="Refuse an output near 180 deg from the acceleration (I/Q swapped); off for an inverting amplifier.")] = True,
     heterodyne: Annotated[Optional[str], typer.Option("--heterodyne", help="Channel of a heterodyne interferometer's carrier (ISO 16063-41 style), instead of --quadrature.")] = None,
@@ -79,7 +85,8 @@ def primary_cmd(
     params = command_params(locals(), opts)
     params.pop("files")
     with progress_bar("calibrating", None):
-        res = primary(list(files), _primary_options(**params))
+        popts = _primary_options(**params)  # the type B inputs parsed ('0.1%' -> 0.001)
+        res = primary(list(files), popts)
     doc = res.to_dict()
     # certificates and the registry as for `senscal response`: the points as a frequency response
     method = ("Primary calibration by laser interferometry (ISO 16063-11 method 3): homodyne quadrature "
@@ -91,8 +98,8 @@ def primary_cmd(
         "frequency points": len(res.points), "laser wavelength": f"{res.wavelength_nm:g} nm",
         ("heterodyne, carrier channels" if heterodyne else "quadrature channels"): ",".join(res.quadrature),
         "output channel": res.output,
-        "type B inputs (relative u)": (f"wavelength {u_wavelength_rel:g}, output gain {u_gain_rel:g}, "
-                                       f"other {u_other_rel:g}")}
+        "type B inputs (relative u)": (f"wavelength {popts.u_wavelength_rel:g}, output gain {popts.u_gain_rel:g}, "
+                                       f"other {popts.u_other_rel:g}")}
     cert_warns = certify("response", resp, report=report, dcc=dcc, unit=resp.unit if resp else "", method=method,
                          conditions=cond, files=[str(f) for f in files], warnings=res.warnings,
                          **cert_fields(params))

@@ -233,6 +233,13 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
 
     o = options
     check_wavelength(o.wavelength_nm)
+    for opt, v in (("--u-wavelength-rel", o.u_wavelength_rel), ("--u-gain-rel", o.u_gain_rel),
+                   ("--u-other-rel", o.u_other_rel), ("--u-gain-phase-deg", o.u_gain_phase_deg),
+                   ("--u-other-phase-deg", o.u_other_phase_deg)):
+        # a standard uncertainty: a negative one entered the budget as given, NaN printed as null, 1e308 overflowed
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and 0 <= v < 1e6):
+            raise InputError(f"{opt} is a standard uncertainty: a finite number, 0 or more (relative ones a "
+                             f"fraction or a percentage like 0.2%), got {v!r}")
     if o.heterodyne:
         return _primary_heterodyne(source, o)
     qi, qq = _pair(o.quadrature)
