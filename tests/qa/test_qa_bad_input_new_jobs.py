@@ -114,3 +114,13 @@ def test_primary_type_b_in_percent(cli, pri):
             for v in ("0.1%", "0.001")]
     assert docs[0]["budget"]["output_gain"]["u_rel"] == pytest.approx(1e-3, rel=1e-12)
     assert docs[0]["u_sensitivity"] == pytest.approx(docs[1]["u_sensitivity"], rel=1e-12)
+
+
+@pytest.mark.parametrize("option", ["--static-window", "--init-static", "--min-pose"])
+@pytest.mark.parametrize("value", ["nan", "inf"])
+def test_imu_time_options_not_finite(cli, tmp_path, option, value):
+    """NaN passed the engine's range checks and reached int(): an internal error before."""
+    t = np.arange(200) / 50.0
+    p = write_recording(Recording(channels={c: np.zeros_like(t) for c in ("ax", "ay", "az", "gx", "gy", "gz")}, t=t),
+                        tmp_path / "z.csv")
+    _one_line(cli("imu", "calibrate", p, f"{option}={value}"), option, "finite")

@@ -299,6 +299,10 @@ def imu_calibrate(source, options: ImuOptions = ImuOptions()) -> ImuCalibrateRes
     gc = _three(o.gyro_channels, "--gyro-channels")
     if set(ac) & set(gc):
         raise InputError("--accel-channels and --gyro-channels must name six different channels")
+    for opt, v in (("--static-window", o.static_window), ("--min-pose", o.min_pose), ("--init-static", o.init_static)):
+        # NaN passes every '<' check and reached int(): an internal error
+        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v)):
+            raise InputError(f"{opt} must be a finite number of seconds, got {v!r}")
     tch = o.temperature_channel or None
     if tch is not None and tch in set(ac) | set(gc):
         raise InputError(f"--temperature-channel {tch} is one of the accelerometer or gyroscope channels; give the "
