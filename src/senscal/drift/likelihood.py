@@ -129,15 +129,21 @@ class LevelLikelihood:
             # with the very expressions augmented_arrays evaluates (same numbers).
             F, H, x0, Q0, R0, P00, units = self._parts
             nl = [k for k in self.names if self.kind[k] == "NL"]
-            for k, v, old in zip(nl, key, self._parts_key):
-                if v != old:
-                    at = self._nl_at[k]
-                    if at[0] == "tau":
-                        Fa, Qa = _scalar_dynamics("gauss_markov", self.dt, 1.0, v)
-                        F[:, at[1], at[1]] = Fa[:, 0, 0]
-                        units[at[2]][0][:, at[1], at[1]] = Qa[:, 0, 0]
-                    else:
-                        H[:, at[1], at[2]] = self._lagged(at[3], v)
+            old_key, self._parts_key = self._parts_key, None
+            try:
+                for k, v, old in zip(nl, key, old_key):
+                    if v != old:
+                        at = self._nl_at[k]
+                        if at[0] == "tau":
+                            Fa, Qa = _scalar_dynamics("gauss_markov", self.dt, 1.0, v)
+                            F[:, at[1], at[1]] = Fa[:, 0, 0]
+                            units[at[2]][0][:, at[1], at[1]] = Qa[:, 0, 0]
+                        else:
+                            H[:, at[1], at[2]] = self._lagged(at[3], v)
+            except BaseException:
+                # Half rewritten: build anew next time.
+                self._parts = None
+                raise
             self._parts_key = key
             return self._parts
         lin = [k for k in self.names if self.kind[k] != "NL"]
