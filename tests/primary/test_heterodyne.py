@@ -141,3 +141,16 @@ def test_cli_heterodyne_bad_input_one_line_exit_2(cli, het_dir, args, words):
     r = cli("primary", het_dir / "h160.npz", *args)
     assert r.code == 2, r.err
     assert len(r.err.strip().splitlines()) == 1 and words in r.err
+
+
+@pytest.mark.parametrize("mutate, words", [
+    (lambda h: h[:3000], "demodulated samples"),
+    (lambda h: h[:500], "at least 1000"),
+    (lambda h: 0.0 * h, "constant"),
+    (lambda h: 1e300 * h, "overflow"),
+])
+def test_unusable_carrier_is_refused(mutate, words):
+    rec, tr, c = _het(160.0, duration=0.05, seed=11)
+    h = mutate(c["H"])
+    with pytest.raises(DataError, match=words):
+        calibrate_heterodyne(h, c["out"][:h.size], FS, carrier_hz=FS / 4, freq=160.0)

@@ -256,6 +256,15 @@ def _demodulate(sig, fs, carrier_hz, reference, freq, harmonics, sign, ripple):
     ref = None if reference is None else np.asarray(reference, float)
     if ref is not None and (ref.shape != x.shape or not np.all(np.isfinite(ref))):
         raise DataError("the carrier reference channel must be finite and as long as the heterodyne channel")
+    if x.size < 1000:
+        raise DataError(f"the heterodyne record holds {x.size} samples: the demodulation needs at least 1000 (and "
+                        "several vibration periods); record longer")
+    sd = float(np.std(x))
+    if not sd > 0:
+        raise DataError("the heterodyne channel is constant: no carrier; give the interferometer's carrier channel "
+                        "with --heterodyne")
+    if not math.isfinite(sd) or sd > 1e150:
+        raise DataError("the heterodyne channel's values overflow the float range: rescale it")
     if carrier_hz is None and ref is None:
         raise InputError("a heterodyne input needs its carrier: give --carrier-hz F or --carrier-channel REF")
     if carrier_hz is not None and not (math.isfinite(carrier_hz) and carrier_hz > 0):
@@ -328,6 +337,9 @@ def _demodulate(sig, fs, carrier_hz, reference, freq, harmonics, sign, ripple):
     # exp(-j 2 pi f k / fs) with the phase reduced modulo one turn first (exact for long records)
     lo = np.exp(-2j * math.pi * ((f_mix / fs * k) % 1.0))
     z, start = _fir_decimate(2.0 * x * lo, h, d)
+    if z.size < 64:
+        raise DataError(f"the record ({x.size} samples) leaves {z.size} demodulated samples after the low-pass "
+                        f"({h.size} taps, decimation {d}): record longer (several vibration periods)")
     drift_hz = 0.0
     if ref is not None:
         zr, _ = _fir_decimate(2.0 * ref * lo, h, d)
@@ -404,6 +416,8 @@ def calibrate_heterodyne(sig, output, fs: float, *, carrier_hz: float | None = N
         raise InputError("the heterodyne and output channels must be one-dimensional and of equal length")
     if not np.all(np.isfinite(out)):
         raise DataError("NaN or inf in the output samples: cut them out with --start/--stop")
+    if not np.ptp(out) > 0:
+        raise DataError("the output channel is constant: name the accelerometer's channel with --output")
     i_sig, q_sig, start, dem, warns, h = _demodulate(sig, fs, carrier_hz, reference, freq, harmonics, sign, RIPPLE)
     o, _ = _fir_decimate(out, h, dem.decimation)
     # a limiter: the digital pair has no offsets, gain ratio or quadrature error, so the ellipse fit must see the
