@@ -46,6 +46,31 @@ def test_noise_free_sensitivity_and_phase_are_exact(freq):
     assert p.heydemann.gain_ratio == pytest.approx(1.03, rel=1e-8)
 
 
+def test_transverse_motion_moves_the_result_by_its_drawn_part_and_the_beam_does_not_see_it():
+    """The simulator's transverse option: the output gains S (c + i d) a; the estimate moves by c and d rad, which
+    no statistic of the record shows (so it can only enter u as the stated type B 'other' term)."""
+    rec, tr, c = _point(freq=160.0, laser_noise=0.0, output_noise_rel=0.0, transverse_rel=0.01, seed=4)
+    tc, td = tr["transverse_drawn"]
+    assert abs(tc) > 1e-4 and abs(td) > 1e-4  # drawn, N(0, 1 %)
+    p = calibrate_point(c["I"], c["Q"], c["out"], rec.fs, freq=160.0, u_other_rel=0.01,
+                        u_other_phase_deg=math.degrees(0.01))
+    s_rel = p.sensitivity / tr["sensitivity"] - 1.0
+    assert s_rel == pytest.approx(math.hypot(1 + tc, td) - 1.0, abs=1e-7)
+    assert p.phase_deg - tr["phase_deg"] == pytest.approx(math.degrees(math.atan2(td, 1 + tc)), abs=1e-5)
+    assert p.budget["other"]["u_rel"] == 0.01 and not any("unmodelled" in w for w in p.warnings)
+
+
+def test_intensity_drift_is_divided_out_before_the_ellipse_fit():
+    """A common change of the I and Q amplitudes scales the ellipse's radius, not the angle atan2 reads; the conic
+    fit, which assumes one radius, must see the pair with the change divided out."""
+    rec, tr, c = _point(freq=1000.0, laser_noise=0.0, output_noise_rel=0.0, intensity_drift=0.2, seed=5)
+    p = calibrate_point(c["I"], c["Q"], c["out"], rec.fs, freq=1000.0)
+    # the ellipse refitted on the intensity-normalised pair: 1.5e-5 without it, its u 6e-6 (issue 28)
+    assert p.sensitivity == pytest.approx(tr["sensitivity"], rel=1e-7)
+    assert p.phase_deg == pytest.approx(tr["phase_deg"], abs=1e-5)
+    assert p.residual["intensity_trend_rel"] == pytest.approx(0.2 / 1.0, rel=0.05)
+
+
 def test_heydemann_u_covers():
     """The ellipse parameters' u (conic covariance propagated) covers their truth: 95 % rule, Wilson interval."""
     n = mc_seeds(200, 60)

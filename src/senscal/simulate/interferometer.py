@@ -36,7 +36,9 @@ def simulate_interferometer(*, freq: float = 160.0, acceleration: float | None =
                             intensity_drift: float = 0.0, swap_iq: bool = False, heterodyne: bool = False,
                             carrier_hz: float = 250_000.0, carrier_offset_hz: float = 0.0,
                             carrier_drift_hz: float = 0.0, am_depth: float = 0.0, am_hz: float = 37.0,
-                            reference: bool = True, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
+                            reference: bool = True, transverse_rel: float = 0.0, displacement_noise_m: float = 0.0,
+                            displacement_noise_ar1: float = 0.0,
+                            seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
     """Simulate one frequency point of a primary calibration.
 
     Parameters
@@ -87,6 +89,17 @@ def simulate_interferometer(*, freq: float = 160.0, acceleration: float | None =
         Amplitude modulation of the carrier: ``A(t) = 1 + am_depth sin(2 pi am_hz t + random)``.
     reference : bool
         Write the reference carrier channel ``ref`` (heterodyne only).
+    transverse_rel : float
+        Transverse (parasitic) motion seen by the accelerometer's transverse sensitivity: the output gains
+        ``S (c + i d)`` times the acceleration, ``c, d ~ N(0, transverse_rel)`` drawn per record (the product
+        of the table's transverse-to-axial motion ratio and the sensor's relative transverse sensitivity,
+        at a random angle and phase). The beam sees the axial motion only, so no recording shows it: the
+        calibration's truth stays ``S``, and the effect belongs in the type B ``--u-other-rel`` /
+        ``--u-other-phase-deg`` (ISO 16063-11 Annex A).
+    displacement_noise_m, displacement_noise_ar1 : float
+        Coloured noise of the measured displacement along the beam (laser frequency noise, air turbulence,
+        the interferometer's own vibration): AR(1) with this lag-one coefficient and this standard
+        deviation, m, added to the interferometer's phase only.
     seed : int, optional
 
     Returns
@@ -113,7 +126,15 @@ def simulate_interferometer(*, freq: float = 160.0, acceleration: float | None =
             dk = r * acc / (k * w) ** 2
             s = s + dk * np.sin(k * w * t + phk)
             out = out - sensitivity * r * acc * np.sin(k * w * t + phk + k * dphi)
-    phi = 4 * math.pi * s / (wavelength_nm * 1e-9)
+    s_beam = s
+    if displacement_noise_m:
+        # drawn only when asked, so that every other option keeps its draws
+        from scipy.signal import lfilter
+
+        a1 = float(displacement_noise_ar1)
+        e = rng.standard_normal(n) * float(displacement_noise_m) * math.sqrt(1.0 - a1 * a1)
+        s_beam = s + lfilter([1.0], [1.0, -a1], e, zi=[a1 * float(displacement_noise_m) * rng.standard_normal()])[0]
+    phi = 4 * math.pi * s_beam / (wavelength_nm * 1e-9)
     amp = 1.0 * (1.0 + intensity_drift * (t / max(duration, 1e-12) - 0.5))
     i_sig = offsets[0] + amp * np.cos(phi) + laser_noise * rng.standard_normal(n)
     q_sig = (offsets[1] + gain_ratio * amp * np.sin(phi + math.radians(quadrature_deg))
@@ -124,6 +145,11 @@ def simulate_interferometer(*, freq: float = 160.0, acceleration: float | None =
         out = out + output_drift_rel * out_amp * (t / duration - 0.5)
     if hum_rel:
         out = out + hum_rel * out_amp * np.sin(2 * math.pi * hum_hz * t + rng.uniform(-math.pi, math.pi))
+    tr_c = tr_d = 0.0
+    if transverse_rel:
+        # the fundamental's output (-S a sin(w t + ph0 + dphi)) times (1 + c + i d): c in phase, d in quadrature
+        tr_c, tr_d = (float(v) for v in float(transverse_rel) * rng.standard_normal(2))
+        out = out - out_amp * (tr_c * np.sin(w * t + ph0 + dphi) + tr_d * np.cos(w * t + ph0 + dphi))
     if swap_iq:
         i_sig, q_sig = q_sig, i_sig
     channels = {"I": i_sig, "Q": q_sig, "out": out}
@@ -147,5 +173,7 @@ def simulate_interferometer(*, freq: float = 160.0, acceleration: float | None =
              "displacement_m": d1, "wavelength_nm": wavelength_nm, "offsets": list(offsets), "gain_ratio": gain_ratio,
              "quadrature_deg": quadrature_deg, "laser_noise": laser_noise, "output_noise_rel": output_noise_rel,
              "harmonic_distortion": hd, "output_drift_rel": output_drift_rel, "hum_rel": hum_rel, "hum_hz": hum_hz,
-             "intensity_drift": intensity_drift, "swap_iq": swap_iq, **het}
+             "intensity_drift": intensity_drift, "swap_iq": swap_iq, "transverse_rel": float(transverse_rel),
+             "transverse_drawn": [tr_c, tr_d], "displacement_noise_m": float(displacement_noise_m),
+             "displacement_noise_ar1": float(displacement_noise_ar1), **het}
     return rec, truth
