@@ -117,6 +117,10 @@ def het_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("heterodyne")
     rec, tr = simulate_interferometer(freq=160.0, fs=FS, duration=0.1, seed=10, heterodyne=True, carrier_hz=FS / 4)
     write_recording(rec, d / "h160.npz")
+    # 10 Hz at 0.5 m/s^2: a 25 kHz Doppler shift on a 40 kHz carrier
+    rec, tr = simulate_interferometer(freq=10.0, acceleration=0.5, fs=FS, duration=0.2, seed=12, heterodyne=True,
+                                      carrier_hz=40_000.0)
+    write_recording(rec, d / "h10_low_carrier.npz")
     return d
 
 
@@ -141,6 +145,15 @@ def test_cli_heterodyne_bad_input_one_line_exit_2(cli, het_dir, args, words):
     r = cli("primary", het_dir / "h160.npz", *args)
     assert r.code == 2, r.err
     assert len(r.err.strip().splitlines()) == 1 and words in r.err
+
+
+def test_cli_carrier_below_twice_the_doppler_shift(cli, het_dir, tmp_path):
+    r = cli("primary", het_dir / "h10_low_carrier.npz", "--heterodyne", "H", "--carrier-hz", "40000")
+    assert r.code == 2, r.err
+    assert len(r.err.strip().splitlines()) == 1 and "below twice the largest Doppler shift" in r.err
+    r = cli("simulate", "interferometer", "--out", tmp_path / "s", "--freqs", "160", "--fs", "100000",
+            "--heterodyne", "--carrier-hz", "60000")
+    assert r.code == 2 and len(r.err.strip().splitlines()) == 1 and "Nyquist" in r.err
 
 
 @pytest.mark.parametrize("mutate, words", [
