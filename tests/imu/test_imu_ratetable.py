@@ -238,3 +238,22 @@ def test_cli_report_and_dcc(tmp_path, capsys, table_session):
     schema = xmlschema.XMLSchema(str(d / "dcc.xsd"), locations={"https://ptb.de/si": str(si)}, allow="local")
     schema.validate((tmp_path / "c.xml").read_text())
     assert "MEMS IMU" in (tmp_path / "c.html").read_text()
+
+
+def test_cli_inconsistent_table_strict_exit_3(tmp_path, capsys, table_session):
+    """A table stating its rate 0.1 % high (20 u): rate-table-inconsistent on stderr, --strict exits 3."""
+    from dataclasses import replace
+
+    from senscal.io import write_recording
+    from senscal.io.ratetable import rate_table_text
+    from senscal.simulate.imu_table import rate_table_of
+
+    rec, tr = table_session
+    p = write_recording(rec, tmp_path / "imu.csv", units_in_header=True)
+    tab = rate_table_of(tr)
+    t = tmp_path / "wrong.csv"
+    t.write_text(rate_table_text(replace(tab, rate=tab.rate * (1 + 1e-3))))
+    res = _cli(capsys, "imu", "calibrate", p, "--rate-table", t, "--json", "--strict")
+    assert res.exit_code == 3 and "rate-table-inconsistent" in res.err and "Traceback" not in res.err
+    doc = json.loads(res.stdout)
+    assert doc["rate_table"]["consistency"]["inflation"] > 1
