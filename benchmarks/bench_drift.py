@@ -2,6 +2,7 @@
 
     python benchmarks/bench_drift.py [--days 70] [--dt 60] [--ml-only] [--samples 1e4,1e5,1e6]
                                      [--channels 1,10,100] [--budget 2e6]
+    python benchmarks/bench_drift.py --job FILE [--job-channels gx,gy,gz] [--runs 3]
 
 Simulates three drifting sensors (default 70 days at 1-min samples,
 ~1e5 samples), then times: reading the CSV (the floor any tool pays),
@@ -23,6 +24,15 @@ estimation per channel does not depend on how many there are; above
 ``--budget`` samples x channels the per-channel time is measured on a sample
 of the channels (the ``timed`` column).  CPU time (``time.process_time``),
 not wall time: the machine this runs on is shared.
+
+``--job FILE``: the issue-30 command, ``senscal drift FILE --preset known
+--channels ... --json``, run ``--runs`` times in a fresh interpreter each
+(imports included), printing its wall and CPU time and its *critical path
+on two workers*: the main thread's CPU time plus, for every fit, the
+makespan of its channels' search CPU times on two workers (blocks taken in
+order by the first free worker, as the job's thread pool does).  That is
+what two idle cores would take, whatever the load of the machine it runs
+on.
 """
 
 from __future__ import annotations
@@ -43,7 +53,13 @@ def main() -> None:
     ap.add_argument("--samples", default="1e4,1e5,1e6")
     ap.add_argument("--channels", default="1,10,100")
     ap.add_argument("--budget", type=float, default=2e6, help="samples x channels timed per row")
+    ap.add_argument("--job", help="time the drift job on this file instead (see the module doc)")
+    ap.add_argument("--job-channels", default="gx,gy,gz")
+    ap.add_argument("--runs", type=int, default=3)
     args = ap.parse_args()
+    if args.job:
+        job_table(args)
+        return
     if not args.ml_only:
         speed(args)
     ml_table(args)
@@ -186,6 +202,63 @@ def ml_table(args) -> None:
                 t_f = (time.process_time() - c0) / reps
                 print(f"{T:>9,} {C:>8} {k:>5} {'yes' if compare else 'no':>7} {len(models):>6} {t_ml:>12.4f} "
                       f"{t_f:>10.5f} {t_ml / t_f:>6.1f}x", flush=True)
+
+
+#: Run in a fresh interpreter: the drift job with every block's search timed on its own thread.
+_JOB_DRIVER = r"""
+import contextlib, io, runpy, sys, threading, time
+w0 = time.perf_counter()
+import senscal.drift.core as C
+import senscal.drift.estimate as E
+calls, lock = [], threading.Lock()
+est, fit = E.estimate_levels, C._fit_levels
+def timed_est(*a, **k):
+    t0 = time.thread_time()
+    try:
+        return est(*a, **k)
+    finally:
+        with lock:
+            calls[-1].append(time.thread_time() - t0)
+def timed_fit(*a, **k):
+    calls.append([])
+    return fit(*a, **k)
+C.estimate_levels, C._fit_levels = timed_est, timed_fit
+sys.argv = ["senscal", "drift", sys.argv[1], "--preset", "known", "--channels", sys.argv[2], "--json"]
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+    try:
+        runpy.run_module("senscal", run_name="__main__")
+    except SystemExit:
+        pass
+main_cpu = time.thread_time()
+def makespan(blocks, workers=2):
+    free = [0.0] * workers
+    for b in blocks:
+        free[free.index(min(free))] += b
+    return max(free)
+span = sum(makespan(c) for c in calls)
+print(f"{time.perf_counter() - w0:.1f} {time.process_time():.2f} {main_cpu:.2f} {span:.2f}")
+"""
+
+
+def job_table(args) -> None:
+    """The drift job on a file: wall, CPU and the critical path on two workers (see the module doc)."""
+    import os
+    import subprocess
+    import sys
+
+    print(f"senscal drift {args.job} --preset known --channels {args.job_channels} --json")
+    print(f"{'run':>3} {'load':>5} {'wall s':>7} {'CPU s':>6} {'main thread':>11} {'2-worker fits':>13} "
+          f"{'critical path':>13}")
+    env = dict(os.environ)
+    src = str(Path(__file__).resolve().parent.parent / "src")
+    env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    for i in range(args.runs):
+        load = os.getloadavg()[0]
+        out = subprocess.run([sys.executable, "-c", _JOB_DRIVER, args.job, args.job_channels], env=env,
+                             capture_output=True, text=True, check=True).stdout.split()
+        wall, cpu, main_cpu, span = map(float, out[-4:])
+        print(f"{i + 1:>3} {load:>5.1f} {wall:>7.1f} {cpu:>6.2f} {main_cpu:>11.2f} {span:>13.2f} "
+              f"{main_cpu + span:>13.2f}", flush=True)
 
 
 if __name__ == "__main__":
