@@ -124,3 +124,25 @@ def test_imu_time_options_not_finite(cli, tmp_path, option, value):
     p = write_recording(Recording(channels={c: np.zeros_like(t) for c in ("ax", "ay", "az", "gx", "gy", "gz")}, t=t),
                         tmp_path / "z.csv")
     _one_line(cli("imu", "calibrate", p, f"{option}={value}"), option, "finite")
+
+
+# --- the simulators -------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("args, option", [
+    (["imu", "--pose=nan"], "--pose"),  # NaN reached int(): an internal error
+    (["imu", "--rotation=nan"], "--rotation"),
+    (["imu", "--init=-5"], "--init"),  # a negative array size: an internal error
+    (["imu", "--accel-noise=-1"], "--accel-noise"),  # used as given
+    (["imu", "--gyro-ar1=1"], "--gyro-ar1"),
+    (["imu", "--poses=2000000"], "--poses"),  # 4.5e8 samples
+    (["interferometer", "--laser-noise=-1"], "--laser-noise"),
+    (["interferometer", "--sensitivity=nan"], "--sensitivity"),
+    (["interferometer", "--acceleration=1e308"], "alias"),  # NaN channels before
+    (["shock", "--laser-noise=nan"], "--laser-noise"),
+    (["shock", "--resonance-hz=-5"], "--resonance-hz"),
+    (["shock", "--resonance-q=0"], "--resonance-q"),
+    (["shock", "--reference-sensitivity=0"], "--reference-sensitivity"),
+])
+def test_simulator_options_refused(cli, tmp_path, args, option):
+    _one_line(cli("simulate", args[0], "--out", tmp_path / "sim", *args[1:]), option)
+    assert not (tmp_path / "sim").exists() or not any((tmp_path / "sim").iterdir())

@@ -244,6 +244,21 @@ def simulate_imu_cmd(
 
     if poses < 1 or not fs > 0:
         raise InputError("--poses must be at least 1 and --fs positive")
+    import math
+
+    from senscal.cli import MAX_SIMULATED_SAMPLES
+
+    # NaN passed the simulator's checks to int() (an internal error), a negative --init to an array size
+    for opt, v, zero_ok in (("--init", init_s, True), ("--pose", pose_s, False), ("--rotation", rotation_s, False),
+                            ("--accel-noise", accel_noise, True), ("--gyro-noise", gyro_noise, True)):
+        if not (math.isfinite(v) and (v >= 0 if zero_ok else v > 0)):
+            raise InputError(f"{opt} must be a finite number {'of 0 or more' if zero_ok else 'above 0'}, got {v!r}")
+    if not 0 <= gyro_ar1 < 1:
+        raise InputError(f"--gyro-ar1 must lie in [0, 1) (1 is a random walk, not a noise), got {gyro_ar1!r}")
+    n_samples = fs * (init_s + poses * (pose_s + rotation_s))
+    if n_samples > MAX_SIMULATED_SAMPLES:
+        raise InputError(f"--poses {poses} of {pose_s:g} + {rotation_s:g} s at --fs {fs:g} Hz is {n_samples:.3g} samples "
+                         f"per channel; the simulators write at most {MAX_SIMULATED_SAMPLES:.0e}: fewer or shorter poses")
     d = tuple(parse_floats(bias_drift, "--bias-drift")) if bias_drift is not None else (0.0, 0.0, 0.0)
     if len(d) != 3:
         raise InputError("--bias-drift needs three comma-separated numbers")

@@ -167,6 +167,24 @@ def simulate_interferometer_cmd(
         acc = acc * len(fl)
     if len(acc) != len(fl) or any(a is not None and not a > 0 for a in acc):
         raise InputError("--acceleration takes one positive amplitude for all frequencies or one per frequency")
+    import math
+
+    from senscal.simulate.interferometer import default_acceleration
+
+    # NaN went through to the channels (refused later as "bad samples" of the simulation), negative noise silently
+    for opt, v, nonneg in (("--sensitivity", sensitivity, False), ("--phase-deg", phase_deg, False),
+                           ("--laser-noise", laser_noise, True), ("--harmonic-distortion", harmonic_distortion, True),
+                           ("--output-drift", output_drift, False), ("--hum", hum, True), ("--am-depth", am_depth, True)):
+        if not math.isfinite(v) or (nonneg and v < 0):
+            raise InputError(f"{opt} must be a finite number{' of 0 or more' if nonneg else ''}, got {v!r}")
+    if sensitivity == 0:
+        raise InputError("--sensitivity must not be 0 (an accelerometer without output has nothing to calibrate)")
+    for f, a in zip(fl, acc):
+        # homodyne fringes alias when the phase 4 pi s / lambda steps by pi per sample: peak velocity < lambda fs / 4
+        v_peak = (default_acceleration(f) if a is None else a) / (2 * math.pi * f)
+        if not heterodyne and v_peak > 632.8e-9 * fs / 4:
+            raise InputError(f"--acceleration at {f:g} Hz moves {v_peak:.3g} m/s at its peak; the fringes alias above "
+                             f"{632.8e-9 * fs / 4:.3g} m/s at --fs {fs:g} Hz: lower the acceleration or raise --fs")
     recs, pts = [], []
     for i, f in enumerate(fl):
         rec, tr = simulate_interferometer(freq=f, acceleration=acc[i], fs=fs, duration=duration, sensitivity=sensitivity,

@@ -137,6 +137,20 @@ def simulate_shock_cmd(
         raise InputError("--mode is comparison or primary, --laser velocity or displacement")
     if not 0 <= noise_ar1 < 1 or noise < 0 or u_reference < 0:
         raise InputError("--noise-ar1 must lie in [0, 1), --noise and --u-reference must not be negative")
+    import math
+
+    # NaN passed the checks above into the channels; a negative laser noise or resonance was used as given
+    for opt, v, low in (("--noise", noise, 0.0), ("--u-reference", u_reference, 0.0), ("--zero-shift", zero_shift, None),
+                        ("--laser-noise", laser_noise, 0.0), ("--resonance-hz", resonance_hz, "pos"),
+                        ("--resonance-q", resonance_q, "pos"), ("--sensitivity", sensitivity, "nonzero"),
+                        ("--reference-sensitivity", reference_sensitivity, "nonzero")):
+        if v is None:
+            continue
+        bad = (not math.isfinite(v) or (low == 0.0 and v < 0) or (low == "pos" and not v > 0)
+               or (low == "nonzero" and v == 0))
+        if bad:
+            need = {0.0: " of 0 or more", "pos": " above 0", "nonzero": " other than 0"}.get(low, "")
+            raise InputError(f"{opt} must be a finite number{need}, got {v!r}")
     total = sum(max(100_000.0, 200.0 / (d * 1e-3)) if fs is None else fs for d in ds) * pulses * max(ds) * 1e-3 * 12
     if total > 5e7:
         raise InputError("the records would exceed 50 million samples: fewer pulses, shorter pulses or a lower --fs")
