@@ -215,3 +215,58 @@ def test_imu_apply_never_writes_over_its_input(cli, seeds, tmp_path):
 def test_found_by_the_long_run(cli, seeds, tmp_path, name, ops):
     """What SENSCAL_FUZZ=long found (internal errors before the job refused them): one clean line now."""
     assert _run(cli, seeds, tmp_path, name, ops) == "clean"
+
+
+# --- hostile option values (numbers and quantities) on the jobs and their simulators -----------------------------
+
+HOSTILE = ["nan", "-inf", "inf", "1e308", "-1e308", "1e-320", "0", "-0", "-1", "abc", "", "1,5", "1e999",
+           "5 V", "5 kHz", "5 ms", "5 %", "5 m/s^999999", "[/bold]"]
+
+OPTIONS = {
+    "imu calibrate": ["--gravity", "--static-window", "--min-pose", "--init-static"],
+    "primary": ["--wavelength-nm", "--freq", "--harmonics", "--slices", "--u-gain-rel", "--u-gain-phase-deg",
+                "--u-other-rel", "--u-wavelength-rel"],
+    "shock comparison": ["--reference-sensitivity", "--u-reference", "--lowpass-hz", "--lowpass-order",
+                         "--u-other"],
+}
+SIMULATORS = {
+    "imu": (["--poses", "3", "--fs", "20", "--init", "2", "--pose", "1", "--rotation", "0.5"],
+            ["--fs", "--init", "--pose", "--rotation", "--accel-noise", "--gyro-noise", "--gyro-ar1", "--bias-drift",
+             "--temperature", "--g-sensitivity"]),
+    "interferometer": (["--freqs", "160", "--fs", "20000", "--duration", "0.02"],
+                       ["--freqs", "--fs", "--duration", "--sensitivity", "--phase-deg", "--acceleration",
+                        "--laser-noise", "--harmonic-distortion", "--output-drift", "--hum"]),
+    "shock": (["--durations-ms", "1"],
+              ["--durations-ms", "--peak", "--fs", "--sensitivity", "--reference-sensitivity", "--u-reference",
+               "--noise", "--noise-ar1", "--laser-noise", "--resonance-hz", "--resonance-q", "--zero-shift"]),
+}
+
+
+@SETTINGS
+@given(data=st.data())
+def test_job_options_hostile(cli, seeds, tmp_path, data):
+    name = data.draw(st.sampled_from(sorted(OPTIONS)), label="job")
+    frame, argv = seeds[name]
+    f = tmp_path / "in.csv"
+    if not f.exists():
+        f.write_text(_apply(frame, []), encoding="utf-8")
+    extra = []
+    for opt in data.draw(st.lists(st.sampled_from(OPTIONS[name]), min_size=1, max_size=2, unique=True), label="opts"):
+        extra.append(f"{opt}={data.draw(st.sampled_from(HOSTILE), label=opt)}")
+    args = [a.replace("{f}", str(f)) for a in argv] + extra
+    kind, detail = run_case(cli, args, [f, seeds["_cal"]], CASE_TIMEOUT_S)
+    TALLY.add(f"new jobs options: {name}", kind, detail)
+    assert detail is None, detail
+
+
+@SETTINGS
+@given(data=st.data())
+def test_simulator_options_hostile(cli, tmp_path, data):
+    name = data.draw(st.sampled_from(sorted(SIMULATORS)), label="simulator")
+    base, opts = SIMULATORS[name]
+    extra = [f"{o}={data.draw(st.sampled_from(HOSTILE), label=o)}"
+             for o in data.draw(st.lists(st.sampled_from(opts), min_size=1, max_size=2, unique=True), label="opts")]
+    kind, detail = run_case(cli, ["simulate", name, "--out", str(tmp_path / "sim"), "--seed", "1", *base, *extra], [],
+                            CASE_TIMEOUT_S)
+    TALLY.add(f"simulate {name} options", kind, detail)
+    assert detail is None, detail

@@ -300,9 +300,13 @@ def imu_calibrate(source, options: ImuOptions = ImuOptions()) -> ImuCalibrateRes
     if set(ac) & set(gc):
         raise InputError("--accel-channels and --gyro-channels must name six different channels")
     for opt, v in (("--static-window", o.static_window), ("--min-pose", o.min_pose), ("--init-static", o.init_static)):
-        # NaN passes every '<' check and reached int(): an internal error
-        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v)):
-            raise InputError(f"{opt} must be a finite number of seconds, got {v!r}")
+        # NaN passes every '<' check and reached int(), as 1e308 s times the rate did: an internal error
+        from senscal.jobs._units import LONGEST_SESSION_S
+
+        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and 0 <= v <= LONGEST_SESSION_S
+                                  and (v > 0 or opt == "--min-pose")):
+            raise InputError(f"{opt} must be a finite number of seconds, {'0' if opt == '--min-pose' else 'above 0'} "
+                             f"to {LONGEST_SESSION_S:g} (no IMU session is longer), got {v!r}")
     tch = o.temperature_channel or None
     if tch is not None and tch in set(ac) | set(gc):
         raise InputError(f"--temperature-channel {tch} is one of the accelerometer or gyroscope channels; give the "
