@@ -2,7 +2,8 @@
 
 Single records with fixed seeds (the Monte-Carlo coverage is in
 test_coverage_drift.py): the likelihood quadrature over a bias level that
-coloured noise leaves undetermined, and the covariate-lag sensitivity warning.
+coloured noise leaves undetermined, the average over a covariate lag the record does not fix, and the
+warning when the lag's likelihood piles at the longest lag the record holds.
 """
 
 from __future__ import annotations
@@ -57,19 +58,40 @@ def _lag_record(seed: int = 1, lag: float = 20.0):
     return d, {"c": d["covariate"][0]}
 
 
-def test_a_lagging_covariate_is_named_and_a_given_lag_covers():
+def test_a_lagging_covariate_is_averaged_over_and_a_given_lag_covers():
     # Seed 1: the bias follows the covariate through a 20 s lag; lag-free, the coefficient is 2.5 u off.
     d, cov = _lag_record()
     s = covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0, covariate_reference=20.0)
+    plain = correct_drift(s, d["y"][0], d["t"], cov, smooth=True, compare=False)
+    v0, u0 = plain.final("x_c_coefficient")
+    assert abs(v0 - 0.2) > 2 * u0  # the case the average is for
+    # With the comparison on, the coefficient is averaged over the lags the record holds (the lag's
+    # likelihood as weight): its u carries the lag's share and covers the truth.
     r = correct_drift(s, d["y"][0], d["t"], cov, smooth=True)
-    assert has_warning(r.warnings, "covariate-lag-uncertain")
-    assert "x_c_coefficient" in next(w for w in r.warnings if w.startswith("covariate-lag-uncertain"))
-    # The lag given (a model file's lag: 20): nothing to name, and the coefficient covers.
+    v, u = r.final("x_c_coefficient")
+    assert u > 2 * u0 and abs(v - 0.2) <= 2 * u
+    assert np.all(r.bias_std[0] >= plain.bias_std[0] * (1 - 1e-9))
+    np.testing.assert_allclose(r.corrected[0], d["y"][0][0] - r.bias[0])
+    # The lag given (a model file's lag: 20): nothing to average or name, and the coefficient covers.
     g = dataclasses.replace(s, biases=tuple(dataclasses.replace(b, lag=20.0) for b in s.biases))
     r2 = correct_drift(g, d["y"][0], d["t"], cov, smooth=True)
     assert not has_warning(r2.warnings, "covariate-lag-uncertain")
     v, u = r2.final("x_c_coefficient")
     assert abs(v - 0.2) <= 2 * u
+
+
+def test_a_lag_beyond_the_record_is_named():
+    # Seed 3, lag 1000 s on a 600 s record: the likelihood rises to the longest lag tried (a third of the
+    # record) and rejects lag 0, so the average over the lags the record holds is not supported: named.
+    d, cov = _lag_record(seed=3, lag=1000.0)
+    s = covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0, covariate_reference=20.0)
+    r = correct_drift(s, d["y"][0], d["t"], cov, smooth=True)
+    w = next(w for w in r.warnings if w.startswith("covariate-lag-uncertain"))
+    assert "x_c_coefficient" in w and "longest lag" in w
+    # Lag-free, the same record names nothing.
+    d0, cov0 = _lag_record(seed=3, lag=0.0)
+    r0 = correct_drift(s, d0["y"][0], d0["t"], cov0, smooth=True)
+    assert not has_warning(r0.warnings, "covariate-lag-uncertain")
 
 
 def test_lag_check_needs_the_comparison():
@@ -95,13 +117,16 @@ def test_cli_covariate_lag_given_is_used_and_checked(cli, tmp_path):
             "--signal-tau", "200", "--covariate-reference", "20", "--json"]
     free = cli(*base)
     assert free.code == 0, free.err
-    assert "covariate-lag-uncertain" in json.dumps(json.loads(free.out)["warnings"])
+    # No lag given: the coefficient averaged over the lags the record holds covers, with a wider u.
+    t_free = json.loads(free.out)["channels"]["x"]["terms"]["x_c_coefficient"]
+    assert abs(t_free["value"] - 0.2) <= 2 * t_free["std"]
     given = cli(*base, "--covariate-lag", "0.333 min")
     assert given.code == 0, given.err
     doc = json.loads(given.out)
     assert "covariate-lag-uncertain" not in json.dumps(doc["warnings"])
     term = doc["channels"]["x"]["terms"]["x_c_coefficient"]
     assert abs(term["value"] - 0.2) <= 2 * term["std"]
+    assert term["std"] < t_free["std"]
     for extra, words in ((["--covariate-lag", "-3"], ">= 0"), (["--covariate-lag", "3 V"], "voltage")):
         r = cli(*base, *extra)
         assert r.code == 2 and words in r.err and len(r.err.strip().splitlines()) == 1, r.err

@@ -79,7 +79,7 @@ def drift_cmd(
     signal_tau: Annotated[Optional[str], typer.Option("--signal-tau", help="Time constant of a gauss_markov quantity in s.")] = None,
     signal_mean: Annotated[float, typer.Option("--signal-mean", help="Known mean of a gauss_markov quantity.")] = 0.0,
     covariate_reference: Annotated[Optional[float], typer.Option("--covariate-reference", help="Covariate value of zero bias (default: its mean, with a warning when that fixes the offset).")] = None,
-    covariate_lag: Annotated[Optional[str], typer.Option("--covariate-lag", help="Known first-order lag between the covariate and the bias, in s (0: none, e.g. a sensor reading its own temperature); without it a lag the record cannot exclude is checked for.")] = None,
+    covariate_lag: Annotated[Optional[str], typer.Option("--covariate-lag", help="Known first-order lag between the covariate and the bias, in s (0: none, e.g. a sensor reading its own temperature); without it the result is averaged over the lags the record holds (wider u).")] = None,
     bias_dynamics: Annotated[str, typer.Option("--bias-dynamics", help="random_walk | ramp (bias plus a wandering slope: a linear drift without lag).")] = "random_walk",
     true_value: Annotated[float, typer.Option("--true-value", help="Preset known: the true reading of every channel (0 for a gyro at rest).")] = 0.0,
     compare: Annotated[bool, typer.Option("--compare/--no-compare", help="Also fit the alternative signal/bias models and warn when one has a lower AIC.")] = True,

@@ -70,9 +70,10 @@ class DriftOptions(ReadOptions):
     covariate_lag : float, optional
         Known first-order lag [s] between the covariate and the bias it
         drives (0: the bias follows the recorded covariate at once, e.g. a
-        sensor that reads its own temperature).  None: not known; the job
-        then checks whether a lag the record does not exclude would move the
-        result beyond its u (``covariate-lag-uncertain``).
+        sensor that reads its own temperature).  None: not known; with the
+        comparison on, the job averages the result over the lags the record
+        holds (the lag's likelihood as weight), so the lag is in u, and
+        names ``covariate-lag-uncertain`` when the data reject lag 0.
     bias_dynamics : {"random_walk", "ramp"}
     true_value : float
         Preset ``known``: the true reading [unit].

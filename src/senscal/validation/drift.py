@@ -206,12 +206,18 @@ def _run_lag(lag: float):
         return _run(f"covariate lag {lag:g} s", n_seeds, seed0, sim,
                     lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0,
                                               covariate_reference=20.0),
-                    f"the bias follows the covariate through a first-order lag of {lag:g} s (model chosen by the job)",
-                    warn=("model-inadequate", "better-model", "covariate-lag-uncertain"), expect="named",
+                    f"the bias follows the covariate through a first-order lag of {lag:g} s (averaged over the "
+                    "lag by the job; warned = share named)",
+                    warn=("model-inadequate", "better-model", "covariate-lag-uncertain"), expect="cover",
                     compare=True, terms={"x_c_coefficient": 0.2})
     run.__doc__ = (f"Issue 26 item 5: the sensor's temperature lags the recorded probe by a first-order lag of "
-                   f"{lag:g} s; the job offers the lag as a model option chosen by AIC.  Before it the "
-                   "coefficient covered 15-62 % for lags of 3-60 s.")
+                   f"{lag:g} s.  Before the job offered the lag, the coefficient covered 15-62 % for lags of "
+                   "3-60 s; with the states averaged over the lag's likelihood (``_lag_average`` in "
+                   "senscal.drift.core) the lag is in u, so every row must cover (judged like the lag-free "
+                   "rows; ``warned`` is the share of records named).  Judged per seed (covered over >= 95 % "
+                   "of the record, or named) the band passed in 91 % of 100 seeds, the same share as on "
+                   "lag-free records with the model asked for true: a correct pointwise band does not cover "
+                   "95 % of every record.")
     return run
 
 
@@ -224,9 +230,12 @@ def run_lag0(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     The model asked for is the truth, so everything covers; ``warned`` is
     the share of records named ``covariate-lag-uncertain`` (or
     ``better-model`` / ``model-inadequate``), a false alarm that makes
-    ``--strict`` refuse a good record.  Issue 26 item 5, open: the lag
-    check names a lag in 59 % of these records and ``better-model`` fires
-    in 31 % (100 seeds), so the ``no warning`` row breaks the rule.
+    ``--strict`` refuse a good record.  Issue 26 item 5: the former lag
+    check (a lag inside its 95 % profile interval moving the result by
+    more than u) named a lag in 59 % of these records and ``better-model``
+    (AIC margin 0) fired in 31 % (100 seeds); with the lag averaged into u
+    and the name kept for lag 0 rejected at 95 %, and ``better-model`` at
+    an Akaike weight above 0.95, 1 % of 100 seeds were named.
     """
     rows = _run("covariate lag 0 s", n_seeds, seed0, _COVARIATE_SIM,
                 lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0,
