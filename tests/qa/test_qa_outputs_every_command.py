@@ -45,6 +45,8 @@ INVOCATIONS: dict[str, list[str]] = {
     "triaxial import": ["{ab}"],
     "primary": ["{ifm}"],
     "imu calibrate": ["{imu}"],
+    "shock": ["{shock}", "--reference", "ref", "--reference-sensitivity", "0.1 mV/(m/s^2)", "--u-reference",
+              "0.5%"],
     "imu apply": ["{imu}", "--params", "{imu_params}"],
 }
 NO_INPUTS = {"demo"}  # and every simulator: they write a folder from options alone
@@ -141,6 +143,8 @@ def corpus(tmp_path_factory):
     c["mag_params"] = str(d / "mag" / "params.json")
     _quiet("simulate", "interferometer", "--out", d / "ifm", "--seed", "1", "--freqs", "160", "--duration", "0.05")
     c["ifm"] = str(next((d / "ifm").glob("interferometer_*.csv")))
+    _quiet("simulate", "shock", "--out", d / "shk", "--seed", "1", "--durations-ms", "1", "--u-reference", "0.005")
+    c["shock"] = str(next((d / "shk").glob("shock_*.csv")))
     _quiet("simulate", "imu", "--out", d / "imu", "--seed", "1")
     c["imu"] = str(d / "imu" / "imu.csv")
     _quiet("imu", "calibrate", c["imu"], "--out", d / "imu" / "cal.json")
