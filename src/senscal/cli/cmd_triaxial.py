@@ -11,7 +11,8 @@ from typing_extensions import Annotated
 from senscal.cli._quantities import units
 from senscal.cli.app import app, simulate_app
 from senscal.cli.common import (
-    FsOpt, JsonOpt, NamesOpt, TimeColumnOpt, console, emit_warnings, err_console, print_json, progress_bar, table,
+    FsOpt, JsonOpt, NamesOpt, StrictOpt, TimeColumnOpt, console, emit_warnings, err_console, print_json, progress_bar,
+    table,
 )
 from senscal.cli.common import StartOpt, StopOpt
 from senscal.cli.option_groups import READ, REGISTRY, command_params, save_registered, with_options
@@ -150,6 +151,7 @@ def apply_cmd(
     names: NamesOpt = None,
     start: StartOpt = None,
     stop: StopOpt = None,
+    strict: StrictOpt = False,
     json_out: JsonOpt = False,
 ) -> None:
     """Correct three field channels with saved parameters; other channels are copied."""
@@ -159,7 +161,8 @@ def apply_cmd(
     result = triaxial_apply(file, _apply_options(**locals()))
     if Path(out).resolve() == Path(file).resolve():
         raise InputError("--out must differ from the input file; input files are never modified")
-    p = write_recording(result.recording, out)
+    # 'x [nT]': the corrected units travel with the data (read back, an unlabelled file would be a unit assumed)
+    p = write_recording(result.recording, out, units_in_header=True)
     summary = result.to_dict()
     summary["out"] = str(p)
     cal, norm = result.calibration, result.corrected_norm
@@ -169,6 +172,7 @@ def apply_cmd(
         console.print(f"wrote {p}: {norm.size} samples corrected with the {cal.model} model ({cal.method}); "
                       f"|H| = {summary['corrected_norm_mean']:.6g} +/- {summary['corrected_norm_std']:.3g} "
                       f"(field {cal.field:.6g})")
+    emit_warnings(result.warnings, strict)
 
 
 @triaxial_app.command("import")

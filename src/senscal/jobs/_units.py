@@ -13,7 +13,8 @@ from __future__ import annotations
 from senscal.errors import InputError
 
 __all__ = ["CommonUnit", "rate_factor", "check_triad_unit", "temperature_in", "celsius_if_other_degree",
-           "check_session_time", "LONGEST_SESSION_S", "check_magnitude", "MAX_ABS"]
+           "check_session_time", "LONGEST_SESSION_S", "check_magnitude", "check_time_magnitude", "MAX_ABS",
+           "one_side_unit"]
 
 
 class CommonUnit:
@@ -95,6 +96,37 @@ def check_triad_unit(unit: str, *, accel: bool, channels, source: str) -> None:
             f"name the {'accelerometer' if accel else 'gyroscope'}'s channels")
     raise InputError(f"{opt} {','.join(channels)} of {source} are in {unit} ({dim}), not {dimension_of(want)}, "
                      f"counts or volts: {hint}")
+
+
+def one_side_unit(channels, units, calibration_unit: str) -> str | None:
+    """What a saved calibration's ``apply`` assumes when a unit is stated on one side only, None when it assumes nothing.
+
+    Data without a unit are read as in the calibration's unit, and data with a unit against a calibration
+    without one are read as in its unknown unit: right only when the two happen to agree (uT data read as nT
+    is a factor of 1000).  The caller names the returned text in its ``<job>-units-assumed`` warning.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        The channels applied to.
+    units : mapping
+        Channel -> the data's unit ('' or missing when the header gives none).
+    calibration_unit : str
+        The unit the calibration was made in ('' when unknown).
+
+    Returns
+    -------
+    str or None
+        ``"x,y,z in uT read as the calibration's unknown unit"`` or ``"x,y,z without a unit read as the
+        calibration's nT"``.
+    """
+    cu = (calibration_unit or "").strip()
+    odd = [c for c in channels if bool((units.get(c) or "").strip()) != bool(cu)]
+    if not odd:
+        return None
+    du = (units.get(odd[0]) or "").strip()
+    return (f"{','.join(odd)} in {du} read as the calibration's unknown unit" if du else
+            f"{','.join(odd)} without a unit read as the calibration's {cu}")
 
 
 def rate_factor(unit: str) -> float | None:
@@ -190,3 +222,26 @@ def check_magnitude(rec, channels, source: str) -> None:
         if peak > MAX_ABS:
             raise InputError(f"{source}: channel '{c}' reaches {peak:.3g}, beyond the 1e150 the fits can square in "
                              "float64; check the channel and its unit, or rescale it")
+
+
+def check_time_magnitude(rec, source: str) -> None:
+    """Refuse a time column reaching beyond :data:`MAX_ABS` seconds (the fits square the time, as the readings).
+
+    For jobs without a longest session (a sine fit of any record): a column scaled by 1e300 made the sine fit's
+    solver fail inside (an internal error) instead of naming the column.
+
+    Raises
+    ------
+    InputError
+    """
+    import numpy as np
+
+    t = np.asarray(rec.time, float)
+    peak = float(np.max(np.abs(t))) if t.size else 0.0
+    if not np.isfinite(peak) or peak > MAX_ABS:
+        how = ("the time column" if getattr(rec, "t", None) is not None else
+               f"the time of --fs {rec.fs:g} Hz")
+        fix = ("write its unit in the header ('t [ms]', 't [us]') or give --time-unit, or rescale it"
+               if getattr(rec, "t", None) is not None else "give the sample rate in Hz")
+        raise InputError(f"{source}: {how} reaches {peak:.3g} s, beyond the 1e150 the fits can square in float64: "
+                         f"it is not in seconds; {fix}")

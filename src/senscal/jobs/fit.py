@@ -249,6 +249,9 @@ def fit(source: Any, options: FitOptions | None = None) -> FitResult:
     # NaN in one channel should not stop the others: checked per channel below.
     rec = options.read(source, channels=options.channels, allow_nan=True, job="fit")
     name = source_name(source)
+    from senscal.jobs._units import check_time_magnitude
+
+    check_time_magnitude(rec, name)  # a time column x 1e300 failed inside the solver, not in one line
     chans = list(rec.names)
     y = rec.data(chans)
     freq, harmonics, noise_model = options.freq, options.harmonics, options.noise_model

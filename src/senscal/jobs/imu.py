@@ -508,13 +508,10 @@ def imu_apply(source, options: ImuApplyOptions = ImuApplyOptions()) -> ImuApplyR
         fg.append(k if k is not None and cal.gyro_unit == "rad/s" else
                   unit_factor(u, cal.gyro_unit, what=f"channel '{c}' of {src}", fix="convert the data or calibrate again"))
     # A unit on one side only is read as the other side's: named, since deg/s read as rad/s is a factor of 57.
-    assumed = []
-    for cs, cu in ((ac, cal.accel_unit), (gc, cal.gyro_unit), ((tch,) if tch else (), cal.temp_unit)):
-        odd = [c for c in cs if bool(rec.units.get(c, "").strip()) != bool((cu or "").strip())]
-        if odd:
-            du = rec.units.get(odd[0], "")
-            assumed.append(f"{','.join(odd)} in {du} read as the calibration's unknown unit" if du else
-                           f"{','.join(odd)} without a unit read as the calibration's {cu}")
+    from senscal.jobs._units import one_side_unit
+
+    assumed = [a for a in (one_side_unit(cs, rec.units, cu) for cs, cu in (
+        (ac, cal.accel_unit), (gc, cal.gyro_unit), ((tch,) if tch else (), cal.temp_unit))) if a]
     if assumed:
         warnings.append(named("imu-units-assumed", f"{src}: {'; '.join(assumed)}; write the units in the header "
                               "('ax [m/s^2]', 'gx [deg/s]', 'temp [degC]'), or calibrate from a file that states them"))

@@ -423,7 +423,9 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
     ------
     SenscalError
         Unreadable parameter file or recording, unknown channel, channels in
-        another unit than the calibration's (one line, with the fix).
+        a unit of another dimension than the calibration's (one line, with the fix).  Channels in another
+        unit of its dimension (uT data, nT calibration) are converted; a unit stated on one side only is
+        named ``triaxial-units-assumed``.
     """
     from senscal.io import Recording
 
@@ -435,6 +437,15 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
     # Channels in another unit of the calibration's dimension (uT data, nT calibration) are converted to it;
     # another dimension is refused; a channel of unknown unit passes.
     scales = cal.unit_factors({c: rec.units.get(c, "") for c in chans}, source=source_name(source))
+    # A unit on one side only is read as the other side's: named, since uT data read as nT is a factor of 1000.
+    from senscal.diagnostics import named
+    from senscal.jobs._units import one_side_unit
+
+    warnings = []
+    assumed = one_side_unit(chans, rec.units, cal.unit)
+    if assumed:
+        warnings.append(named("triaxial-units-assumed", f"{source_name(source)}: {assumed}; write the units in the "
+                              "header ('x [nT]', 'x [m/s^2]'), or calibrate from a file that states them"))
     corr = cal.apply(rec.data(list(chans)) * np.array([scales[c] for c in chans])[:, None])
     with np.errstate(over="ignore", invalid="ignore"):
         norm = np.linalg.norm(corr, axis=0)
@@ -449,14 +460,13 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
     new = dict(rec.channels)
     units = dict(rec.units)
     for k, c in enumerate(chans):
-        new[c] = corr[k]
-        if scales[c] != 1.0:
-            units[c] = cal.unit
+        # Corrected readings are in the calibration's unit; unknown there, in the data's (the assumption named).
+        new[c], units[c] = corr[k], (cal.unit or "").strip() or rec.units.get(c, "")
     out = Recording(channels=new, t=rec.t, fs=rec.fs, t0=rec.t0, units=units,
                     metadata={**rec.metadata, "triaxial_calibration": f"{cal.model}/{cal.method} from {params_source}"})
     return TriaxialApplyResult(calibration=cal, recording=out, source=source_name(source),
                                params_source=params_source, channels=chans,
-                               corrected_norm=norm)
+                               corrected_norm=norm, warnings=tuple(warnings))
 
 
 
