@@ -245,11 +245,7 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
     qi, qq = _pair(o.quadrature)
     if o.output in (qi, qq):
         raise InputError(f"--output {o.output} is one of the quadrature channels; name the accelerometer's channel")
-    if int(o.harmonics) < 1 or int(o.slices) < 0:
-        raise InputError("--harmonics must be at least 1 and --slices not negative")
-    sources: Sequence[Any] = list(source) if isinstance(source, (list, tuple)) else [source]
-    if not sources:
-        raise InputError("senscal primary needs at least one recording (one per frequency)")
+    sources = _sources(source, o)
     rows = []
     units = set()
     warnings: list[str] = []
@@ -290,6 +286,16 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
                          warnings=tuple(dict.fromkeys(warnings)), output_unit=raw_unit)
 
 
+def _sources(source, o: PrimaryOptions) -> Sequence[Any]:
+    """The recordings (one per frequency) as a list, after the options both input modes share are checked."""
+    if int(o.harmonics) < 1 or int(o.slices) < 0:
+        raise InputError("--harmonics must be at least 1 and --slices not negative")
+    sources: Sequence[Any] = list(source) if isinstance(source, (list, tuple)) else [source]
+    if not sources:
+        raise InputError("senscal primary needs at least one recording (one per frequency)")
+    return sources
+
+
 def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
     """:func:`primary` for a heterodyne carrier channel (``--heterodyne CH --carrier-hz F | --carrier-channel REF``)."""
     from senscal.io.plausibility import merge_time_warnings
@@ -304,11 +310,7 @@ def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
         raise InputError(f"--carrier-channel {ref} is the heterodyne channel itself; name the reference carrier")
     if int(o.carrier_sign) not in (1, -1):
         raise InputError(f"--carrier-sign must be 1 or -1, got {o.carrier_sign!r}")
-    if int(o.harmonics) < 1 or int(o.slices) < 0:
-        raise InputError("--harmonics must be at least 1 and --slices not negative")
-    sources: Sequence[Any] = list(source) if isinstance(source, (list, tuple)) else [source]
-    if not sources:
-        raise InputError("senscal primary needs at least one recording (one per frequency)")
+    sources = _sources(source, o)
     rows = []
     units = set()
     warnings: list[str] = []
