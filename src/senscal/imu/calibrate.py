@@ -796,16 +796,24 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
     u_m = np.sqrt(np.clip(np.diag(cov_m), 0, None))
     rt_fit = None
     if full is not None:
-        from senscal.imu.ratetable import combine_rate_table, segment_data
+        from senscal.imu.ratetable import combine_rate_table, segment_data, temperature_powers
 
         tf, af, gf, tpf = full
         seg = segment_data(tf, gf, rate_table, gyro_noise=gnoise, source=source)
         d = np.array([bd.matrix(tf[ix], None if tpf is None else tpf[ix],
                                 np.linalg.solve(ma0, af[:, ix] - ba0[:, None])).mean(axis=0) for ix in seg.index])
         cov_seg = np.array([d @ cov_ax[i] @ d.T for i in range(3)])
-        rt_fit = combine_rate_table(rate_table, seg, d @ coef, cov_seg, mg, cov_m)
+        # The segments read through the same temperature model as the poses (issue 27): M_g and the gyro's
+        # scale against temperature enter with their joint covariance.
+        jx = np.arange(9 + n_tc, phi.size)
+        sc_ = np.concatenate([np.full(9, s0), np.ones(n_sc)])
+        rt_fit = combine_rate_table(rate_table, seg, d @ coef, cov_seg, mg, cov_phi[np.ix_(jx, jx)] * np.outer(sc_, sc_),
+                                    scale_tc=stc_f.reshape(deg_s, 3),
+                                    temp_powers=temperature_powers(tpf, seg, temp_ref, deg_s))
         warnings.extend(rt_fit.warnings)
         mg, cov_m = rt_fit.matrix, rt_fit.covariance
+        stc_f = rt_fit.scale_tc.ravel()
+        u_stc = np.sqrt(np.clip(np.diag(rt_fit.scale_tc_covariance), 0, None))
         u_m = np.sqrt(np.clip(np.diag(cov_m), 0, None))
     der, cov_d = _delta(_derived, mg.ravel(), cov_m, np.maximum(u_m, 1e-12 * abs(s0)))
     u_d = np.sqrt(np.clip(np.diag(cov_d), 0, None))
