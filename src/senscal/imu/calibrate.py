@@ -547,8 +547,9 @@ def calibrate_imu(t: np.ndarray, accel: np.ndarray, gyro: np.ndarray, *, gravity
         return float(np.sqrt(np.mean(r * r)))
 
     sweep = sweep_static(accel, fs, quick_rms, window_s=window_s, min_pose_s=min_pose_s, init_s=init_s,
-                         multiples=multiples, source=source)
+                         multiples=multiples, source=source, gyro=gyro)
     st = sweep.static
+    warnings.extend(sweep.warnings)
     # The triaxial engine on the pose means: its diagnostics and warnings; the full model, field = g.
     ra = calibrate(st.means, field=gravity, method="ml", model="full", outlier_sigma=None, unit=accel_unit,
                    channels=tuple(accel_channels), time_terms=False)

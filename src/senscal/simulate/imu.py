@@ -9,7 +9,8 @@ Departures are options: a drifting gyro bias, coloured gyro noise, short
 poses, fast rotations, few poses, rotations that leave an axis unturned, a
 temperature warm-up with bias and scale temperature coefficients (accelerometer bias and scale, gyro bias and
 scale), a gyro
-sensitive to specific force (g-sensitivity).
+sensitive to specific force (g-sensitivity), a turn about the vertical inside a pose (``yaw_poses``: the
+accelerometer sees one pose, the gyro a rotation).
 """
 
 from __future__ import annotations
@@ -57,8 +58,8 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
                  accel_scale_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  gyro_bias_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
                  gyro_scale_tc: tuple[float, float, float] = (0.0, 0.0, 0.0),
-                 gyro_g_sensitivity: Any = None, rate_table: Any = None,
-                 seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
+                 gyro_g_sensitivity: Any = None, rate_table: Any = None, yaw_poses: int = 0, yaw_deg: float = 90.0,
+                 yaw_hold_s: float | None = None, seed: int | None = None) -> tuple[Recording, dict[str, Any]]:
     """Simulate an IMU calibration session.
 
     Parameters
@@ -108,6 +109,15 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
         scaled, so the misalignment angles stay).
     gyro_g_sensitivity : array_like (3, 3), optional
         Gyro reading per m/s^2 of specific force (rad/s per m/s^2).
+    yaw_poses : int
+        Departure: this many poses (spread evenly over the session) hold a turn about the vertical by ``yaw_deg``
+        (alternating sign) in their middle: ``yaw_hold_s`` still, the turn (``rotation_s``), ``yaw_hold_s``
+        still.  Gravity stays fixed in the body frame, so the accelerometer sees one pose; the gyro sees the turn.
+    yaw_deg : float
+        Angle of each such turn, deg.
+    yaw_hold_s : float, optional
+        Still time before and after the turn, s (default ``pose_s``: two full poses; below the detector's
+        ``--min-pose`` the pose cannot be split).
     rate_table : senscal.simulate.imu_table.TableSpec, optional
         Rate-table runs after the poses (:func:`senscal.simulate.imu_table.table_motion`); the stated table is
         ``truth["rate_table"]`` (:func:`senscal.simulate.imu_table.rate_table_of`).
@@ -128,7 +138,11 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
     f_list.append(np.repeat((r_now.T @ up)[:, None], n_init, axis=1))
     w_list.append(np.zeros((3, n_init)))
     tau = (np.arange(n_rot) + 0.5) / n_rot
-    for _ in range(n_poses):
+    # Poses holding a turn about the vertical (no random draw: the other departures' seeds stay as they were).
+    yaw_at = set(np.linspace(0, n_poses - 1, int(yaw_poses) + 2)[1:-1].round().astype(int).tolist()) if yaw_poses else set()
+    n_hold = int(round((pose_s if yaw_hold_s is None else yaw_hold_s) * fs))
+    yaw_sign = 1.0
+    for p_i in range(n_poses):
         e = rng.normal(size=3)
         if exclude_axis is not None:
             e[exclude_axis] = 0.0
@@ -141,6 +155,20 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
         f_list.append(np.stack([(r_now @ _rot(e, p)).T @ up for p in prof], axis=1))
         w_list.append(e[:, None] * rate[None, :])
         r_now = r_now @ _rot(e, th)
+        if p_i in yaw_at:
+            # Still, a turn about the vertical (gravity fixed in the body frame), still: one pose to the
+            # accelerometer.
+            f_list.append(np.repeat((r_now.T @ up)[:, None], n_hold, axis=1))
+            w_list.append(np.zeros((3, n_hold)))
+            ev = r_now.T @ np.array([0.0, 0.0, 1.0])
+            th_y = yaw_sign * math.radians(yaw_deg)
+            yaw_sign = -yaw_sign
+            f_list.append(np.repeat((r_now.T @ up)[:, None], n_rot, axis=1))
+            w_list.append(ev[:, None] * (th_y / (n_rot * dt) * (1 - np.cos(2 * np.pi * tau)))[None, :])
+            r_now = r_now @ _rot(ev, th_y)
+            f_list.append(np.repeat((r_now.T @ up)[:, None], n_hold, axis=1))
+            w_list.append(np.zeros((3, n_hold)))
+            continue
         f_list.append(np.repeat((r_now.T @ up)[:, None], n_pose, axis=1))
         w_list.append(np.zeros((3, n_pose)))
     table = None
@@ -172,8 +200,13 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
     if gyro_g_sensitivity is not None:
         g_meas += np.asarray(gyro_g_sensitivity, float) @ f
     if temperature is not None:
-        span = max(t[-1] - t[0], 1e-9)
+        t_end = getattr(rate_table, "temperature_end", None)
+        n_w = table_truth["first_sample"] if table is not None and t_end is not None else n
+        span = max(t[n_w - 1] - t[0], 1e-9)
         temp = temperature[0] + (temperature[1] - temperature[0]) * (1 - np.exp(-3 * (t - t[0]) / span)) / (1 - math.exp(-3))
+        if n_w < n:
+            # The table runs: linear from the warm-up's last temperature to the stated end.
+            temp[n_w:] = temp[n_w - 1] + (float(t_end) - temp[n_w - 1]) * (t[n_w:] - t[n_w - 1]) / (t[-1] - t[n_w - 1])
         dtn = temp - temp_nominal
         noise_a = a_meas - (ma @ f + ba[:, None])
         a_meas[:] = ((1 + np.asarray(accel_scale_tc, float)[:, None] * dtn[None, :]) * (ma @ f + ba[:, None])
@@ -194,7 +227,8 @@ def simulate_imu(*, n_poses: int = 30, fs: float = 100.0, init_s: float = 20.0, 
                  "range": list(map(float, temperature)), "nominal": temp_nominal, "accel_bias_tc": list(accel_bias_tc),
                  "accel_scale_tc": list(accel_scale_tc), "gyro_bias_tc": list(gyro_bias_tc),
                  "gyro_scale_tc": list(gyro_scale_tc)},
-             "g_sensitivity": None if gyro_g_sensitivity is None else np.asarray(gyro_g_sensitivity, float).tolist()}
+             "g_sensitivity": None if gyro_g_sensitivity is None else np.asarray(gyro_g_sensitivity, float).tolist(),
+             "yaw_poses": sorted(yaw_at), "yaw_deg": float(yaw_deg) if yaw_at else 0.0}
     if table is not None:
         truth["rate_table"] = {**table.to_dict(), "truth": table_truth}
     return rec, truth

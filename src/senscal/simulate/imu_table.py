@@ -5,7 +5,8 @@ hand rotation brings that body axis up, the table rests, spins up (a raised-cosi
 constant rate, spins down and rests; with ``both_signs`` the same again the other way.  Turning about the
 vertical leaves gravity fixed in the body frame, so the accelerometer sees none of it (as on a real
 table).  Departures are options: the table's true rate off its stated one (``rate_error_rel``), the IMU
-mounted with its axis tilted from the stated one (``mount_tilt``).
+mounted with its axis tilted from the stated one (``mount_tilt``), the temperature changing over the table
+runs (``temperature_end``, with the session's warm-up).
 """
 
 from __future__ import annotations
@@ -45,6 +46,11 @@ class TableSpec:
         Departure: stated rate = true rate * (1 + rate_error_rel).
     mount_tilt : float
         Departure: the true table axis is tilted this far (rad) from the stated body axis, in a random direction.
+    temperature_end : float, optional
+        With the simulator's ``temperature`` warm-up: the warm-up spans the poses only and the temperature then
+        changes linearly over the table runs to this value (degC), so it varies during and between the
+        segments (the gyro's bias and scale follow it by their temperature coefficients).  None: the warm-up
+        spans the whole session.
     """
 
     axes: tuple = ("x", "y", "z")
@@ -59,6 +65,7 @@ class TableSpec:
     u_axis: float = 0.0
     rate_error_rel: float = 0.0
     mount_tilt: float = 0.0
+    temperature_end: float | None = None
 
 
 def _rot(e: np.ndarray, th: float) -> np.ndarray:
@@ -97,6 +104,7 @@ def table_motion(spec: TableSpec, r_now: np.ndarray, gravity: float, fs: float, 
     """
     up = np.array([0.0, 0.0, gravity])
     pos = sum(x.shape[1] for x in f_list)
+    first = pos
 
     def still(n):
         nonlocal pos
@@ -161,7 +169,7 @@ def table_motion(spec: TableSpec, r_now: np.ndarray, gravity: float, fs: float, 
                       u_rate=np.abs(rates_a) * spec.u_rate_rel, u_axis=np.full(rates_a.size, spec.u_axis),
                       source="<simulated rate table>")
     truth = {"axis": np.array(true_axes).tolist(), "rate": list(map(float, true_rates)),
-             "rate_error_rel": spec.rate_error_rel, "mount_tilt": spec.mount_tilt}
+             "rate_error_rel": spec.rate_error_rel, "mount_tilt": spec.mount_tilt, "first_sample": int(first)}
     return r_now, table, truth
 
 

@@ -538,7 +538,7 @@ def _jobs() -> dict[str, SweepJob]:
              Departure("gyro_g_sensitivity", 1e-5, 5e-4, "log", "gyro g-sensitivity, rad/s per m/s^2 (not fitted)")),
             ("fs", "init_s", "angle_deg", "gravity", "accel_noise", "gyro_noise", "accel_gains", "accel_angles_deg",
              "accel_offsets", "gyro_scales", "gyro_misalignment_deg", "gyro_bias", "temp_nominal", "temp_noise",
-             "rate_table", "seed"),
+             "rate_table", "yaw_poses", "yaw_deg", "yaw_hold_s", "seed"),
             _run_imu),
     }
 
