@@ -107,3 +107,19 @@ def test_fit_time_column_beyond_float_range_is_one_line(cli, tmp_path, scale):
         assert r.code == 2, r.err
         assert len(r.err.strip().splitlines()) == 1 and "time column" in r.err and "1e150" in r.err, r.err
         assert "internal error" not in r.err and "Traceback" not in r.err
+
+
+def test_triaxial_apply_names_a_corrected_field_no_place_on_earth_explains(cli, mag, tmp_path):
+    """A corrected field 100x the calibration's (data mislabelled, or another sensor's file) is named; a field
+    half or twice the calibration's (another place: the geomagnetic field spans 22-67 uT) is not."""
+    nt = _write(mag, tmp_path / "nt.csv", unit="nT")
+    cal = _calibrate(cli, nt, tmp_path / "cal.json")
+    for k, named in ((0.5, False), (2.0, False), (0.01, True), (100.0, True)):
+        p = _write(mag, tmp_path / f"s{k}.csv", unit="nT", scale=k)
+        r = cli("triaxial", "apply", p, "--params", cal, "--channels", "x,y,z", "--out", tmp_path / f"o{k}.csv",
+                "--strict")
+        if named:
+            assert r.code == 3 and "triaxial-field-mismatch" in r.err and "Traceback" not in r.err, (k, r.err)
+            assert (tmp_path / f"o{k}.csv").exists()  # written first, for inspection
+        else:
+            assert r.code == 0 and "triaxial-field-mismatch" not in r.err, (k, r.err)

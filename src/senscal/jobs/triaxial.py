@@ -405,6 +405,37 @@ def _calibration_of(params) -> tuple[Any, str]:
                            path="parameter file")
 
 
+# The geomagnetic total intensity at the Earth's surface spans about 22 to 67 uT (IGRF), a factor of 3.05, and
+# gravity varies by 0.5 %: no change of place explains a corrected field further than this factor from the one
+# the calibration was made in.  Beyond it the data are in another unit, from another sensor, or the wrong file.
+_FIELD_FACTOR = 67.0 / 22.0
+
+
+def _field_mismatch(norm: np.ndarray, field: float) -> str:
+    """Describe a corrected field whose median magnitude is implausibly far from the calibration's.
+
+    Parameters
+    ----------
+    norm : ndarray
+        Corrected field magnitude per sample (field units).
+    field : float
+        Field magnitude of the calibration session (field units).
+
+    Returns
+    -------
+    str
+        Empty when the median magnitude lies within a factor ``_FIELD_FACTOR`` of ``field``.
+    """
+    if norm.size == 0 or not (np.isfinite(field) and field > 0):
+        return ""
+    med = float(np.median(norm))
+    if field / _FIELD_FACTOR <= med <= field * _FIELD_FACTOR:
+        return ""
+    return (f"the corrected field's median magnitude is {med:.5g}, {med / field:.3g} times the calibration's "
+            f"{field:.5g}; no change of place explains a factor beyond {_FIELD_FACTOR:.2f}: check the data's unit, "
+            "the channels and that the calibration is this sensor's")
+
+
 def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions()) -> TriaxialApplyResult:
     """Correct three field channels of a recording with a saved calibration.
 
@@ -457,6 +488,9 @@ def triaxial_apply(source, options: TriaxialApplyOptions = TriaxialApplyOptions(
         i = int(np.flatnonzero(bad)[0])
         raise DataError(f"{source_name(source)}: the corrected field overflows in data row {i + 1} (readings up to "
                         f"{float(np.max(np.abs(rec.data(list(chans))))):.3g}); check the file and --channels")
+    mismatch = _field_mismatch(norm, cal.field)
+    if mismatch:
+        warnings.append(named("triaxial-field-mismatch", f"{source_name(source)}: {mismatch}"))
     new = dict(rec.channels)
     units = dict(rec.units)
     for k, c in enumerate(chans):
