@@ -330,6 +330,42 @@ def _wrap(x):
     return (x + math.pi) % (2 * math.pi) - math.pi
 
 
+def _largest_gap(ang: np.ndarray) -> float:
+    """The widest empty arc between angles in [-pi, pi], on the circle, rad (2 pi for none).
+
+    Sorting a million angles costs more than the rest of the check: 1024 bins tell first whether an arc wider
+    than a quarter turn can be empty at all (it would leave 254 consecutive bins empty); only then are the
+    angles sorted, so the answer is the sorted one whenever it matters.
+    """
+    if not ang.size:
+        return 2 * math.pi
+    nb = 1024
+    idx = ((ang + math.pi) * (nb / (2 * math.pi))).astype(np.intp)
+    np.clip(idx, 0, nb - 1, out=idx)
+    full = np.bincount(idx, minlength=nb) > 0
+    # longest circular run of empty bins; an empty arc spans at most it plus the two partly filled ends
+    pos = np.flatnonzero(full)
+    runs = np.diff(np.concatenate([pos, pos[:1] + nb])) - 1
+    if (int(runs.max()) + 2) * (2 * math.pi / nb) <= math.pi / 2:
+        return float((int(runs.max()) + 2) * (2 * math.pi / nb))  # an upper bound, below the quarter turn
+    a = np.sort(ang)
+    return float(np.max(np.diff(np.concatenate([a, a[:1] + 2 * math.pi]))))
+
+
+def _quantile_above(v: np.ndarray, q: float, limit: float) -> bool:
+    """``np.quantile(v, q) > limit`` (linear interpolation) from a count, partitioning only on a tie."""
+    n = v.size
+    h = (n - 1) * q
+    j = int(math.floor(h))
+    above = int(np.count_nonzero(v > limit))
+    # the sorted v has v[j] > limit iff at least n - j values exceed it
+    if above >= n - j:
+        return True
+    if above < n - j - 1 or j + 1 >= n:
+        return False
+    return bool(float(np.quantile(v, q)) > limit)
+
+
 def _chi2_upper(dof: int, p: float = 0.99) -> float:
     from scipy.stats import chi2
 
@@ -338,30 +374,32 @@ def _chi2_upper(dof: int, p: float = 0.99) -> float:
 
 def _model(fit, n: int, fs: float) -> np.ndarray:
     """The fitted sines, offsets and drifts of a batch fit, shape (channels, n)."""
-    t = np.arange(n) / fs
+    from senscal.sinefit._kernels import harmonic_basis
+
     w = 2 * math.pi * float(np.ravel(fit.frequency)[0])
     amp = np.atleast_2d(fit.harmonic_amplitudes)
     ph = np.atleast_2d(fit.harmonic_phases)
-    out = np.asarray(fit.offset, float).reshape(-1, 1) + np.zeros((amp.shape[0], n))
+    # sin(k w t + ph) = sin(k w t) cos ph + cos(k w t) sin ph: the sine fit's own basis rows (re-anchored
+    # rotation, compiled for long records) and one matrix product, not a trig evaluation per harmonic and
+    # channel of a million samples (issue 28)
+    coef = np.empty((amp.shape[0], 2 * amp.shape[1]))
+    coef[:, 0::2] = amp * np.cos(ph)
+    coef[:, 1::2] = amp * np.sin(ph)
+    out = coef @ harmonic_basis(n, w / fs, 0.0, amp.shape[1])
+    out += np.asarray(fit.offset, float).reshape(-1, 1)
     if fit.drift is not None:
-        out = out + np.asarray(fit.drift, float).reshape(-1, 1) * (t - fit.t_ref)
-    # sin((k+1) w t + ph) = sin((k+1) w t) cos ph + cos((k+1) w t) sin ph, the harmonics' sines and cosines
-    # by angle addition from the fundamental's: two record-long trig evaluations instead of one per channel
-    # and harmonic (a million samples)
-    s1, c1 = np.sin(w * t), np.cos(w * t)
-    sk, ck = s1, c1
-    for k in range(amp.shape[1]):
-        if k:
-            sk, ck = sk * c1 + ck * s1, ck * c1 - sk * s1
-        out += (amp[:, k] * np.cos(ph[:, k]))[:, None] * sk + (amp[:, k] * np.sin(ph[:, k]))[:, None] * ck
+        out += np.asarray(fit.drift, float).reshape(-1, 1) * (np.arange(n) / fs - fit.t_ref)
     return out
 
 
 def _tone(r: np.ndarray, fs: float, freq: float):
     """(frequency, samples) of the largest tone in a residual when it is beyond chance, else None.
 
-    The periodogram peak of white noise over N/2 bins exceeds ``ln(N/2 / p)`` times its mean with
-    probability ``p``; p = 1e-3 keeps false detections rare.
+    The periodogram of noise over N/2 bins, each bin divided by the noise's mean at that frequency, exceeds
+    ``T`` somewhere with probability ``N/2 exp(-T)``; p = 1e-3 keeps false detections rare. The mean is the
+    local one (:func:`_local_level`): coloured noise (laser frequency noise, air turbulence) makes the
+    spectrum red, and a global median then took the low-frequency bins for tones (three spurious sines
+    removed per record, five times the white case's time, issue 28).
     """
     from senscal.errors import SenscalError
     from senscal.sinefit import fit_sine
@@ -369,11 +407,19 @@ def _tone(r: np.ndarray, fs: float, freq: float):
     n = r.size
     spec = np.abs(np.fft.rfft(r - r.mean())) ** 2
     spec[0] = 0.0
-    mean = float(np.median(spec[1:])) / math.log(2.0)  # robust mean of an exponential variable
-    if not mean > 0:
+    level, s_log = _local_level(spec)
+    if level is None:
         return None
-    k = int(np.argmax(spec))
-    if spec[k] / mean < math.log(0.5 * n / 1e-3):
+    ratio = spec / level
+    ratio[0] = 0.0
+    k = int(np.argmax(ratio))
+    # the level is estimated (relative sd s_log): exp(-T (1 + e)) averaged over e ~ N(0, s_log) is
+    # exp(-T + T^2 s_log^2 / 2), so T solves T - T^2 s_log^2 / 2 = ln(N/2 / p)
+    big = math.log(0.5 * n / 1e-3)
+    thr = big
+    for _ in range(20):
+        thr = big + 0.5 * thr * thr * s_log * s_log
+    if ratio[k] < thr:
         return None
     f_k = k * fs / n
     if abs(f_k - freq) < 2 * fs / n or f_k < 2 * fs / n:
@@ -384,6 +430,39 @@ def _tone(r: np.ndarray, fs: float, freq: float):
         return None
     t = np.arange(n) / fs
     return float(tf.frequency), float(tf.amplitude) * np.sin(2 * math.pi * float(tf.frequency) * t + float(tf.phase))
+
+
+TONE_BLOCK = 256  # periodogram bins per block of the local noise level
+
+
+def _local_level(spec: np.ndarray):
+    """Mean noise periodogram at every bin, robustly and locally; and the estimate's relative sd.
+
+    Medians of blocks of :data:`TONE_BLOCK` bins (divided by ln 2: the median of an exponential variable
+    is ln 2 times its mean; a tone is one bin of the block and moves the median little), interpolated
+    linearly in log between the blocks' centres, so that a smooth spectrum's slope (1/f^2 above an AR(1)
+    corner) is followed. A block's median of B exponential bins has relative sd ``1 / (ln 2 sqrt(B))``
+    (9 % at B = 256). Records under two blocks use one median over all bins, as white noise allows.
+
+    Returns
+    -------
+    (level, s_log)
+        ``level`` shape of ``spec`` (None when the spectrum is zero); ``s_log`` the relative sd.
+    """
+    m = spec.size - 1
+    nb = m // TONE_BLOCK
+    if nb < 2:
+        mean = float(np.median(spec[1:])) / math.log(2.0) if m > 0 else 0.0
+        return (np.full(spec.size, mean) if mean > 0 else None), 1.0 / (math.log(2.0) * math.sqrt(max(m, 1)))
+    # the last block takes the bins left over
+    med = np.median(spec[1:1 + nb * TONE_BLOCK].reshape(nb, TONE_BLOCK), axis=1)
+    if m > nb * TONE_BLOCK:
+        med[-1] = np.median(spec[1 + (nb - 1) * TONE_BLOCK:])
+    if not np.all(med > 0):
+        return None, 0.0
+    centres = 1 + TONE_BLOCK * np.arange(nb) + 0.5 * (TONE_BLOCK - 1)
+    level = np.exp(np.interp(np.arange(spec.size), centres, np.log(med / math.log(2.0))))
+    return level, 1.0 / (math.log(2.0) * math.sqrt(TONE_BLOCK))
 
 
 def _intensity_normalised(x, y, hf: HeydemannFit, passes: int = 2):
@@ -486,26 +565,41 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
             raise DataError(f"the I and Q channels are one signal (correlation {r:.4f}): a single channel is not a "
                             "quadrature pair; give both quadrature outputs with --quadrature I,Q")
     # coverage of the ellipse before fitting it: a partial arc (under one fringe) has no unique ellipse
-    ang = np.sort(np.arctan2((y - 0.5 * (y.max() + y.min())) / max(np.ptp(y), 1e-300),
-                             (x - 0.5 * (x.max() + x.min())) / max(np.ptp(x), 1e-300)))
-    gap = float(np.max(np.diff(np.concatenate([ang, ang[:1] + 2 * math.pi])))) if ang.size else 2 * math.pi
+    ang = np.arctan2((y - 0.5 * (y.max() + y.min())) / max(np.ptp(y), 1e-300),
+                     (x - 0.5 * (x.max() + x.min())) / max(np.ptp(x), 1e-300))
+    gap = _largest_gap(ang)
     if gap > math.pi / 2:
         raise DataError(f"too few fringes: the quadrature signals leave {math.degrees(gap):.0f} deg of the ellipse "
                         "empty; the Heydemann fit needs at least one full fringe (raise the vibration amplitude)")
     hf = heydemann_fit(x, y)
     x, y, hf, intensity_trend = _intensity_normalised(x, y, hf)
-    phi_raw = np.arctan2(*_corrected(x, y, hf.params)[::-1])
-    step = np.abs(_wrap(np.diff(phi_raw)))
-    if step.size and float(np.quantile(step, 0.999)) > 0.75 * math.pi:
+    c_, s_ = _corrected(x, y, hf.params)
+    phi_raw = np.arctan2(s_, c_)
+    # the steps' whole turns: the unwrapped phase subtracts them (integers, summed exactly), and the wrapped
+    # step is what remains
+    dd = np.diff(phi_raw)
+    turns = np.rint(dd * (0.5 / math.pi))
+    step = dd - 2 * math.pi * turns
+    np.abs(step, out=step)
+    if step.size and _quantile_above(step, 0.999, 0.75 * math.pi):
         raise DataError("the fringes alias at this sample rate (phase steps near pi per sample): record faster or "
                         "lower the vibration amplitude")
-    phi = np.unwrap(phi_raw)
+    phi = phi_raw.copy()
+    np.cumsum(turns, out=turns)
+    turns *= 2 * math.pi
+    phi[1:] -= turns
+    del dd, turns, step
     fringes = float(np.ptp(phi) / (2 * math.pi))
     if fringes < 1.0:
         raise DataError(f"too few fringes ({fringes:.2f}): the Heydemann fit needs at least one full fringe "
                         "(raise the vibration amplitude)")
     lam = wavelength_nm * 1e-9
-    disp = phi * lam / (4 * math.pi)
+    # the displacement written straight into the two-row array the fits take (no stacked copy)
+    both = np.empty((2, phi.size))
+    disp = both[0]
+    np.multiply(phi, lam, out=disp)
+    disp /= 4 * math.pi
+    both[1] = out
     n = disp.size
     if freq is None:
         f0 = fit_sine(disp, fs=fs, harmonics=1, drift=drift)
@@ -515,7 +609,6 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
         u_f = 0.0
     if not (freq > 0 and freq < fs / 2):
         raise InputError(f"--freq {freq:g} Hz must be positive and below the Nyquist frequency {fs / 2:g} Hz")
-    both = np.vstack([disp, out])
     fit = fit_sine(both, fs=fs, freq=freq, harmonics=harmonics, drift=drift)
     # tones that are no harmonic of the excitation (mains hum, a second exciter mode): found in the residual,
     # fitted by the same engine and removed, so that neither the fit's noise model nor the slices take them for noise
@@ -579,8 +672,9 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
     # Heydemann parameters' u propagated to magnitude and phase: the phase change a parameter step makes,
     # projected on the fundamental (a linear change of the fit, so no re-fit is needed)
     J = np.zeros((2, 4))
-    tt = np.arange(n) / fs
-    sn, cs = np.sin(w * tt + pd), np.cos(w * tt + pd)
+    from senscal.sinefit._kernels import harmonic_basis
+
+    sn, cs = harmonic_basis(n, w / fs, pd, 1)  # sin, cos of w t + pd (the fit engine's rotation)
     g_ss, g_cc, g_sc = float(sn @ sn), float(cs @ cs), float(sn @ cs)
     det = g_ss * g_cc - g_sc * g_sc
     # d phi / d(p, q, g, alpha) in closed form, phi = atan2(s, c) with c = x - p and
@@ -588,7 +682,7 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
     # instead of a corrected pair, an arctan2 and a wrap per parameter (a million samples at 1 MS/s)
     p_, q_, g_, al = hf.params
     ta, ca = math.tan(al), math.cos(al)
-    c_, s_ = _corrected(x, y, hf.params)
+    # c_, s_: the corrected pair the phase was read from
     r2 = c_ * c_ + s_ * s_
     cr = c_ / r2
     dphi = np.empty((4, n))
@@ -623,10 +717,13 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
                 "intensity_trend_rel": intensity_trend, "slices_u_rel": s_rel, "slices_u_phase_deg": deg(s_ph) if s_ph == s_ph else s_ph}
     fc = None
     if n * freq / fs >= 1.0:
-        # hysteresis a few noise sigmas (the ellipse's radius residual is the noise relative to a)
+        # hysteresis a few noise sigmas: the ellipse's radius residual is the signals' noise relative to a, the
+        # displacement's residual in fringe phase (rad) holds the beam's own noise as well (laser frequency noise,
+        # air), which the radius does not see and which made extra crossings at the turning points (issue 28)
+        sig_ph = float(np.asarray(fit.residual_rms)[0]) * 4 * math.pi / lam
         d_fc, u_d_fc, n_fc, m_fc = fringe_count(x, fs, freq, wavelength_nm, offset=hf.offset_i,
                                                 amplitude=hf.amplitude_i,
-                                                hysteresis=min(max(6.0 * hf.radius_rms, 0.005), 0.5))
+                                                hysteresis=min(max(6.0 * max(hf.radius_rms, sig_ph), 0.005), 0.5))
         if d_fc > 0:
             s_fc = ao / (w * w * d_fc)
             u_s_fc = abs(s_fc) * math.hypot(u_d_fc / d_fc, uao / ao)
