@@ -504,7 +504,7 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
         rss[redo], lag1[redo] = kern.residual_ss(yc, basis, tau, drift, coef, redo)
     rss = np.maximum(rss, 0.0)
     ginv = scipy.linalg.cho_solve(cho, np.eye(p)) * sc[:, None] * sc[None, :]
-    return coef, rss, ginv, lag1
+    return coef, rss, ginv, lag1, basis
 
 
 def _basis_at(tau_i: float, w: float, harmonics: int, drift: bool) -> np.ndarray:
@@ -863,7 +863,11 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         """``residual_tests`` for every channel, 256 channels at a time (bounded memory)."""
         for c0 in range(0, nch, 256):
             c1 = min(c0 + 256, nch)
-            residual_tests(slice(c0, c1), resid_of(c0, c1), design, coef_all[c0:c1])
+            resid = resid_of(c0, c1)
+            residual_tests(slice(c0, c1), resid, design, coef_all[c0:c1])
+            if nch <= 256:
+                # one chunk: kept for a channel whose noise model switches (no second pass for its residual)
+                pre["resid"] = resid
         pre["bulk"] = True
 
     def noise_cov(i, resid_w, design_w, ginv, rss_i, omegas, coef_i):
@@ -915,7 +919,7 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         w = TWO_PI * freq
         omegas = col_omegas(w, False)
         if fast:
-            coef, rss, ginv, lag1_sum = _fast_uniform(y2, n, dt, tau0, w, harmonics, drift)
+            coef, rss, ginv, lag1_sum, fast_basis = _fast_uniform(y2, n, dt, tau0, w, harmonics, drift)
             with np.errstate(divide="ignore", invalid="ignore"):
                 lag1s[:] = np.where(rss > 0, lag1_sum / rss, np.nan)
             coef_all = coef
@@ -924,10 +928,25 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
 
             a_fast = []
 
-            def explicit(i):
+            def fast_rows():
+                """The design as contiguous rows (p, N), from the pass's own basis: no second set of sines."""
                 if not a_fast:
-                    a_fast.append(_design(tau0 + np.arange(n) * dt, w, harmonics, drift))
-                return y2[i] - a_fast[0] @ coef_all[i], a_fast[0]
+                    from senscal.sinefit import _kernels as kern
+
+                    rows = np.empty((p, n))
+                    rows[:2 * harmonics] = (fast_basis if fast_basis is not None
+                                            else kern.harmonic_basis(n, w * dt, w * tau0, harmonics))
+                    rows[2 * harmonics] = 1.0
+                    if drift:
+                        rows[2 * harmonics + 1] = tau0 + np.arange(n) * dt
+                    a_fast.append(rows)
+                return a_fast[0]
+
+            def explicit(i):
+                # the design's transpose is an (N, p) view of the rows (columns contiguous, as FFTs want them)
+                rows = fast_rows()
+                r = pre["resid"][i] if "resid" in pre else y2[i] - coef_all[i] @ rows
+                return r, rows.T
         elif per_channel_w:
             sw2 = sw.reshape(-1, n)
             coef_all = np.empty((nch, p))
@@ -957,8 +976,8 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         if sw is None and nch > 1:
             # Both residual tests for all channels at once (one pass of matrix products, not one per channel).
             if resid_all is None:
-                a_bulk = explicit(0)[1]
-                bulk_tests(lambda c0, c1: y2[c0:c1] - coef_all[c0:c1] @ a_bulk.T, a_bulk)
+                rows_bulk = fast_rows()
+                bulk_tests(lambda c0, c1: y2[c0:c1] - coef_all[c0:c1] @ rows_bulk, rows_bulk.T)
             else:
                 bulk_tests(lambda c0, c1: resid_all[c0:c1], explicit(0)[1])
         for i in range(nch):
