@@ -207,7 +207,8 @@ def imu_apply_cmd(
        bias_drift=ListOf('rad/s^2'), temperature=ListOf('degC'), accel_bias_tc=ListOf('m/s^2/K'),
        accel_scale_tc=ListOf('1/K'), gyro_bias_tc=ListOf('rad/s/K'), gyro_scale_tc=ListOf('1/K'),
        g_sensitivity=ListOf('rad*s/m'),
-       table_rate='rad/s', table_hold='s', table_tilt='deg', table_u_axis='deg')
+       table_rate='rad/s', table_hold='s', table_tilt='deg', table_u_axis='deg', yaw_deg='deg', yaw_hold='s',
+       table_temperature_end='degC')
 def simulate_imu_cmd(
     out: Annotated[Path, typer.Option("--out", help="Output folder.")],
     poses: Annotated[int, typer.Option("--poses", help="Static poses after the still start.")] = 30,
@@ -233,6 +234,10 @@ def simulate_imu_cmd(
     table_u_axis: Annotated[str, typer.Option("--table-u-axis", help="Standard u of the axis direction the table file states, deg.")] = "0.0",
     table_rate_error: Annotated[float, typer.Option("--table-rate-error", help="Departure: the stated rate is (1 + this) times the true one.")] = 0.0,
     table_tilt: Annotated[str, typer.Option("--table-tilt", help="Departure: the IMU sits this far tilted on the table, deg (random direction).")] = "0.0",
+    table_temperature_end: Annotated[Optional[str], typer.Option("--table-temperature-end", help="With --temperature: the warm-up spans the poses and the temperature then changes linearly over the table runs to this, degC.")] = None,
+    yaw_poses: Annotated[int, typer.Option("--yaw-poses", help="Departure: this many poses hold a turn about the vertical (the accelerometer sees one pose, the gyro a rotation).")] = 0,
+    yaw_deg: Annotated[str, typer.Option("--yaw-deg", help="Angle of each such turn, deg.")] = "90.0",
+    yaw_hold: Annotated[Optional[str], typer.Option("--yaw-hold", help="Still time before and after each such turn, s (default --pose).")] = None,
     seed: Annotated[Optional[int], typer.Option("--seed", help="Random seed.")] = None,
 ) -> None:
     """A multi-pose IMU session with known errors: imu.csv + truth JSON."""
@@ -253,6 +258,14 @@ def simulate_imu_cmd(
                             ("--accel-noise", accel_noise, True), ("--gyro-noise", gyro_noise, True)):
         if not (math.isfinite(v) and (v >= 0 if zero_ok else v > 0)):
             raise InputError(f"{opt} must be a finite number {'of 0 or more' if zero_ok else 'above 0'}, got {v!r}")
+    if not (0 <= yaw_poses <= poses and math.isfinite(yaw_deg)) or (yaw_hold is not None and not (
+            math.isfinite(yaw_hold) and yaw_hold > 0)):
+        raise InputError(f"--yaw-poses must lie in 0..--poses ({poses}), --yaw-deg be finite and --yaw-hold a "
+                         f"positive number of seconds, got {yaw_poses}, {yaw_deg!r}, {yaw_hold!r}")
+    if table_temperature_end is not None and (not math.isfinite(table_temperature_end) or rate_table is None
+                                              or temperature is None):
+        raise InputError("--table-temperature-end needs --rate-table and --temperature (it continues the warm-up "
+                         "over the table runs) and a finite temperature in degC")
     if not 0 <= gyro_ar1 < 1:
         raise InputError(f"--gyro-ar1 must lie in [0, 1) (1 is a random walk, not a noise), got {gyro_ar1!r}")
     n_samples = fs * (init_s + poses * (pose_s + rotation_s))
@@ -293,12 +306,12 @@ def simulate_imu_cmd(
                              "--table-u-axis not negative")
         spec = TableSpec(axes=axes, rate=table_rate, hold_s=table_hold, u_rate_rel=table_u_rate,
                          u_axis=math.radians(table_u_axis), rate_error_rel=table_rate_error,
-                         mount_tilt=math.radians(table_tilt))
+                         mount_tilt=math.radians(table_tilt), temperature_end=table_temperature_end)
     rec, truth = simulate_imu(n_poses=poses, fs=fs, init_s=init_s, pose_s=pose_s, rotation_s=rotation_s,
                               accel_noise=accel_noise, gyro_noise=gyro_noise, gyro_ar1=gyro_ar1, gyro_bias_drift=d,
                               exclude_axis=exclude_axis, temperature=temp, **tcs,
                               gyro_g_sensitivity=None if gs is None else np.reshape(gs, (3, 3)), rate_table=spec,
-                              seed=seed)
+                              yaw_poses=yaw_poses, yaw_deg=yaw_deg, yaw_hold_s=yaw_hold, seed=seed)
     p = write_recording(rec, out / "imu.csv", units_in_header=True)  # ax [m/s^2]: the units travel with the data
     q = write_truth(truth, out / "imu_truth.json")
     if spec is not None:

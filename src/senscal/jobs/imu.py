@@ -171,7 +171,13 @@ class ImuCalibrateResult(JobResult):
             "file": self.source, "gravity": r.gravity,
             "static": {"n_poses": st.n_poses, "threshold_multiple": r.poses.multiple,
                        "reference_variance": r.poses.reference_variance, "tried": list(r.poses.tried),
-                       "starts": st.starts, "stops": st.stops},
+                       "starts": st.starts, "stops": st.stops,
+                       "gyro_check": None if r.poses.gyro is None else {
+                           "split": r.poses.gyro.n_split, "trimmed": r.poses.gyro.trimmed,
+                           "dropped": [{"start_s": a, "stop_s": b, "deviations": z} for a, b, z in r.poses.gyro.unsplit],
+                           "moving_mean_scatter": r.poses.gyro.scale,
+                           "note": "still runs of the accelerometer cut where the gyro's 0.1 s moving mean leaves its "
+                                   "run level by more than 5 still deviations (a turn about the vertical)"}},
             "accelerometer": accel, "gyroscope": gyro,
             "gravity_direction_residual_deg": {
                 "before": before, "after": after,

@@ -10,7 +10,12 @@ at k = 2.
 Scenarios: ``rate-table`` (three axes on the table: must cover); ``rate-table-single-axis`` (only Z on the
 table, X and Y from the poses alone: must cover); ``rate-table-wrong-rate`` (the table turns 0.1 % slower
 than it states, 20 times the stated u: ``rate-table-inconsistent`` must fire); ``rate-table-tilted-mount``
-(the IMU sits 0.3 deg tilted on the table, stated as exactly aligned: ``rate-table-inconsistent`` must fire).
+(the IMU sits 0.3 deg tilted on the table, stated as exactly aligned: ``rate-table-inconsistent`` must fire);
+``rate-table-temperature`` (the ``temperature-gyro-scale`` warm-up 15 -> 45 degC over the poses with gyro scale
+and bias tempcos, then the table runs while the IMU cools linearly to 25 degC, calibrated with the temperature
+channel: the segments read through the poses' temperature model; every number, the temperature coefficients
+too, must cover at the reference temperature, and ``rate-table-inconsistent`` must stay at its false-alarm
+rate).
 """
 
 from __future__ import annotations
@@ -22,7 +27,7 @@ import numpy as np
 from senscal.diagnostics import has_warning
 from senscal.validation import CoverageRow, coverage_row
 
-__all__ = ["SCENARIOS", "run_rate_table", "run_single_axis", "run_wrong_rate", "run_tilted_mount"]
+__all__ = ["SCENARIOS", "run_rate_table", "run_single_axis", "run_wrong_rate", "run_tilted_mount", "run_temperature"]
 
 JOB = "imu"
 WARNING = "rate-table-inconsistent"
@@ -53,12 +58,26 @@ def _one(seed: int, spec_kw: dict) -> tuple[dict, tuple]:
     return out, r.warnings
 
 
-def _run(case: str, spec_kw: dict, n_seeds: int, seed0: int, note: str, warn: bool = False) -> list[CoverageRow]:
+def _one_temperature(seed: int, spec_kw: dict) -> tuple[dict, tuple]:
+    """The warm-up session with a rate table, calibrated with the temperature channel; scored at the reference."""
+    from senscal.imu import calibrate_imu
+    from senscal.simulate.imu import simulate_imu
+    from senscal.simulate.imu_table import TableSpec, rate_table_of
+    from senscal.validation.imu import TEMPERATURE_SCALE, score
+
+    rec, tr = simulate_imu(seed=seed, rate_table=TableSpec(**spec_kw), **TEMPERATURE_SCALE)
+    r = calibrate_imu(rec.time, rec.data(["ax", "ay", "az"]), rec.data(["gx", "gy", "gz"]), gyro_unit="rad/s",
+                      temperature=rec.data(["temp"])[0], rate_table=rate_table_of(tr))
+    return score(r, tr), r.warnings
+
+
+def _run(case: str, spec_kw: dict, n_seeds: int, seed0: int, note: str, warn: bool = False,
+         one=None) -> list[CoverageRow]:
     vals: dict[str, list] = {}
     warned = []
     for s in range(seed0, seed0 + n_seeds):
         try:
-            out, w = _one(s, spec_kw)
+            out, w = (one or _one)(s, spec_kw)
         except Exception:  # noqa: BLE001 - a refused session quotes nothing: a miss for every number
             out, w = {}, ()
         warned.append(has_warning(w, WARNING))
@@ -99,9 +118,21 @@ def run_tilted_mount(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
                 "axis tilted 0.3 deg, u_axis 0 stated", warn=True)
 
 
-for _f in (run_rate_table, run_single_axis, run_wrong_rate, run_tilted_mount):
+#: The table runs while the IMU cools from the warm-up's end to this temperature, degC.
+TABLE_TEMPERATURE_END = 25.0
+
+
+def run_temperature(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Warm-up over the poses, the table cooling to 25 degC, gyro scale and bias tempcos: must cover."""
+    return _run("rate-table-temperature", {"u_axis": U_AXIS, "temperature_end": TABLE_TEMPERATURE_END}, n_seeds,
+                seed0, "15->45 degC over the poses, table cooling to 25 degC; gyro scale/bias tempcos",
+                one=_one_temperature)
+
+
+for _f in (run_rate_table, run_single_axis, run_wrong_rate, run_tilted_mount, run_temperature):
     _f.full_seeds = 200  # type: ignore[attr-defined]
     _f.ci_seeds = 2  # type: ignore[attr-defined]
 
 SCENARIOS = {"rate-table": run_rate_table, "rate-table-single-axis": run_single_axis,
-             "rate-table-wrong-rate": run_wrong_rate, "rate-table-tilted-mount": run_tilted_mount}
+             "rate-table-wrong-rate": run_wrong_rate, "rate-table-tilted-mount": run_tilted_mount,
+             "rate-table-temperature": run_temperature}

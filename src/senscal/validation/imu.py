@@ -14,7 +14,10 @@ temperature coefficients, calibrated with the temperature channel: every number 
 coefficients must cover, at the reference temperature the job states); ``temperature-small-swing`` (25 -> 27
 degC: ``temperature-swing-small`` must fire); ``g-sensitivity`` (a gyro reading 2e-4 rad/s per m/s^2,
 calibrated with ``g_sensitivity``: must cover, the nine G elements too); ``g-sensitivity-unmodelled`` (the
-same, calibrated without: ``gyro-g-sensitivity`` must fire).
+same, calibrated without: ``gyro-g-sensitivity`` must fire); ``yaw-in-pose`` (three poses hold a 90 deg turn
+about the vertical between two 3 s still parts: the accelerometer sees one pose, the gyro check splits it; must
+cover); ``yaw-in-pose-unsplit`` (the same with 0.6 s still parts, too short to keep: ``pose-rotation-unsplit``
+must fire).
 """
 
 from __future__ import annotations
@@ -27,7 +30,8 @@ from senscal.diagnostics import has_warning
 from senscal.validation import CoverageRow, coverage_row
 
 __all__ = ["SCENARIOS", "MEMS", "thirty_poses_mems", "run_mems", "run_white", "run_bias_drift", "run_coloured", "run_unexcited", "run_temperature",
-           "run_temperature_scale", "run_small_swing", "run_g_sensitivity", "run_g_unmodelled", "truth_at_reference"]
+           "run_temperature_scale", "run_small_swing", "run_g_sensitivity", "run_g_unmodelled", "truth_at_reference",
+           "run_yaw", "run_yaw_unsplit", "YAW"]
 
 JOB = "imu"
 
@@ -251,7 +255,22 @@ def run_g_unmodelled(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
                 warn="gyro-g-sensitivity")
 
 
-for _f, _ci in ((run_mems, 2), (run_white, 2), (run_bias_drift, 2), (run_coloured, 2), (run_unexcited, 2),
+#: Three poses holding a 90 deg turn about the vertical (the accelerometer cannot see it).
+YAW = {"yaw_poses": 3, "yaw_deg": 90.0}
+
+
+def run_yaw(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """A turn about the vertical inside three poses, 3 s still on each side: split by the gyro, must cover."""
+    return _run("yaw-in-pose", YAW, n_seeds, seed0, "3 poses hold a 90 deg turn about gravity (split by the gyro)")
+
+
+def run_yaw_unsplit(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """The same turn with 0.6 s still on each side (below --min-pose): ``pose-rotation-unsplit`` must fire."""
+    return _run("yaw-in-pose-unsplit", {**YAW, "yaw_hold_s": 0.6}, n_seeds, seed0,
+                "3 poses: 0.6 s still, 90 deg turn about gravity, 0.6 s still", warn="pose-rotation-unsplit")
+
+
+for _f, _ci in ((run_mems, 2), (run_white, 2), (run_yaw, 2), (run_yaw_unsplit, 2), (run_bias_drift, 2), (run_coloured, 2), (run_unexcited, 2),
                 (run_temperature, 2), (run_temperature_scale, 2), (run_small_swing, 2), (run_g_sensitivity, 2),
                 (run_g_unmodelled, 2)):
     _f.full_seeds = 200  # type: ignore[attr-defined]
@@ -261,7 +280,7 @@ SCENARIOS = {"mems-30-poses": run_mems, "white": run_white, "bias-drift": run_bi
              "axis-unexcited": run_unexcited, "temperature": run_temperature,
              "temperature-gyro-scale": run_temperature_scale,
              "temperature-small-swing": run_small_swing, "g-sensitivity": run_g_sensitivity,
-             "g-sensitivity-unmodelled": run_g_unmodelled}
+             "g-sensitivity-unmodelled": run_g_unmodelled, "yaw-in-pose": run_yaw, "yaw-in-pose-unsplit": run_yaw_unsplit}
 
 from senscal.validation._imu_ratetable import SCENARIOS as _RATE_TABLE  # noqa: E402 - rate-table cases (their own module)
 
