@@ -227,7 +227,6 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
         Missing channels, I/Q swapped, one channel given as a pair, a
         wavelength in metres, too few fringes (one line, with the fix).
     """
-    from senscal.io.plausibility import merge_time_warnings
     from senscal.primary import calibrate_point
     from senscal.primary.core import check_wavelength
 
@@ -247,19 +246,12 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
         raise InputError(f"--output {o.output} is one of the quadrature channels; name the accelerometer's channel")
     sources = _sources(source, o)
     rows = []
-    units = set()
     warnings: list[str] = []
-    from senscal.jobs._units import CommonUnit, check_magnitude, check_session_time
+    from senscal.jobs._units import CommonUnit
     from senscal.units import factor as unit_factor, same_unit
 
     common = CommonUnit(o.output, "--output")  # one file in mV, another in V: all in the first's unit
-    for src in sources:
-        rec = o.read(src, channels=[qi, qq, o.output], job="primary")
-        check_session_time(rec, source_name(src), "primary vibration")
-        check_magnitude(rec, [qi, qq, o.output], source_name(src))
-        fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
-        name = source_name(src)
-        out = common.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)
+    for name, rec, fs, out in _each_file(sources, o, [qi, qq, o.output], common, warnings):
         # I in V and Q in mV: Q in I's unit, so that the gain ratio and the offsets are the interferometer's
         q_sig = np.asarray(rec.channels[qq], float)
         ui, uq = rec.unit(qi), rec.unit(qq)
@@ -274,12 +266,10 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
                                 sign_check=o.sign_check)
         except InputError as exc:
             raise type(exc)(f"{name}: {exc}") from None
-        units.add(common.unit)
         warnings.extend(f"{w} ({name})" for w in p.warnings)
-        warnings.extend(merge_time_warnings((), rec.warnings))
         rows.append((p.frequency_hz, name, p))
     rows.sort(key=lambda r: r[0])
-    raw_unit = units.pop() if len(units) == 1 else ""
+    raw_unit = common.unit or ""  # the first file's, every other file's output put in it
     unit = f"{raw_unit or 'output'} per m/s^2"
     return PrimaryResult(points=tuple(r[2] for r in rows), sources=tuple(r[1] for r in rows),
                          quadrature=(qi, qq), output=o.output, unit=unit, wavelength_nm=float(o.wavelength_nm),
@@ -296,9 +286,38 @@ def _sources(source, o: PrimaryOptions) -> Sequence[Any]:
     return sources
 
 
+def _each_file(sources, o: PrimaryOptions, chans: list, common, warnings: list[str]):
+    """Each recording read and checked as both input modes need it: yields ``(name, rec, fs, out)``.
+
+    Parameters
+    ----------
+    sources : sequence
+        The recordings, one per frequency.
+    o : PrimaryOptions
+    chans : list of str
+        The channels to read (the output among them).
+    common : senscal.jobs._units.CommonUnit
+        The output's unit across files: ``out`` is the output channel in the first file's unit.
+    warnings : list of str
+        A file's time-base warnings are appended when the caller asks for the next file, that is after the
+        caller appended the point's own warnings (the order the report lists them in).
+    """
+    from senscal.io.plausibility import merge_time_warnings
+    from senscal.jobs._units import check_magnitude, check_session_time
+
+    for src in sources:
+        rec = o.read(src, channels=chans, job="primary")
+        check_session_time(rec, source_name(src), "primary vibration")
+        check_magnitude(rec, chans, source_name(src))
+        fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
+        name = source_name(src)
+        out = common.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)
+        yield name, rec, fs, out
+        warnings.extend(merge_time_warnings((), rec.warnings))
+
+
 def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
     """:func:`primary` for a heterodyne carrier channel (``--heterodyne CH --carrier-hz F | --carrier-channel REF``)."""
-    from senscal.io.plausibility import merge_time_warnings
     from senscal.primary.heterodyne import calibrate_heterodyne
 
     het, ref = str(o.heterodyne), o.carrier_channel
@@ -312,19 +331,11 @@ def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
         raise InputError(f"--carrier-sign must be 1 or -1, got {o.carrier_sign!r}")
     sources = _sources(source, o)
     rows = []
-    units = set()
     warnings: list[str] = []
-    from senscal.jobs._units import CommonUnit, check_magnitude, check_session_time
+    from senscal.jobs._units import CommonUnit
 
     common = CommonUnit(o.output, "--output")  # one file in mV, another in V: all in the first's unit
-    for src in sources:
-        chans = [het, o.output] + ([ref] if ref else [])
-        rec = o.read(src, channels=chans, job="primary")
-        check_session_time(rec, source_name(src), "primary vibration")
-        check_magnitude(rec, chans, source_name(src))
-        fs = float(rec.fs) if rec.fs else 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
-        name = source_name(src)
-        out = common.factor(rec.unit(o.output), name) * np.asarray(rec.channels[o.output], float)
+    for name, rec, fs, out in _each_file(sources, o, [het, o.output] + ([ref] if ref else []), common, warnings):
         try:
             p, dem = calibrate_heterodyne(rec.channels[het], out, fs, carrier_hz=o.carrier_hz,
                                           reference=rec.channels[ref] if ref else None, freq=o.freq,
@@ -335,12 +346,10 @@ def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
                                           u_other_phase_deg=o.u_other_phase_deg, sign_check=o.sign_check)
         except InputError as exc:
             raise type(exc)(f"{name}: {exc}") from None
-        units.add(common.unit)
         warnings.extend(f"{w} ({name})" for w in p.warnings)
-        warnings.extend(merge_time_warnings((), rec.warnings))
         rows.append((p.frequency_hz, name, p, dem))
     rows.sort(key=lambda r: r[0])
-    raw_unit = units.pop() if len(units) == 1 else ""
+    raw_unit = common.unit or ""
     return PrimaryResult(points=tuple(r[2] for r in rows), sources=tuple(r[1] for r in rows),
                          quadrature=(het, ref or ""), output=o.output, unit=f"{raw_unit or 'output'} per m/s^2",
                          wavelength_nm=float(o.wavelength_nm), warnings=tuple(dict.fromkeys(warnings)),
