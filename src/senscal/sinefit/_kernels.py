@@ -54,6 +54,31 @@ def _harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.nd
     return out
 
 
+def _harmonic_basis_into(out: np.ndarray, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
+    """:func:`_harmonic_basis` written into the first ``2*harmonics`` rows of ``out`` (shape (>= 2K, n)).
+
+    The sine fit builds its design rows (basis, constant, drift) in one array, so that the basis is not
+    allocated and copied a second time (64 MB at a million samples and three harmonics, issue 28).
+    """
+    n = out.shape[1]
+    nblocks = (n + _ANCHOR - 1) // _ANCHOR
+    for kk in range(harmonics):
+        k = kk + 1
+        cs = math.cos(k * w_dt)
+        sn = math.sin(k * w_dt)
+        for b in nb.prange(nblocks):
+            i0 = b * _ANCHOR
+            i1 = min(i0 + _ANCHOR, n)
+            ang = k * (tau0_w + i0 * w_dt)
+            s = math.sin(ang)
+            c = math.cos(ang)
+            for i in range(i0, i1):
+                out[2 * kk, i] = s
+                out[2 * kk + 1, i] = c
+                s, c = s * cs + c * sn, c * cs - s * sn
+    return out
+
+
 def _project(y: np.ndarray, basis: np.ndarray, tau: np.ndarray, use_tau: bool, pilot: np.ndarray, nthreads: int):
     """One pass: ``A^T (y - pilot)``, ``sum((y - pilot)^2)`` and the lag-one sum per channel.
 
@@ -256,7 +281,8 @@ def compiled() -> types.SimpleNamespace:
 
     Attributes ``project_rotated`` / ``project_rotated_serial``,
     ``project_parallel`` / ``project_serial``, ``harmonic_basis_parallel`` /
-    ``harmonic_basis_serial``, ``gram_rotated``, ``residual_ss``.
+    ``harmonic_basis_serial``, ``harmonic_basis_into_parallel`` / ``harmonic_basis_into_serial``,
+    ``gram_rotated``, ``residual_ss``.
     """
     global _COMPILED
     if _COMPILED is None:
@@ -274,6 +300,8 @@ def compiled() -> types.SimpleNamespace:
             project_serial=_build(nb, _project, False),
             harmonic_basis_parallel=_build(nb, _harmonic_basis, True),
             harmonic_basis_serial=_build(nb, _harmonic_basis, False),
+            harmonic_basis_into_parallel=_build(nb, _harmonic_basis_into, True),
+            harmonic_basis_into_serial=_build(nb, _harmonic_basis_into, False),
             gram_rotated=nb.njit(cache=True, fastmath=True)(_gram_rotated),
             residual_ss=nb.njit(cache=True, parallel=True, fastmath=False)(_residual_ss),
         )
@@ -355,13 +383,26 @@ def project_serial(y, basis, tau, use_tau: bool, pilot, nthreads: int):
     return compiled().project_serial(y, basis, tau, use_tau, pilot, nthreads)
 
 
-def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
-    """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics, shape (2K, n)."""
+def harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int, out: np.ndarray | None = None) -> np.ndarray:
+    """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics, shape (2K, n).
+
+    With ``out`` (C-contiguous, shape (>= 2K, n)) the rows are written into its first 2K rows and ``out``
+    is returned.
+    """
     if _small(n * harmonics):
         a = _angles(n, w_dt, tau0_w)
-        return np.stack([f(k * a) for k in range(1, harmonics + 1) for f in (np.sin, np.cos)])
+        rows = [f(k * a) for k in range(1, harmonics + 1) for f in (np.sin, np.cos)]
+        if out is None:
+            return np.stack(rows)
+        for j, r in enumerate(rows):
+            out[j] = r
+        return out
     c = compiled()
-    fn = c.harmonic_basis_parallel if n * harmonics >= PARALLEL_MIN_SAMPLES // 4 else c.harmonic_basis_serial
+    par = n * harmonics >= PARALLEL_MIN_SAMPLES // 4
+    if out is not None:
+        fn = c.harmonic_basis_into_parallel if par else c.harmonic_basis_into_serial
+        return fn(out, float(w_dt), float(tau0_w), int(harmonics))
+    fn = c.harmonic_basis_parallel if par else c.harmonic_basis_serial
     return fn(n, float(w_dt), float(tau0_w), int(harmonics))
 
 

@@ -456,13 +456,22 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
     p = 2 * harmonics + 1 + int(drift)
     nb_ = 2 * harmonics
     rotated = harmonics == 1 and not drift
-    tau = tau0 + np.arange(n) * dt if drift else np.empty(0)
+    rows = None
     if rotated:
         # Fundamental + offset: the basis is generated inside the pass.
+        tau = np.empty(0)
         basis = None
         gram = kern.gram_rotated(n, w * dt, w * tau0)
     else:
-        basis = kern.harmonic_basis(n, w * dt, w * tau0, harmonics)
+        # The design's rows (basis, constant, centred time) in one array, returned for the residual tests.
+        rows = np.empty((p, n))
+        basis = kern.harmonic_basis(n, w * dt, w * tau0, harmonics, out=rows)[:nb_]
+        rows[nb_] = 1.0
+        tau = np.empty(0)
+        if drift:
+            tau = rows[nb_ + 1]
+            np.multiply(np.arange(n), dt, out=tau)
+            tau += tau0
         gram = np.empty((p, p))
         gram[:nb_, :nb_] = basis @ basis.T
         gram[:nb_, nb_] = gram[nb_, :nb_] = basis.sum(axis=1)
@@ -504,7 +513,7 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
         rss[redo], lag1[redo] = kern.residual_ss(yc, basis, tau, drift, coef, redo)
     rss = np.maximum(rss, 0.0)
     ginv = scipy.linalg.cho_solve(cho, np.eye(p)) * sc[:, None] * sc[None, :]
-    return coef, rss, ginv, lag1, basis
+    return coef, rss, ginv, lag1, rows
 
 
 def _basis_at(tau_i: float, w: float, harmonics: int, drift: bool) -> np.ndarray:
@@ -919,7 +928,7 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
         w = TWO_PI * freq
         omegas = col_omegas(w, False)
         if fast:
-            coef, rss, ginv, lag1_sum, fast_basis = _fast_uniform(y2, n, dt, tau0, w, harmonics, drift)
+            coef, rss, ginv, lag1_sum, fast_design = _fast_uniform(y2, n, dt, tau0, w, harmonics, drift)
             with np.errstate(divide="ignore", invalid="ignore"):
                 lag1s[:] = np.where(rss > 0, lag1_sum / rss, np.nan)
             coef_all = coef
@@ -933,12 +942,11 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
                 if not a_fast:
                     from senscal.sinefit import _kernels as kern
 
-                    rows = np.empty((p, n))
-                    rows[:2 * harmonics] = (fast_basis if fast_basis is not None
-                                            else kern.harmonic_basis(n, w * dt, w * tau0, harmonics))
-                    rows[2 * harmonics] = 1.0
-                    if drift:
-                        rows[2 * harmonics + 1] = tau0 + np.arange(n) * dt
+                    rows = fast_design
+                    if rows is None:  # the fundamental's pass generated its basis on the fly
+                        rows = np.empty((p, n))
+                        kern.harmonic_basis(n, w * dt, w * tau0, harmonics, out=rows)
+                        rows[2 * harmonics] = 1.0
                     a_fast.append(rows)
                 return a_fast[0]
 
