@@ -229,6 +229,7 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
     """
     from senscal.primary import calibrate_point
     from senscal.primary.core import check_wavelength
+    from senscal.primary.repeats import repeat_warnings
 
     o = options
     check_wavelength(o.wavelength_nm)
@@ -269,6 +270,7 @@ def primary(source, options: PrimaryOptions = PrimaryOptions()) -> PrimaryResult
         warnings.extend(f"{w} ({name})" for w in p.warnings)
         rows.append((p.frequency_hz, name, p))
     rows.sort(key=lambda r: r[0])
+    warnings.extend(repeat_warnings(r[2] for r in rows))
     raw_unit = common.unit or ""  # the first file's, every other file's output put in it
     unit = f"{raw_unit or 'output'} per m/s^2"
     return PrimaryResult(points=tuple(r[2] for r in rows), sources=tuple(r[1] for r in rows),
@@ -319,6 +321,7 @@ def _each_file(sources, o: PrimaryOptions, chans: list, common, warnings: list[s
 def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
     """:func:`primary` for a heterodyne carrier channel (``--heterodyne CH --carrier-hz F | --carrier-channel REF``)."""
     from senscal.primary.heterodyne import calibrate_heterodyne
+    from senscal.primary.repeats import repeat_warnings
 
     het, ref = str(o.heterodyne), o.carrier_channel
     if o.carrier_hz is None and not ref:
@@ -349,6 +352,7 @@ def _primary_heterodyne(source, o: PrimaryOptions) -> PrimaryResult:
         warnings.extend(f"{w} ({name})" for w in p.warnings)
         rows.append((p.frequency_hz, name, p, dem))
     rows.sort(key=lambda r: r[0])
+    warnings.extend(repeat_warnings(r[2] for r in rows))
     raw_unit = common.unit or ""
     return PrimaryResult(points=tuple(r[2] for r in rows), sources=tuple(r[1] for r in rows),
                          quadrature=(het, ref or ""), output=o.output, unit=f"{raw_unit or 'output'} per m/s^2",

@@ -15,6 +15,10 @@ beam, stated as the type B ``other`` term, must cover); ``intensity-drift``
 (laser intensity -10 % to +10 % over the record, must cover); ``coloured-noise`` (AR(1) noise of the
 displacement along the beam, lag-one 0.98 at the sample rate and 5 nm rms: laser frequency noise, air
 turbulence; the displacement's u comes from the fit's AR noise model at the excitation, must cover).
+Repeated mountings (four records at 160 Hz a seed, each its own transverse draw, the check of
+:mod:`senscal.primary.repeats`): ``remounted`` (no transverse motion: must cover, the warning's false-alarm
+rate in the warned column) and ``remounted-transverse`` (0.2 % transverse motion not stated: the job must name
+``mounting-repeats-disagree``).
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ import numpy as np
 from senscal.validation import CoverageRow, coverage_row
 
 __all__ = ["SCENARIOS", "FREQS", "run_white", "run_harmonics", "run_output_drift", "run_hum", "run_transverse",
-           "run_intensity_drift", "run_coloured_noise", "one_seed"]
+           "run_intensity_drift", "run_coloured_noise", "run_remounted", "run_remounted_transverse", "one_seed"]
 
 JOB = "primary"
 FREQS = (10.0, 160.0, 1000.0, 5000.0)
@@ -68,7 +72,7 @@ def one_seed(seed: int, sim_kw: dict, freqs=FREQS, cal_kw: dict | None = None):
 # each case draws its own noise: with shared seeds a departed case repeated the white case's unlucky draws
 # (the first 60 white seeds cover the 1 kHz sensitivity 86.7 %, and so did every departure on them)
 _CASE_SEED = {"white": 0, "harmonics": 1, "output-drift": 2, "hum": 3, "transverse": 4, "intensity-drift": 5,
-              "coloured-noise": 6}
+              "coloured-noise": 6, "remounted": 7, "remounted-transverse": 8}
 
 
 def _run(case: str, sim_kw: dict, n_seeds: int, seed0: int, note: str, cal_kw: dict | None = None) -> list[CoverageRow]:
@@ -147,14 +151,61 @@ def run_coloured_noise(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
                 "AR(1) 0.98 beam displacement noise, 5 nm rms")
 
 
+MOUNTINGS = 4  # records a seed at one frequency, each remounted (its own transverse draw)
+REMOUNT_FREQ = 160.0
+
+
+def _run_repeats(case: str, sim_kw: dict, n_seeds: int, seed0: int, note: str, expect: str) -> list[CoverageRow]:
+    """Per seed MOUNTINGS records at REMOUNT_FREQ; rows of the first mounting's point, warned = the repeat check."""
+    from senscal.primary import calibrate_point
+    from senscal.primary.repeats import repeat_warnings
+    from senscal.simulate.interferometer import simulate_interferometer
+
+    f = REMOUNT_FREQ
+    sens, phase, warned = [], [], []
+    for s in range(seed0, seed0 + n_seeds):
+        pts, truth = [], None
+        for i in range(MOUNTINGS):
+            rec, tr = simulate_interferometer(freq=f, acceleration=_acc(f), fs=_fs(f)[0], duration=_fs(f)[1],
+                                              seed=(s + 1_000_000 * _CASE_SEED[case]) * 16 + i, **sim_kw)
+            c = rec.channels
+            try:
+                pts.append(calibrate_point(c["I"], c["Q"], c["out"], rec.fs, freq=f))
+            except Exception:  # noqa: BLE001 - a refused point quotes nothing: a miss
+                pts.append(None)
+            truth = tr
+        p0 = pts[0]
+        sens.append((np.nan, np.nan, np.nan) if p0 is None else (p0.sensitivity, p0.u_sensitivity, truth["sensitivity"]))
+        phase.append((np.nan, np.nan, np.nan) if p0 is None else (p0.phase_deg, p0.u_phase_deg, truth["phase_deg"]))
+        ok = [p for p in pts if p is not None]
+        warned.append(any(w.startswith("mounting-repeats-disagree") for w in repeat_warnings(ok)))
+    rows = []
+    for q, v in ((f"sensitivity@{f:g}Hz", sens), (f"phase@{f:g}Hz", phase)):
+        e, u, t = (np.array(x, float) for x in zip(*v))
+        rows.append(coverage_row(JOB, case, q, e, u, t, warned=warned, expect=expect, note=note))
+    return rows
+
+
+def run_remounted(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Four mountings at 160 Hz, no transverse motion: must cover; warned % is the repeat check's false alarms."""
+    return _run_repeats("remounted", {}, n_seeds, seed0, "4 mountings at 160 Hz, no transverse motion", "cover")
+
+
+def run_remounted_transverse(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """Four mountings, 0.2 % transverse motion drawn per mounting and not stated: mounting-repeats-disagree."""
+    return _run_repeats("remounted-transverse", {"transverse_rel": TRANSVERSE_REL}, n_seeds, seed0,
+                        "4 mountings at 160 Hz, transverse 0.2 % per mounting, not stated", "warn")
+
+
 for _f, _ci in ((run_white, 10), (run_harmonics, 4), (run_output_drift, 3), (run_hum, 4), (run_transverse, 3),
-                (run_intensity_drift, 3), (run_coloured_noise, 3)):
+                (run_intensity_drift, 3), (run_coloured_noise, 3), (run_remounted, 3), (run_remounted_transverse, 3)):
     _f.full_seeds = 200  # type: ignore[attr-defined]
     _f.ci_seeds = _ci  # type: ignore[attr-defined]
 
 SCENARIOS = {"white": run_white, "harmonics": run_harmonics, "output-drift": run_output_drift, "hum": run_hum,
              "transverse": run_transverse, "intensity-drift": run_intensity_drift,
-             "coloured-noise": run_coloured_noise}
+             "coloured-noise": run_coloured_noise, "remounted": run_remounted,
+             "remounted-transverse": run_remounted_transverse}
 
 # heterodyne carrier input (ISO 16063-41 style): its own module, the cases named heterodyne-*
 from senscal.validation._primary_heterodyne import HETERODYNE_SCENARIOS  # noqa: E402
