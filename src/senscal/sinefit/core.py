@@ -851,7 +851,11 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
     def residual_tests(rows, resid2, design, coefs):
         """Both tests' sums for channels ``rows`` (residuals ``resid2`` sharing ``design``), vectorised."""
         sn, cs = design[:, 0], design[:, 1]
-        c2, s2 = cs * cs - sn * sn, 2.0 * sn * cs
+        if harmonics >= 2:
+            # the second harmonic's columns are sin 2 theta and cos 2 theta already
+            s2, c2 = design[:, 2], design[:, 3]
+        else:
+            c2, s2 = cs * cs - sn * sn, 2.0 * sn * cs
         stat, coef, xinv, s2e = phase_variance_batch(resid2, c2, s2)
         amp2 = coefs[:, 0] ** 2 + coefs[:, 1] ** 2
         with np.errstate(divide="ignore", invalid="ignore"):
