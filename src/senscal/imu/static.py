@@ -13,7 +13,7 @@ accelerometer-still run is therefore also checked with the gyro
 run's own bias level (the median of those means, robust to a turn filling less
 than half the run), is compared with its still scatter (the pooled median
 absolute deviation of the runs' moving means, which carries coloured noise
-too); beyond :data:`GYRO_SIGMA` of it the sample moves.  Moving samples are
+too, floored at the gyro's resolution); beyond :data:`GYRO_SIGMA` of it the sample moves.  Moving samples are
 cut out with half a window of margin on each side and the pieces of at least
 the shortest pose are kept as poses of their own; a run whose turn leaves no
 piece that long is dropped and named (``pose-rotation-unsplit``).
@@ -148,7 +148,11 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
         return GyroSplit(static=st, n_split=0, unsplit=(), trimmed=0, scale=np.zeros(3))
     # The still scatter from the median absolute deviation over all runs (a turn's samples are few).
     pooled = np.concatenate(devs, axis=1)
-    scale = np.maximum(stats.norm.ppf(0.75) ** -1 * np.median(np.abs(pooled), axis=1), 1e-300)
+    # Floored at the gyro's resolution (its smallest step between samples): a gyro quieter than one count has
+    # a median absolute deviation of 0, and one count's flip must not pass for a turn.
+    steps = np.abs(np.diff(g, axis=1))
+    lsb = np.array([float(np.min(r[r > 0])) if np.any(r > 0) else 0.0 for r in steps])
+    scale = np.maximum(stats.norm.ppf(0.75) ** -1 * np.median(np.abs(pooled), axis=1), np.maximum(lsb, 1e-300))
     starts, stops, unsplit = [], [], []
     n_split = trimmed = 0
     for (a, b), dv in zip(zip(st.starts, st.stops), devs):
