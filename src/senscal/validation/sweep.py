@@ -509,8 +509,10 @@ def _jobs() -> dict[str, SweepJob]:
              "gain_ratio", "quadrature_deg", "laser_noise", "output_noise_rel", "hum_hz", "seed",
              # Not drawn, for these reasons: the heterodyne carrier's options are another input mode, run by the
              # heterodyne-* scenarios of senscal.validation.primary; transverse motion is invisible to the beam and
-             # is covered only when the lab states it as a type B term (the 'transverse' scenario); coloured beam
-             # displacement noise is open (docs/primary.md).
+             # is covered only when the lab states it as a type B term (the 'transverse' scenario), across
+             # mountings named by the repeat check ('remounted-transverse'); coloured beam displacement noise is
+             # the 'coloured-noise' scenario (AR(1) 0.98, 5 nm: an amplitude and a correlation drawn together
+             # would need their joint realistic range, which the sweep's independent draws do not give).
              "heterodyne", "carrier_hz", "carrier_offset_hz", "carrier_drift_hz", "am_depth", "am_hz", "reference",
              "transverse_rel", "displacement_noise_m", "displacement_noise_ar1"),
             _run_primary),
