@@ -11,7 +11,8 @@ accelerometer sees one still pose, the gyro a rotation (issue 27).  Each
 accelerometer-still run is therefore also checked with the gyro
 (:func:`split_by_gyro`): the gyro's moving mean over the same window, less the
 run's own bias level (the median of those means, robust to a turn filling less
-than half the run), is compared with its still scatter (the pooled median
+than half the run; in runs of 4 s or more the line through its two halves' medians, so that a drifting bias is
+no turn), is compared with its still scatter (the pooled median
 absolute deviation of the runs' moving means, which carries coloured noise
 too, floored at the gyro's resolution); beyond :data:`GYRO_SIGMA` of it the sample moves.  Moving samples are
 cut out with half a window of margin on each side and the pieces of at least
@@ -52,6 +53,8 @@ GYRO_SIGMA = 5.0
 #: flag half a second of still samples on each side of a turn and leave no pose between two hand rotations);
 #: a 10-sample mean still sees 0.003 rad/s at MEMS noise, where a hand turn runs at 0.5-5 rad/s.
 GYRO_WINDOW_S = 0.1
+#: Runs at least this long (s) take their level as a line in time (two halves' medians), shorter ones the median.
+LEVEL_LINE_S = 4.0
 
 
 @dataclass(frozen=True)
@@ -140,10 +143,22 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
     w = max(int(round(window_s * fs)), 3)
     n_min = max(int(round(min_pose_s * fs)), 2)
     half = w // 2
+    n_long = max(int(round(LEVEL_LINE_S * fs)), 4)
     devs = []
     for a, b in zip(st.starts, st.stops):
         mm = uniform_filter1d(g[:, a:b], min(w, b - a), axis=1, mode="nearest")
-        devs.append(mm - np.median(mm, axis=1, keepdims=True))
+        n = b - a
+        if n >= n_long:
+            # A long run (the still start, a merged pose): the level as the line through its two halves'
+            # medians, so that a bias drifting with time or a warm-up is no turn.
+            h = n // 2
+            m1 = np.median(mm[:, :h], axis=1, keepdims=True)
+            m2 = np.median(mm[:, h:], axis=1, keepdims=True)
+            c1, c2 = (h - 1) / 2.0, h + (n - h - 1) / 2.0
+            level = m1 + (m2 - m1) * ((np.arange(n) - c1) / (c2 - c1))[None, :]
+        else:
+            level = np.median(mm, axis=1, keepdims=True)
+        devs.append(mm - level)
     if not devs:
         return GyroSplit(static=st, n_split=0, unsplit=(), trimmed=0, scale=np.zeros(3))
     # The still scatter from the median absolute deviation over all runs (a turn's samples are few).
