@@ -91,19 +91,15 @@ def _conic_to_params(theta: np.ndarray) -> np.ndarray:
     return np.array([p, q, g, alpha, a])
 
 
-def heydemann_fit(i_sig, q_sig) -> HeydemannFit:
-    """Fit the ellipse of a quadrature pair (linear least squares on the conic).
+def _heydemann(i_sig, q_sig) -> tuple[HeydemannFit, np.ndarray]:
+    """:func:`heydemann_fit` and the corrected radius of each sample (relative to the I amplitude).
 
-    Parameters
-    ----------
-    i_sig, q_sig : array_like, shape (N,)
-        The two quadrature signals (any unit, the same for both).
+    The radius is what the intensity check reads next: returned, it is not computed twice (issue 28).
 
     Returns
     -------
-    HeydemannFit
-        Offsets, gain ratio, quadrature error and their covariance (the
-        conic's least-squares covariance propagated by a numerical Jacobian).
+    (HeydemannFit, ndarray)
+        The fit, and the corrected radius ``sqrt(c^2 + s^2)`` of each sample (1 on the fitted ellipse).
 
     Raises
     ------
@@ -159,7 +155,29 @@ def heydemann_fit(i_sig, q_sig) -> HeydemannFit:
     rad = np.sqrt(c * c + s * s)
     return HeydemannFit(offset_i=fit.offset_i, offset_q=fit.offset_q, gain_ratio=fit.gain_ratio,
                         quadrature_error_rad=fit.quadrature_error_rad, amplitude_i=fit.amplitude_i,
-                        covariance=cov, radius_rms=float(np.sqrt(np.mean((rad - 1.0) ** 2))))
+                        covariance=cov, radius_rms=float(np.sqrt(np.mean((rad - 1.0) ** 2)))), rad
+
+
+def heydemann_fit(i_sig, q_sig) -> HeydemannFit:
+    """Fit the ellipse of a quadrature pair (linear least squares on the conic).
+
+    Parameters
+    ----------
+    i_sig, q_sig : array_like, shape (N,)
+        The two quadrature signals (any unit, the same for both).
+
+    Returns
+    -------
+    HeydemannFit
+        Offsets, gain ratio, quadrature error and their covariance (the
+        conic's least-squares covariance propagated by a numerical Jacobian).
+
+    Raises
+    ------
+    DataError
+        A single channel given twice (the pair lies on a line), or no ellipse.
+    """
+    return _heydemann(i_sig, q_sig)[0]
 
 
 def _corrected(x, y, params, a: float = 1.0):
@@ -470,7 +488,7 @@ def _local_level(spec: np.ndarray):
     return level, 1.0 / (math.log(2.0) * math.sqrt(TONE_BLOCK))
 
 
-def _intensity_normalised(x, y, hf: HeydemannFit, passes: int = 2):
+def _intensity_normalised(x, y, hf: HeydemannFit, passes: int = 2, radius: np.ndarray | None = None):
     """The quadrature pair with a linear change of the laser intensity divided out, and its ellipse refitted.
 
     The conic fit assumes one radius; an intensity changing over the record (the laser's power, the beam
@@ -481,6 +499,8 @@ def _intensity_normalised(x, y, hf: HeydemannFit, passes: int = 2):
     as the noise) both signals' alternating parts are divided by it about the offsets and the ellipse refitted.
     ``atan2`` reads the same angle from the scaled pair, so nothing downstream changes but the parameters.
 
+    ``radius``, when given, is the corrected radius of ``hf`` on ``x, y`` (from :func:`_heydemann`).
+
     Returns
     -------
     (x, y, fit, trend)
@@ -490,9 +510,11 @@ def _intensity_normalised(x, y, hf: HeydemannFit, passes: int = 2):
     tau = (np.arange(n) - 0.5 * (n - 1)) / max(n - 1, 1)  # -1/2 .. 1/2 over the record
     stt = float(tau @ tau)
     trend = 0.0
+    r = radius
     for _ in range(passes):
-        c, s = _corrected(x, y, hf.params, hf.amplitude_i)
-        r = np.sqrt(c * c + s * s)
+        if r is None:
+            c, s = _corrected(x, y, hf.params, hf.amplitude_i)
+            r = np.sqrt(c * c + s * s)
         r0 = float(r.mean())
         b1 = float(tau @ (r - r0)) / stt
         res = r - r0 - b1 * tau
@@ -503,7 +525,7 @@ def _intensity_normalised(x, y, hf: HeydemannFit, passes: int = 2):
         x = hf.offset_i + (x - hf.offset_i) / scale
         y = hf.offset_q + (y - hf.offset_q) / scale
         trend = (1.0 + trend) * (1.0 + b1 / r0) - 1.0 if trend else b1 / r0
-        hf = heydemann_fit(x, y)
+        hf, r = _heydemann(x, y)
     return x, y, hf, trend
 
 
@@ -576,8 +598,9 @@ def calibrate_point(i_sig, q_sig, output, fs: float, *, freq: float | None = Non
     if gap > math.pi / 2:
         raise DataError(f"too few fringes: the quadrature signals leave {math.degrees(gap):.0f} deg of the ellipse "
                         "empty; the Heydemann fit needs at least one full fringe (raise the vibration amplitude)")
-    hf = heydemann_fit(x, y)
-    x, y, hf, intensity_trend = _intensity_normalised(x, y, hf)
+    hf, rad = _heydemann(x, y)
+    x, y, hf, intensity_trend = _intensity_normalised(x, y, hf, radius=rad)
+    del rad
     c_, s_ = _corrected(x, y, hf.params)
     phi_raw = np.arctan2(s_, c_)
     # the steps' whole turns: the unwrapped phase subtracts them (integers, summed exactly), and the wrapped
