@@ -22,7 +22,9 @@ CI_SEEDS = {"white": 30, "gm-signal+ramp": 30, "ramp-rw-model": 20, "known": 40,
             "ar1-noise": 16, "covariate-lag-3": 6, "covariate-lag-20": 8, "covariate-lag-60": 6,
             # False alarms where the model asked for is true (a "no warning" row judged by the coverage rule:
             # 16 seeds fail a check that names half of them).
-            "white-compare": 16, "covariate-lag-0": 16}
+            "white-compare": 16, "covariate-lag-0": 16,
+            # The tau asserted (no average over tau): must cover with the tighter u.
+            "known-tau": 16}
 
 
 def test_every_scenario_has_a_ci_seed_count():
@@ -31,7 +33,8 @@ def test_every_scenario_has_a_ci_seed_count():
 
 #: Departures the job neither covers nor names in >= 95 % of records yet, and false alarms above the rule:
 #: none since issue 26 item 5 (a covariate lag the record does not fix is averaged into u; the lag-free
-#: one-sensor records, where the former lag check named two thirds, are named in about 1 %).
+#: one-sensor records, where the former lag check named two thirds, are named in about 6 %).  A Gauss-Markov
+#: tau not asserted is averaged over too (issue 26): wrong-tau is judged by the coverage rule.
 OPEN: set[str] = set()
 
 

@@ -30,7 +30,7 @@ DEFAULT_CHUNK = 1000
 def _drift_options(*, preset: str = "redundant", channels: str | None = None, trusted: str | None = None,
                    covariate: str | None = None, model: Path | str | None = None, window: int | None = None,
                    smooth: bool = False, false_alarm_rate: float = 1e-4, signal: str = "random_walk",
-                   signal_tau: float | None = None, signal_mean: float = 0.0,
+                   signal_tau: float | None = None, signal_mean: float = 0.0, signal_tau_known: bool = False,
                    covariate_reference: float | None = None, covariate_lag: float | None = None,
                    bias_dynamics: str = "random_walk", true_value: float = 0.0, compare: bool = True, state: Path | str | None = None,
                    fit_levels: bool = False, levels_from_allan: bool = False, flush: bool = False, **_):
@@ -41,7 +41,7 @@ def _drift_options(*, preset: str = "redundant", channels: str | None = None, tr
         preset=preset, channels=tuple(split_names(channels) or ()) or None, trusted=tuple(split_names(trusted) or ()),
         covariate=covariate, model=None if model is None else str(model), window=window, smooth=smooth,
         false_alarm_rate=false_alarm_rate, signal=signal, signal_tau=signal_tau, signal_mean=signal_mean,
-        covariate_reference=covariate_reference, covariate_lag=covariate_lag, bias_dynamics=bias_dynamics,
+        signal_tau_known=signal_tau_known, covariate_reference=covariate_reference, covariate_lag=covariate_lag, bias_dynamics=bias_dynamics,
         true_value=true_value, compare=compare, state=None if state is None else str(state), fit_levels=fit_levels,
         levels_from_allan=levels_from_allan, flush=flush)
 
@@ -78,6 +78,7 @@ def drift_cmd(
     signal: Annotated[str, typer.Option("--signal", help="Model of the quantity: random_walk | gauss_markov.")] = "random_walk",
     signal_tau: Annotated[Optional[str], typer.Option("--signal-tau", help="Time constant of a gauss_markov quantity in s.")] = None,
     signal_mean: Annotated[float, typer.Option("--signal-mean", help="Known mean of a gauss_markov quantity.")] = 0.0,
+    signal_tau_known: Annotated[bool, typer.Option("--signal-tau-known", help="The --signal-tau of a gauss_markov quantity is known; without it the result is averaged over the time constants the record allows (wider u).")] = False,
     covariate_reference: Annotated[Optional[float], typer.Option("--covariate-reference", help="Covariate value of zero bias (default: its mean, with a warning when that fixes the offset).")] = None,
     covariate_lag: Annotated[Optional[str], typer.Option("--covariate-lag", help="Known first-order lag between the covariate and the bias, in s (0: none, e.g. a sensor reading its own temperature); without it the result is averaged over the lags the record holds (wider u).")] = None,
     bias_dynamics: Annotated[str, typer.Option("--bias-dynamics", help="random_walk | ramp (bias plus a wandering slope: a linear drift without lag).")] = "random_walk",
@@ -178,9 +179,16 @@ def _print_tables(file: Path, res, doc: dict) -> None:
         console.print(f"innovations: mean normalised square {check.nis:.3f} (1 under the model), whiteness "
                       f"p = {check.whiteness_p:.2g} ({check.lags} lags): "
                       + ("adequate" if check.adequate else "model rejected"))
+    ta = res.result.tau_average
+    if ta is not None:
+        held = [tau for tau, w in zip(ta["taus"], ta["weights"]) if w > 0.01]
+        console.print(f"signal tau: asked {ta['asked']:.4g} s, most likely {ta['most_likely']:.4g} s; "
+                      + (f"averaged over {min(held):.3g}-{max(held):.3g} s by likelihood (in U; "
+                         "--signal-tau-known to use the one given)" if ta["applied"] else
+                         "not averaged (another model used)"))
     for c in comparison[1:]:
         console.print(f"alternative {c['model']}: AIC {c['aic'] - comparison[0]['aic']:+.1f} against the model "
-                      "asked for")
+                      + ("used (signal tau the most likely)" if ta is not None else "asked for"))
     if res.result.selected:
         console.print(f"model used: {res.result.selected} (lowest AIC"
                       + ("" if res.result.selected == "--noise ar1" else

@@ -138,6 +138,12 @@ class SignalModel(ResultMixin):
         sample as given.
     level, tau, mean : float, optional
         See ``kind``; ``level`` None means estimated.
+    tau_known : bool
+        ``gauss_markov`` only: the time constant is known (asserted by the
+        user), so the job uses it as given.  False (default): ``tau`` is
+        where the search starts; with the model comparison on, the result
+        is averaged over the time constants the record allows, weighted by
+        their profile likelihood (:func:`senscal.drift.core.correct_drift`).
     F, Q : ndarray, optional
         (ns, ns) per-sample transition and process noise (``matrix`` only).
     H : ndarray, optional
@@ -152,12 +158,17 @@ class SignalModel(ResultMixin):
     F: Any = None
     Q: Any = None
     H: Any = None
+    tau_known: bool = False
 
     def __post_init__(self) -> None:
         if self.kind not in SIGNAL_KINDS:
             raise InputError(f"signal model must be one of {', '.join(SIGNAL_KINDS)}, got {self.kind!r}")
         if self.kind == "gauss_markov" and not (self.tau is not None and self.tau > 0):
             raise InputError("a Gauss-Markov signal needs a time constant tau > 0 in seconds")
+        if not isinstance(self.tau_known, bool):
+            raise InputError(f"tau_known must be true or false, got {self.tau_known!r}")
+        if self.tau_known and self.kind != "gauss_markov":
+            raise InputError("a known signal time constant (tau_known) is for a gauss_markov signal")
         if not math.isfinite(self.mean):
             raise InputError(f"the signal mean must be a finite number, got {self.mean}")
         if self.kind == "matrix" and (self.F is None or self.Q is None or self.H is None):
@@ -292,7 +303,7 @@ class DriftSetup(ResultMixin):
 def redundant_setup(channels: Sequence[str], trusted: Sequence[str] = (), *, covariate: str | None = None,
                     signal: str = "random_walk", signal_tau: float | None = None, signal_mean: float = 0.0,
                     bias_dynamics: str = "random_walk", bias_tau: float | None = None,
-                    covariate_reference: float | None = None) -> DriftSetup:
+                    covariate_reference: float | None = None, signal_tau_known: bool = False) -> DriftSetup:
     """Preset ``redundant``: several sensors measure one quantity.
 
     Channels named in ``trusted`` have no bias; every other channel gets an
@@ -310,6 +321,8 @@ def redundant_setup(channels: Sequence[str], trusted: Sequence[str] = (), *, cov
         Covariate channel (e.g. temperature) for covariate-linked biases.
     signal, signal_tau, signal_mean :
         Model of the quantity (see :class:`SignalModel`); tau in s.
+    signal_tau_known : bool
+        The Gauss-Markov time constant is known (:attr:`SignalModel.tau_known`).
     bias_dynamics, bias_tau :
         Dynamics of the additive biases; tau in s.
     covariate_reference : float, optional
@@ -332,12 +345,14 @@ def redundant_setup(channels: Sequence[str], trusted: Sequence[str] = (), *, cov
         biases.append(Bias(c, dynamics=bias_dynamics, tau=bias_tau))
         if covariate is not None:
             biases.append(Bias(c, covariate=covariate, reference=covariate_reference))
-    return DriftSetup(channels=tuple(channels), signal=SignalModel(kind=signal, tau=signal_tau, mean=signal_mean),
+    return DriftSetup(channels=tuple(channels), signal=SignalModel(kind=signal, tau=signal_tau, mean=signal_mean,
+                                                                   tau_known=signal_tau_known),
                       biases=tuple(biases), trusted=tuple(trusted))
 
 
 def covariate_setup(channel: str, covariate: str, *, signal: str = "random_walk", signal_tau: float | None = None,
-                    signal_mean: float = 0.0, covariate_reference: float | None = None) -> DriftSetup:
+                    signal_mean: float = 0.0, covariate_reference: float | None = None,
+                    signal_tau_known: bool = False) -> DriftSetup:
     """Preset ``covariate``: one sensor whose bias is linear in a covariate.
 
     ``y_t = s_t + alpha_t (c_t - c_ref) + v_t`` with ``alpha`` a slow random
@@ -354,12 +369,15 @@ def covariate_setup(channel: str, covariate: str, *, signal: str = "random_walk"
         Model of the quantity (see :class:`SignalModel`).
     covariate_reference : float, optional
         Covariate value of zero bias (default: its mean over the record).
+    signal_tau_known : bool
+        The Gauss-Markov time constant is known (:attr:`SignalModel.tau_known`).
 
     Returns
     -------
     DriftSetup
     """
-    return DriftSetup(channels=(channel,), signal=SignalModel(kind=signal, tau=signal_tau, mean=signal_mean),
+    return DriftSetup(channels=(channel,), signal=SignalModel(kind=signal, tau=signal_tau, mean=signal_mean,
+                                                              tau_known=signal_tau_known),
                       biases=(Bias(channel, covariate=covariate, reference=covariate_reference),))
 
 
@@ -414,7 +432,8 @@ def load_model_yaml(path: str | Path) -> DriftSetup:
 
         channels: [A, B, C]
         trusted: [A]                  # optional, documentation
-        signal:                       # or {kind: random_walk, level: 0.01}
+        signal:                       # or {kind: random_walk, level: 0.01}, or
+                                      # {kind: gauss_markov, tau: 200, tau_known: true}
           kind: matrix
           F: [[1.0]]                  # per sample
           Q: [[1.0e-6]]               # per sample, unit^2

@@ -53,7 +53,8 @@ def setup_to_dict(setup: DriftSetup) -> dict[str, Any]:
     return {
         "channels": list(setup.channels),
         "signal": {"kind": sig.kind, "level": sig.level, "tau": sig.tau, "mean": sig.mean,
-                   "F": _plain(sig.F), "Q": _plain(sig.Q), "H": _plain(sig.H)},
+                   "F": _plain(sig.F), "Q": _plain(sig.Q), "H": _plain(sig.H),
+                   **({"tau_known": True} if sig.tau_known else {})},
         "biases": [{"channel": b.channel, "covariate": b.covariate, "reference": b.reference,
                     "dynamics": b.dynamics, "level": b.level, "tau": b.tau,
                     **({"lag": b.lag, "fit_lag": b.fit_lag} if (b.lag or b.fit_lag) else {})}

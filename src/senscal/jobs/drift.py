@@ -65,6 +65,10 @@ class DriftOptions(ReadOptions):
         Drift detector false alarms per hour per channel.
     signal, signal_tau, signal_mean :
         Model of the quantity; tau in s.
+    signal_tau_known : bool
+        The Gauss-Markov ``signal_tau`` is known.  False (default): with the
+        comparison on, the result is averaged over the time constants the
+        record allows (their profile likelihood as weight), so tau is in u.
     covariate_reference : float, optional
         Covariate value of zero covariate-linked bias.
     covariate_lag : float, optional
@@ -105,6 +109,7 @@ class DriftOptions(ReadOptions):
     signal: str = "random_walk"
     signal_tau: float | None = None
     signal_mean: float = 0.0
+    signal_tau_known: bool = False
     covariate_reference: float | None = None
     covariate_lag: float | None = None
     bias_dynamics: str = "random_walk"
@@ -144,6 +149,12 @@ class DriftOptions(ReadOptions):
                 raise InputError(f"--covariate-lag must be a time >= 0 s, got {self.covariate_lag}")
         if self.window is not None and (int(self.window) != self.window or self.window < 1):
             raise InputError(f"--window must be a whole number of samples >= 1, got {self.window}")
+        if self.signal_tau_known and (self.signal != "gauss_markov" or self.signal_tau is None):
+            raise InputError("--signal-tau-known asserts the time constant of a Gauss-Markov quantity: give "
+                             "--signal gauss_markov --signal-tau SECONDS too")
+        if self.signal_tau_known and self.preset not in ("redundant", "covariate"):
+            raise InputError("--signal-tau-known is for the redundant and covariate presets (in a model file: "
+                             "tau_known: true under signal)")
 
     @property
     def lag(self) -> int:
@@ -183,7 +194,7 @@ def _preset_setup(rec, opts: DriftOptions, preset: str, covariate: str | None, t
         return known_setup(chans, opts.true_value, bias_dynamics=opts.bias_dynamics, covariate=covariate,
                            covariate_reference=opts.covariate_reference)
     kw = dict(signal=opts.signal, signal_tau=opts.signal_tau, signal_mean=opts.signal_mean,
-              covariate_reference=opts.covariate_reference)
+              covariate_reference=opts.covariate_reference, signal_tau_known=opts.signal_tau_known)
     if preset == "covariate":
         if covariate is None:
             raise InputError("--preset covariate needs --covariate NAME (the channel the bias follows)")

@@ -169,19 +169,38 @@ def run_reference_defaulted(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
 def run_wrong_tau(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
     """Issue 14 item 2: a Gauss-Markov quantity fitted with a tau 10x too short.
 
-    Where the innovations reject the model asked for, the job uses the
-    better tau (``model used``, no warning), so a seed passes when its
-    interval covers or a listed warning fired (per seed, as the lag cases):
-    counting warnings alone gave 73 % (seeds 0-99) once the job began to
-    use, instead of name, a rejected model's better swap (commit eaa9b04).
+    Issue 26: the tau asked for is a starting point unless asserted
+    (``tau_known``); with the comparison on, the job averages over the
+    time constants the record allows, the profile likelihood as weight
+    (``_tau_average`` in senscal.drift.core), so tau is in u and every row
+    must cover (judged like the lag rows; ``warned`` is the share of
+    records named).  Before, the result came from the tau asked for (or a
+    better one where the innovations rejected it), named otherwise: judged
+    per seed (covered or named) 91 / 94 / 94 % (band, final bias,
+    coefficient; 200 seeds) once ``better-model`` needed an Akaike weight
+    above 0.95, while the pointwise band covered 62-67 %.
     """
     sim = _COVARIATE_SIM
     return _run("covariate, wrong signal tau", n_seeds, seed0, sim,
                 lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=20.0,
                                           covariate_reference=20.0),
-                "quantity tau 200 s, model tau 20 s: the better tau is used when the innovations reject the "
-                "model asked for, named otherwise",
-                warn=("model-inadequate", "better-model"), expect="named", compare=True,
+                "quantity tau 200 s, model tau 20 s not asserted: averaged over tau by the job; warned = share named",
+                warn=("model-inadequate", "better-model"), expect="cover", compare=True,
+                terms={"x_c_coefficient": 0.2})
+
+
+def run_known_tau(n_seeds: int, seed0: int = 0) -> list[CoverageRow]:
+    """The tau asserted (``tau_known``, ``--signal-tau-known``), right, comparison on.
+
+    No average over tau: u is that of the model with the tau given (the
+    lag is still averaged: no lag is given), which must cover.
+    """
+    sim = _COVARIATE_SIM
+    return _run("covariate, signal tau known", n_seeds, seed0, sim,
+                lambda d: covariate_setup("x", "c", signal="gauss_markov", signal_tau=200.0,
+                                          covariate_reference=20.0, signal_tau_known=True),
+                "quantity tau 200 s asserted (no tau average), comparison on",
+                warn=("covariate-lag-uncertain", "better-model", "model-inadequate"), expect="cover", compare=True,
                 terms={"x_c_coefficient": 0.2})
 
 
@@ -271,12 +290,13 @@ for _f in (run_white, run_gm_ramp, run_known, run_covariate, run_reference_defau
 # within +/- 5 % (99.9 % Wilson) at a third of the cost.
 run_ramp_rw.full_seeds = 100
 # The issue-26 departures: the rule asks for >= 200 seeds.
-for _f in (run_wrong_tau, run_ar1_noise, run_white_compare, run_lag0, run_lag3, run_lag20, run_lag60):
+for _f in (run_wrong_tau, run_ar1_noise, run_white_compare, run_lag0, run_lag3, run_lag20, run_lag60,
+           run_known_tau):
     _f.full_seeds = FULL
 
 SCENARIOS = {"white": run_white, "gm-signal+ramp": run_gm_ramp, "ramp-rw-model": run_ramp_rw, "known": run_known,
              "covariate": run_covariate, "reference-defaulted": run_reference_defaulted,
-             "wrong-tau": run_wrong_tau, "ar1-noise": run_ar1_noise, "white-compare": run_white_compare,
+             "wrong-tau": run_wrong_tau, "known-tau": run_known_tau, "ar1-noise": run_ar1_noise, "white-compare": run_white_compare,
              "covariate-lag-0": run_lag0,
              "covariate-lag-3": run_lag3,
              "covariate-lag-20": run_lag20, "covariate-lag-60": run_lag60}
