@@ -93,11 +93,15 @@ class GyroSplit(ResultMixin):
     n_split : int
         Runs cut into two or more poses.
     unsplit : tuple of (float, float, float)
-        Runs dropped because no piece was long enough: ``(start s, stop s, largest moving-mean deviation)``.
+        Runs still at both ends and moving inside, dropped because no piece was long enough (named
+        ``pose-rotation-unsplit``): ``(start s, stop s, largest moving-mean deviation)``.
     trimmed : int
-        Runs that lost moving samples at one end (one piece kept).
+        Runs that lost moving samples at an end (one piece kept).
     scale : ndarray, shape (3,)
         The still scatter of the gyro's moving mean per axis (gyro units).
+    short : tuple of (float, float, float)
+        Runs moving at an end whose still rest is shorter than the shortest pose (dropped, like any short
+        window; not named).
     """
 
     static: StaticIntervals
@@ -105,6 +109,7 @@ class GyroSplit(ResultMixin):
     unsplit: tuple
     trimmed: int
     scale: np.ndarray
+    short: tuple = ()
 
 
 def _intervals(x: np.ndarray, starts, stops, threshold: float, noise_variance: float) -> StaticIntervals:
@@ -117,7 +122,8 @@ def _intervals(x: np.ndarray, starts, stops, threshold: float, noise_variance: f
 
 
 def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: float, *,
-                  window_s: float = GYRO_WINDOW_S, min_pose_s: float = 1.0, sigma: float = GYRO_SIGMA) -> GyroSplit:
+                  window_s: float = GYRO_WINDOW_S, min_pose_s: float = 1.0, sigma: float = GYRO_SIGMA,
+                  accel_window_s: float = 1.0) -> GyroSplit:
     """Cut the accelerometer's still runs where the gyro moves (a turn about the vertical).
 
     Parameters
@@ -134,6 +140,9 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
         Shortest piece kept, s.
     sigma : float
         Threshold in still deviations of the moving mean.
+    accel_window_s : float
+        The accelerometer's moving-variance window, s: a run dropped for motion only within half of it from
+        an end holds a rotation's tail, not a turn inside the pose (not named).
 
     Returns
     -------
@@ -143,6 +152,7 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
     w = max(int(round(window_s * fs)), 3)
     n_min = max(int(round(min_pose_s * fs)), 2)
     half = w // 2
+    edge = max(int(round(0.5 * accel_window_s * fs)), 1)
     n_long = max(int(round(LEVEL_LINE_S * fs)), 4)
     devs = []
     for a, b in zip(st.starts, st.stops):
@@ -160,7 +170,7 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
             level = np.median(mm, axis=1, keepdims=True)
         devs.append(mm - level)
     if not devs:
-        return GyroSplit(static=st, n_split=0, unsplit=(), trimmed=0, scale=np.zeros(3))
+        return GyroSplit(static=st, n_split=0, unsplit=(), trimmed=0, scale=np.zeros(3), short=())
     # The still scatter from the median absolute deviation over all runs (a turn's samples are few).
     pooled = np.concatenate(devs, axis=1)
     # Floored at the gyro's resolution (its smallest step between samples): a gyro quieter than one count has
@@ -168,7 +178,7 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
     steps = np.abs(np.diff(g, axis=1))
     lsb = np.array([float(np.min(r[r > 0])) if np.any(r > 0) else 0.0 for r in steps])
     scale = np.maximum(stats.norm.ppf(0.75) ** -1 * np.median(np.abs(pooled), axis=1), np.maximum(lsb, 1e-300))
-    starts, stops, unsplit = [], [], []
+    starts, stops, unsplit, short = [], [], [], []
     n_split = trimmed = 0
     for (a, b), dv in zip(zip(st.starts, st.stops), devs):
         z = np.max(np.abs(dv) / scale[:, None], axis=0)
@@ -186,7 +196,14 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
         edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(np.int8), [0]])))
         pieces = [(a + p, a + q) for p, q in zip(edges[0::2], edges[1::2]) if q - p >= n_min]
         if not pieces:
-            unsplit.append((a / fs, b / fs, float(z.max())))
+            if np.any((idx >= edge) & (idx < b - a - edge)):
+                # Moving farther inside than the accelerometer's half window reaches: a turn it cannot see,
+                # too short to split.
+                unsplit.append((a / fs, b / fs, float(z.max())))
+            else:
+                # Motion within the accelerometer's half window of an end (a rotation's slow tail the variance
+                # window let in) leaves too short a pose: left out like any window shorter than --min-pose.
+                short.append((a / fs, b / fs, float(z.max())))
             continue
         if len(pieces) > 1:
             n_split += 1
@@ -196,7 +213,8 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
             starts.append(p)
             stops.append(q)
     out = _intervals(np.asarray(accel, float), starts, stops, st.threshold, st.noise_variance)
-    return GyroSplit(static=out, n_split=n_split, unsplit=tuple(unsplit), trimmed=trimmed, scale=scale)
+    return GyroSplit(static=out, n_split=n_split, unsplit=tuple(unsplit), trimmed=trimmed, scale=scale,
+                     short=tuple(short))
 
 
 def sweep_static(accel: np.ndarray, fs: float, gravity_of, *, window_s: float = 1.0, min_pose_s: float = 1.0,
@@ -257,7 +275,7 @@ def sweep_static(accel: np.ndarray, fs: float, gravity_of, *, window_s: float = 
         st = detect_static(x, fs, window_s=window_s, min_duration_s=min_pose_s, threshold=thr)
         gs = None
         if gyro is not None:
-            gs = split_by_gyro(x, gyro, st, fs, min_pose_s=min_pose_s)
+            gs = split_by_gyro(x, gyro, st, fs, min_pose_s=min_pose_s, accel_window_s=window_s)
             st = gs.static
         most = max(most, st.n_poses)
         rms = float(gravity_of(st.means)) if st.n_poses >= min_poses else math.nan

@@ -175,6 +175,8 @@ class ImuCalibrateResult(JobResult):
                        "gyro_check": None if r.poses.gyro is None else {
                            "split": r.poses.gyro.n_split, "trimmed": r.poses.gyro.trimmed,
                            "dropped": [{"start_s": a, "stop_s": b, "deviations": z} for a, b, z in r.poses.gyro.unsplit],
+                           "dropped_short": [{"start_s": a, "stop_s": b, "deviations": z}
+                                             for a, b, z in r.poses.gyro.short],
                            "moving_mean_scatter": r.poses.gyro.scale,
                            "note": "still runs of the accelerometer cut where the gyro's 0.1 s moving mean leaves its "
                                    "run level by more than 5 still deviations (a turn about the vertical)"}},
