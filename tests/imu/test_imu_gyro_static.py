@@ -131,3 +131,19 @@ def test_combine_without_temperature_is_the_linear_solution():
     theta = h @ (np.linalg.inv(cp) @ mp.ravel() + a.T @ si @ means.ravel())
     assert np.allclose(fit.matrix.ravel(), theta, rtol=0, atol=1e-12)
     assert np.allclose(fit.covariance, h, rtol=1e-9, atol=0)
+
+
+def test_rotation_tail_dropped_unnamed():
+    """Short poses: a rotation's tail inside the accelerometer's window may leave too short a pose; it is left
+    out like any short window, not named as a turn (that needs motion deeper than the half window)."""
+    from senscal.imu.static import split_by_gyro
+    from senscal.simulate.imu import simulate_imu
+    from senscal.triaxial.static import detect_static
+
+    rec, _ = simulate_imu(seed=1, pose_s=1.5)
+    a, g = rec.data(["ax", "ay", "az"]), rec.data(["gx", "gy", "gz"])
+    st0 = detect_static(a, 100.0, window_s=1.0, min_duration_s=1.0)
+    st = detect_static(a, 100.0, window_s=1.0, min_duration_s=1.0, threshold=8 * st0.noise_variance)
+    gs = split_by_gyro(a, g, st, 100.0)
+    assert gs.short and not gs.unsplit
+    assert gs.static.n_poses == st.n_poses - len(gs.short)
