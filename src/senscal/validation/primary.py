@@ -174,9 +174,9 @@ def _run_repeats(case: str, sim_kw: dict, n_seeds: int, seed0: int, note: str, e
             except Exception:  # noqa: BLE001 - a refused point quotes nothing: a miss
                 pts.append(None)
             truth = tr
-        p0 = pts[0]
-        sens.append((np.nan, np.nan, np.nan) if p0 is None else (p0.sensitivity, p0.u_sensitivity, truth["sensitivity"]))
-        phase.append((np.nan, np.nan, np.nan) if p0 is None else (p0.phase_deg, p0.u_phase_deg, truth["phase_deg"]))
+        p0, nan3 = pts[0], (np.nan, np.nan, np.nan)
+        sens.append(nan3 if p0 is None else (p0.sensitivity, p0.u_sensitivity, truth["sensitivity"]))
+        phase.append(nan3 if p0 is None else (p0.phase_deg, p0.u_phase_deg, truth["phase_deg"]))
         ok = [p for p in pts if p is not None]
         warned.append(any(w.startswith("mounting-repeats-disagree") for w in repeat_warnings(ok)))
     rows = []
