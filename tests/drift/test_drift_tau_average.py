@@ -103,3 +103,15 @@ def test_cli_signal_tau_known(cli, tmp_path):
     assert table.code == 0 and "signal tau: asked 20 s, most likely" in table.out, table.out
     r = cli("drift", f, "--preset", "covariate", "--channels", "x", "--covariate", "c", "--signal-tau-known")
     assert r.code == 2 and "--signal gauss_markov" in r.err and len(r.err.strip().splitlines()) == 1, r.err
+
+
+def test_a_tau_outside_the_range_still_averages_inside_it():
+    # 1e5 s on a 600 s record (beyond ten record lengths): the grid keeps its anchor but the average runs
+    # over the time constants inside the range, and the result agrees with the one from 200 s asked.
+    d, cov = _record(1)
+    far = correct_drift(_setup(1e5), d["y"][0], d["t"], cov, smooth=True)
+    near = correct_drift(_setup(200.0), d["y"][0], d["t"], cov, smooth=True)
+    ta = far.tau_average
+    assert ta["applied"] and 1.0 <= ta["most_likely"] <= 6000.0
+    assert sum(w > 0.01 for w in ta["weights"]) >= 3
+    assert np.max(np.abs(far.bias - near.bias) / near.bias_std) < 0.5

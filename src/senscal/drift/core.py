@@ -569,27 +569,30 @@ def _tau_average(setup: DriftSetup, yy: np.ndarray, dt: np.ndarray, cov: Mapping
         return fits[k][0]
 
     fit(0, free)
-    for sgn in (1, -1):
-        k, prev = 0, fits[0][0]
-        while True:
-            k += sgn
-            tau = tau0 * ratio**k
-            if not (lo <= tau <= hi):
-                break
+    # Grid indices inside the range; a tau asked for outside it still anchors the grid, and the walk then
+    # starts at the nearest point inside.
+    k_lo = int(math.ceil(math.log(lo / tau0) / math.log(ratio) - 1e-9))
+    k_hi = int(math.floor(math.log(hi / tau0) / math.log(ratio) + 1e-9))
+    walks = (range(max(1, k_lo), k_hi + 1), range(min(-1, k_hi), k_lo - 1, -1))
+    for walk in walks:
+        last, prev = 0, fits[0][0]
+        for k in walk:
             try:
-                ll = fit(k, {n_: fits[k - sgn][1][n_] for n_ in free})
+                ll = fit(k, {n_: fits[last][1][n_] for n_ in free})
             except Exception:  # a time constant the model refuses: the walk stops there
                 break
             best = max(v[0] for v in fits.values())
             if ll < best - _LAG_NEGLIGIBLE and ll < prev:
                 break
-            prev = ll
+            last, prev = k, ll
     ks = sorted(fits)
     taus = np.array([tau0 * ratio**k for k in ks])
     ll = np.array([fits[k][0] for k in ks])
-    i_best = int(np.argmax(ll))
-    w = np.exp(ll - ll.max())
-    w[ll < ll.max() - _LAG_NEGLIGIBLE] = 0.0
+    # The prior is flat on ln tau over the range: an anchor outside it only started the walk.
+    ll_in = np.where((taus >= lo * (1 - 1e-9)) & (taus <= hi * (1 + 1e-9)), ll, -np.inf) if len(ks) > 1 else ll
+    i_best = int(np.argmax(ll_in))
+    w = np.exp(ll_in - ll_in.max())
+    w[ll_in < ll_in.max() - _LAG_NEGLIGIBLE] = 0.0
     w /= w.sum()
     k_best = ks[i_best]
     res = rerun(at(taus[i_best]), {n_: fits[k_best][1][n_] for n_ in free})
