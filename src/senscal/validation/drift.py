@@ -298,7 +298,8 @@ for _f in (run_wrong_tau, run_ar1_noise, run_white_compare, run_lag0, run_lag3, 
 
 SCENARIOS = {"white": run_white, "gm-signal+ramp": run_gm_ramp, "ramp-rw-model": run_ramp_rw, "known": run_known,
              "covariate": run_covariate, "reference-defaulted": run_reference_defaulted,
-             "wrong-tau": run_wrong_tau, "known-tau": run_known_tau, "ar1-noise": run_ar1_noise, "white-compare": run_white_compare,
+             "wrong-tau": run_wrong_tau, "known-tau": run_known_tau, "ar1-noise": run_ar1_noise,
+             "white-compare": run_white_compare,
              "covariate-lag-0": run_lag0,
              "covariate-lag-3": run_lag3,
              "covariate-lag-20": run_lag20, "covariate-lag-60": run_lag60}
