@@ -158,7 +158,7 @@ def test_serial_and_parallel_kernels_have_distinct_cache_keys():
 
     k = kk.compiled()
     pairs = [(k.project_rotated, k.project_rotated_serial), (k.project_parallel, k.project_serial),
-             (k.harmonic_basis_parallel, k.harmonic_basis_serial)]
+             (k.harmonic_basis_into_parallel, k.harmonic_basis_into_serial)]
     for par, ser in pairs:
         assert par.py_func.__qualname__ != ser.py_func.__qualname__
         assert par.targetoptions.get("parallel") and not ser.targetoptions.get("parallel")

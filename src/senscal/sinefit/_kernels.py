@@ -30,32 +30,9 @@ _BLOCK = 2048   # samples per cache block in the projection
 _TEMPLATE = 1024  # samples per rotated template block (two 8 KiB tables stay in L1)
 
 
-def _harmonic_basis(n: int, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
-    """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics.
-
-    Returns an array of shape (2*harmonics, n).
-    """
-    out = np.empty((2 * harmonics, n))
-    nblocks = (n + _ANCHOR - 1) // _ANCHOR
-    for kk in range(harmonics):
-        k = kk + 1
-        cs = math.cos(k * w_dt)
-        sn = math.sin(k * w_dt)
-        for b in nb.prange(nblocks):
-            i0 = b * _ANCHOR
-            i1 = min(i0 + _ANCHOR, n)
-            ang = k * (tau0_w + i0 * w_dt)
-            s = math.sin(ang)
-            c = math.cos(ang)
-            for i in range(i0, i1):
-                out[2 * kk, i] = s
-                out[2 * kk + 1, i] = c
-                s, c = s * cs + c * sn, c * cs - s * sn
-    return out
-
-
 def _harmonic_basis_into(out: np.ndarray, w_dt: float, tau0_w: float, harmonics: int) -> np.ndarray:
-    """:func:`_harmonic_basis` written into the first ``2*harmonics`` rows of ``out`` (shape (>= 2K, n)).
+    """Rows ``sin(k*(tau0_w + i*w_dt))``, ``cos(...)`` for k = 1..harmonics, written into the first
+    ``2*harmonics`` rows of ``out`` (shape (>= 2K, n)); returns ``out``.
 
     The sine fit builds its design rows (basis, constant, drift) in one array, so that the basis is not
     allocated and copied a second time (64 MB at a million samples and three harmonics, issue 28).
@@ -298,13 +275,17 @@ def compiled() -> types.SimpleNamespace:
             project_rotated_serial=_build(nb, _project_rotated, False),
             project_parallel=_build(nb, _project, True),
             project_serial=_build(nb, _project, False),
-            harmonic_basis_parallel=_build(nb, _harmonic_basis, True),
-            harmonic_basis_serial=_build(nb, _harmonic_basis, False),
             harmonic_basis_into_parallel=_build(nb, _harmonic_basis_into, True),
             harmonic_basis_into_serial=_build(nb, _harmonic_basis_into, False),
             gram_rotated=nb.njit(cache=True, fastmath=True)(_gram_rotated),
             residual_ss=nb.njit(cache=True, parallel=True, fastmath=False)(_residual_ss),
         )
+        ns = _COMPILED
+        # The basis alone is the written-into kernel on a fresh array: one kernel to compile and keep.
+        ns.harmonic_basis_parallel = lambda n, w_dt, tau0_w, harmonics: ns.harmonic_basis_into_parallel(
+            np.empty((2 * harmonics, n)), w_dt, tau0_w, harmonics)
+        ns.harmonic_basis_serial = lambda n, w_dt, tau0_w, harmonics: ns.harmonic_basis_into_serial(
+            np.empty((2 * harmonics, n)), w_dt, tau0_w, harmonics)
     return _COMPILED
 
 
