@@ -18,7 +18,6 @@ how far, in the unit a user reads (snapshot the old source tree, e.g.
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from collections import defaultdict
@@ -89,20 +88,9 @@ def compare(a_path: str, b_path: str) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    c = sub.add_parser("capture")
-    c.add_argument("out")
-    c.add_argument("--seeds", type=int, default=20)
-    c.add_argument("--only", help="comma-separated scenario names")
-    d = sub.add_parser("compare")
-    d.add_argument("before")
-    d.add_argument("after")
-    args = ap.parse_args()
-    if args.cmd == "capture":
-        capture(args.out, args.seeds, args.only.split(",") if args.only else None)
-    else:
-        compare(args.before, args.after)
+    from _paired import paired_main
+
+    paired_main(__doc__, capture, compare, seeds=20, only_help="comma-separated scenario names")
 
 
 if __name__ == "__main__":

@@ -21,7 +21,6 @@ below); snapshot the old source tree (``cp -r src /tmp/before_src``) before edit
 
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import time
@@ -151,20 +150,9 @@ def compare(a_path: str, b_path: str) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    sub = ap.add_subparsers(dest="cmd", required=True)
-    c = sub.add_parser("capture")
-    c.add_argument("out")
-    c.add_argument("--seeds", type=int, default=5)
-    c.add_argument("--only", help="comma-separated primary settings (the sine fits always run)")
-    d = sub.add_parser("compare")
-    d.add_argument("before")
-    d.add_argument("after")
-    args = ap.parse_args()
-    if args.cmd == "capture":
-        capture(args.out, args.seeds, args.only.split(",") if args.only else None)
-    else:
-        compare(args.before, args.after)
+    from _paired import paired_main
+
+    paired_main(__doc__, capture, compare, seeds=5, only_help="comma-separated primary settings (the sine fits always run)")
 
 
 if __name__ == "__main__":
