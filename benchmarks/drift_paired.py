@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import json
 import time
-from collections import defaultdict
 
 import numpy as np
 
@@ -56,17 +55,9 @@ def capture(out_path: str, seeds: int, only: list[str] | None) -> None:
 
 
 def compare(a_path: str, b_path: str) -> None:
-    with open(a_path) as fh:
-        A = json.load(fh)
-    with open(b_path) as fh:
-        B = json.load(fh)
-    if len(A) != len(B):
-        raise SystemExit(f"different numbers of fits: {len(A)} and {len(B)}; capture with the same seeds")
-    by = defaultdict(list)
-    for a, b in zip(A, B):
-        if a["scen"] != b["scen"]:
-            raise SystemExit("the captures do not list the same scenarios in the same order")
-        by[a["scen"]].append((a, b))
+    from _paired import load_pairs
+
+    by = load_pairs(a_path, b_path, "scenarios")
     print(f"{'scenario':22} {'n':>3} {'fin |db|/u':>10} {'mid |db|/u':>10} {'|du|/u':>8} {'lvl |dv|/u':>10} "
           f"{'|dlnL|':>8} {'sel':>4} {'warn':>4} {'identical':>9}")
     for s, pairs in by.items():

@@ -24,7 +24,6 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections import defaultdict
 
 import numpy as np
 
@@ -114,17 +113,9 @@ def capture(out_path: str, seeds: int, only: list[str] | None = None) -> None:
 
 
 def compare(a_path: str, b_path: str) -> None:
-    with open(a_path) as fh:
-        A = json.load(fh)
-    with open(b_path) as fh:
-        B = json.load(fh)
-    if len(A) != len(B):
-        raise SystemExit(f"different numbers of results: {len(A)} and {len(B)}; capture with the same seeds")
-    by = defaultdict(list)
-    for a, b in zip(A, B):
-        if a["scen"] != b["scen"]:
-            raise SystemExit("the captures do not list the same settings in the same order")
-        by[a["scen"]].append((a, b))
+    from _paired import load_pairs
+
+    by = load_pairs(a_path, b_path, "settings")
     print("| setting | n | max abs(change)/u | max abs(change of u)/u | warnings or model changed |")
     print("|---|---|---|---|---|")
     worst = 0.0
