@@ -385,6 +385,31 @@ def _lag_warnings(noise: Sequence[NoiseParameter]) -> list[str]:
         "give the lag (a model file, lag: SECONDS), or use a longer record with faster covariate changes"))]
 
 
+def _estimate(setup: DriftSetup, m, yy: np.ndarray, method: str, window: int | None):
+    """Run model ``m`` of ``setup`` over ``yy`` as the job does: filter, then smooth per ``method``.
+
+    Returns
+    -------
+    (r, e, bias, bias_var)
+        The filter result (its ``loglik``), the estimate used (filtered or
+        smoothed; states ``e.x`` and covariances ``e.P``), and the channel
+        biases (mc, T) with their variances [unit], [unit^2].
+    """
+    r = kalman_filter(m, yy)
+    e = (rts_smoother(m, r) if method == "smoother" else
+         fixed_lag_smoother(m, r, int(window)) if method == "window" else r)
+    H = np.broadcast_to(m.H, (yy.shape[1],) + m.H.shape[-2:]) if m.H.ndim == 2 else m.H
+    b, bv = channel_bias(setup, H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))
+    return r, e, b, bv
+
+
+def _likelihood_weights(ll: np.ndarray) -> np.ndarray:
+    """Normalised weights ``exp(ln L_i - max ln L)``, those below :data:`_LAG_NEGLIGIBLE` nats set to 0."""
+    w = np.exp(ll - ll.max())
+    w[ll < ll.max() - _LAG_NEGLIGIBLE] = 0.0
+    return w / w.sum()
+
+
 #: Lags averaged over: from a third of a sample to a third of the record,
 #: log-spaced (a thermal lag is seconds to minutes; below a sample the lag is
 #: invisible, above a third of the record it trades with the quantity).
@@ -453,9 +478,7 @@ def _lag_average(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, float],
         if not np.all(np.isfinite(ll)):
             return plain
         lg = ll[1:]
-        w = np.exp(lg - lg.max())
-        w[lg < lg.max() - _LAG_NEGLIGIBLE] = 0.0
-        w /= w.sum()
+        w = _likelihood_weights(lg)
         sx = np.zeros(x.shape)
         sxx = np.zeros(x.shape)
         sb = np.zeros(bias.shape)
@@ -463,12 +486,8 @@ def _lag_average(setup: DriftSetup, dt: np.ndarray, levels: Mapping[str, float],
         for L, wi in zip(grid, w):
             if wi == 0.0:
                 continue
-            m = augmented_model(lagged(L), dt, levels, cov, x0=x0, P0=P0)
-            r = kalman_filter(m, yy)
-            e = (rts_smoother(m, r) if method == "smoother" else
-                 fixed_lag_smoother(m, r, int(window)) if method == "window" else r)
-            H = np.broadcast_to(m.H, (yy.shape[1],) + m.H.shape[-2:]) if m.H.ndim == 2 else m.H
-            b_l, bv_l = channel_bias(lagged(L), H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))
+            _, e, b_l, bv_l = _estimate(lagged(L), augmented_model(lagged(L), dt, levels, cov, x0=x0, P0=P0), yy,
+                                        method, window)
             xs = np.asarray(e.x)
             sx += wi * xs
             sxx += wi * (xs**2 + np.asarray(e.std)**2)
@@ -591,9 +610,7 @@ def _tau_average(setup: DriftSetup, yy: np.ndarray, dt: np.ndarray, cov: Mapping
     # The prior is flat on ln tau over the range: an anchor outside it only started the walk.
     ll_in = np.where((taus >= lo * (1 - 1e-9)) & (taus <= hi * (1 + 1e-9)), ll, -np.inf) if len(ks) > 1 else ll
     i_best = int(np.argmax(ll_in))
-    w = np.exp(ll_in - ll_in.max())
-    w[ll_in < ll_in.max() - _LAG_NEGLIGIBLE] = 0.0
-    w /= w.sum()
+    w = _likelihood_weights(ll_in)
     k_best = ks[i_best]
     res = rerun(at(taus[i_best]), {n_: fits[k_best][1][n_] for n_ in free})
     info = {"asked": tau0, "most_likely": float(taus[i_best]), "taus": taus.tolist(), "weights": w.tolist(),
@@ -614,12 +631,8 @@ def _tau_average(setup: DriftSetup, yy: np.ndarray, dt: np.ndarray, cov: Mapping
             if wi == 0.0 and i != i_best:
                 continue
             s_ = at(taus[i])
-            m = augmented_model(s_, dt, fits[k][1], cov, x0=x0, P0=P0)
-            r = kalman_filter(m, yy)
-            e = (rts_smoother(m, r) if method == "smoother" else
-                 fixed_lag_smoother(m, r, int(window)) if method == "window" else r)
-            H = np.broadcast_to(m.H, (yy.shape[1],) + m.H.shape[-2:]) if m.H.ndim == 2 else m.H
-            b_i, bv_i = channel_bias(s_, H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))
+            _, e, b_i, bv_i = _estimate(s_, augmented_model(s_, dt, fits[k][1], cov, x0=x0, P0=P0), yy, method,
+                                        window)
             x_i, xv_i = np.asarray(e.x), np.asarray(e.std) ** 2
             if i == i_best:
                 star = (b_i, bv_i, x_i, xv_i)
@@ -752,7 +765,7 @@ _QUAD_POINTS = 17
 
 
 def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping[str, float], lcov: Mapping,
-                       method: str, window: int | None, Hb: np.ndarray, x: np.ndarray, P: np.ndarray,
+                       method: str, window: int | None, x: np.ndarray, P: np.ndarray,
                        bias: np.ndarray, bias_var: np.ndarray, quad: Mapping[str, float] | None = None,
                        loglik: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """What the noise levels' own uncertainty adds to the variance of the biases and states.
@@ -789,7 +802,7 @@ def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping
     Ps = np.diagonal(P, axis1=0, axis2=1).T  # (n, T)
     q_b, q_s = zero_b.copy(), zero_s.copy()
     for k, s0 in quad.items():
-        qb, qs = _level_quadrature(setup, build, yy, levels, k, s0, method, window, Hb, x, Ps, bias, bias_var,
+        qb, qs = _level_quadrature(setup, build, yy, levels, k, s0, method, window, x, Ps, bias, bias_var,
                                    loglik)
         q_b += qb
         q_s += qs
@@ -821,15 +834,10 @@ def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping
             for k, d in zip(names, a):
                 lv[k] = float(levels[k] * np.exp(sgn * d))
             try:
-                m = build(lv)
-                r = kalman_filter(m, yy)
-                e = (rts_smoother(m, r) if method == "smoother" else
-                     fixed_lag_smoother(m, r, int(window)) if method == "window" else r)
+                _, e, b, bv = _estimate(setup, build(lv), yy, method, window)
             except Exception:  # a level set the model refuses: this axis adds nothing
                 out = []
                 break
-            H = np.broadcast_to(m.H, Hb.shape) if m.H.ndim == 2 else m.H
-            b, bv = channel_bias(setup, H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))
             out.append((b, bv, e.x, np.diagonal(e.P, axis1=0, axis2=1).T))
         if len(out) != 2:
             continue
@@ -842,7 +850,7 @@ def _level_uncertainty(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping
 
 
 def _level_quadrature(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping[str, float], name: str,
-                      scale: float, method: str, window: int | None, Hb: np.ndarray, x: np.ndarray,
+                      scale: float, method: str, window: int | None, x: np.ndarray,
                       Ps: np.ndarray, bias: np.ndarray, bias_var: np.ndarray,
                       loglik: float | None) -> tuple[np.ndarray, np.ndarray]:
     """Variance added by a bias level the record does not bound away from zero.
@@ -884,12 +892,7 @@ def _level_quadrature(setup: DriftSetup, build, yy: np.ndarray, levels: Mapping[
             return zero
         out = []
         for v in np.linspace(0.0, hi, _QUAD_POINTS):
-            m = build({**levels, name: float(v)})
-            r = kalman_filter(m, yy)
-            e = (rts_smoother(m, r) if method == "smoother" else
-                 fixed_lag_smoother(m, r, int(window)) if method == "window" else r)
-            H = np.broadcast_to(m.H, Hb.shape) if m.H.ndim == 2 else m.H
-            b, bv = channel_bias(setup, H, np.moveaxis(e.x, -1, 0), np.moveaxis(e.P, -1, 0))
+            r, e, b, bv = _estimate(setup, build({**levels, name: float(v)}), yy, method, window)
             out.append((float(r.loglik), b, bv, e.x, np.diagonal(e.P, axis1=0, axis2=1).T))
     except Exception:  # a level the model refuses: the quadrature adds nothing
         return zero
@@ -1403,7 +1406,7 @@ def _correct_drift(setup, y, t, covariates, *, window, smooth, false_alarm_rate,
     extra_b, extra_s = 0.0, 0.0
     if level_u:
         # After the comparison: a model replaced by an alternative needs no band.
-        extra_b, extra_s = _level_uncertainty(setup, build, yy, levels, lcov, method, window, Hb, x, P, bias,
+        extra_b, extra_s = _level_uncertainty(setup, build, yy, levels, lcov, method, window, x, P, bias,
                                               bias_var, quad=_broad_bias_levels(setup, noise, first_start),
                                               loglik=float(res.loglik))
     if (compare and estimate) or _lag_check:
