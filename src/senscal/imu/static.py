@@ -33,9 +33,9 @@ from scipy.ndimage import uniform_filter1d
 from senscal._result import ResultMixin
 from senscal.diagnostics import named
 from senscal.errors import InputError
-from senscal.triaxial.static import StaticIntervals, detect_static
+from senscal.triaxial.static import StaticIntervals, detect_static, intervals_of, true_runs
 
-__all__ = ["PoseSweep", "GyroSplit", "sweep_static", "split_by_gyro", "MULTIPLES", "MIN_POSES", "GYRO_SIGMA"]
+__all__ = ["PoseSweep", "GyroSplit", "sweep_static", "split_by_gyro", "gyro_resolution", "MULTIPLES", "MIN_POSES", "GYRO_SIGMA"]
 
 #: Threshold multiples of the still variance tried (IMU-TK's 1 .. 10).
 MULTIPLES = tuple(float(m) for m in range(1, 11))
@@ -112,18 +112,15 @@ class GyroSplit(ResultMixin):
     short: tuple = ()
 
 
-def _intervals(x: np.ndarray, starts, stops, threshold: float, noise_variance: float) -> StaticIntervals:
-    starts = np.asarray(starts, int)
-    stops = np.asarray(stops, int)
-    means = np.array([x[:, a:b].mean(axis=1) for a, b in zip(starts, stops)]).T.reshape(3, -1)
-    stds = np.array([x[:, a:b].std(axis=1, ddof=1) for a, b in zip(starts, stops)]).T.reshape(3, -1)
-    return StaticIntervals(starts=starts, stops=stops, means=means, stds=stds, counts=stops - starts,
-                           threshold=threshold, noise_variance=noise_variance)
+def gyro_resolution(gyro: np.ndarray) -> np.ndarray:
+    """The smallest nonzero step between consecutive samples per axis, shape (3,) (gyro units; 0 if none)."""
+    steps = np.abs(np.diff(np.asarray(gyro, float), axis=1))
+    return np.array([float(np.min(r[r > 0])) if np.any(r > 0) else 0.0 for r in steps])
 
 
 def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: float, *,
                   window_s: float = GYRO_WINDOW_S, min_pose_s: float = 1.0, sigma: float = GYRO_SIGMA,
-                  accel_window_s: float = 1.0) -> GyroSplit:
+                  accel_window_s: float = 1.0, resolution: np.ndarray | None = None) -> GyroSplit:
     """Cut the accelerometer's still runs where the gyro moves (a turn about the vertical).
 
     Parameters
@@ -143,6 +140,8 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
     accel_window_s : float
         The accelerometer's moving-variance window, s: a run dropped for motion only within half of it from
         an end holds a rotation's tail, not a turn inside the pose (not named).
+    resolution : ndarray, shape (3,), optional
+        The gyro's resolution per axis (gyro units; default :func:`gyro_resolution` of ``gyro``).
 
     Returns
     -------
@@ -175,8 +174,7 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
     pooled = np.concatenate(devs, axis=1)
     # Floored at the gyro's resolution (its smallest step between samples): a gyro quieter than one count has
     # a median absolute deviation of 0, and one count's flip must not pass for a turn.
-    steps = np.abs(np.diff(g, axis=1))
-    lsb = np.array([float(np.min(r[r > 0])) if np.any(r > 0) else 0.0 for r in steps])
+    lsb = gyro_resolution(g) if resolution is None else np.asarray(resolution, float)
     scale = np.maximum(stats.norm.ppf(0.75) ** -1 * np.median(np.abs(pooled), axis=1), np.maximum(lsb, 1e-300))
     starts, stops, unsplit, short = [], [], [], []
     n_split = trimmed = 0
@@ -193,8 +191,7 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
         np.add.at(grow, np.clip(idx - half, 0, b - a), 1)
         np.add.at(grow, np.clip(idx + half + 1, 0, b - a), -1)
         still = np.cumsum(grow)[:-1] == 0
-        edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(np.int8), [0]])))
-        pieces = [(a + p, a + q) for p, q in zip(edges[0::2], edges[1::2]) if q - p >= n_min]
+        pieces = [(a + p, a + q) for p, q in zip(*true_runs(still)) if q - p >= n_min]
         if not pieces:
             if np.any((idx >= edge) & (idx < b - a - edge)):
                 # Moving farther inside than the accelerometer's half window reaches: a turn it cannot see,
@@ -212,7 +209,7 @@ def split_by_gyro(accel: np.ndarray, gyro: np.ndarray, st: StaticIntervals, fs: 
         for p, q in pieces:
             starts.append(p)
             stops.append(q)
-    out = _intervals(np.asarray(accel, float), starts, stops, st.threshold, st.noise_variance)
+    out = intervals_of(np.asarray(accel, float), starts, stops, st.threshold, st.noise_variance)
     return GyroSplit(static=out, n_split=n_split, unsplit=tuple(unsplit), trimmed=trimmed, scale=scale,
                      short=tuple(short))
 
@@ -265,6 +262,7 @@ def sweep_static(accel: np.ndarray, fs: float, gravity_of, *, window_s: float = 
     else:
         ref = None
     tried = []
+    lsb = None if gyro is None else gyro_resolution(gyro)  # the same at every multiple
     best = None
     most = 0
     for m in multiples:
@@ -275,7 +273,7 @@ def sweep_static(accel: np.ndarray, fs: float, gravity_of, *, window_s: float = 
         st = detect_static(x, fs, window_s=window_s, min_duration_s=min_pose_s, threshold=thr)
         gs = None
         if gyro is not None:
-            gs = split_by_gyro(x, gyro, st, fs, min_pose_s=min_pose_s, accel_window_s=window_s)
+            gs = split_by_gyro(x, gyro, st, fs, min_pose_s=min_pose_s, accel_window_s=window_s, resolution=lsb)
             st = gs.static
         most = max(most, st.n_poses)
         rms = float(gravity_of(st.means)) if st.n_poses >= min_poses else math.nan

@@ -15,7 +15,7 @@ from scipy.ndimage import uniform_filter1d
 from senscal._result import ResultMixin
 from senscal.errors import InputError, TooFewSamplesError
 
-__all__ = ["StaticIntervals", "detect_static"]
+__all__ = ["StaticIntervals", "detect_static", "true_runs", "intervals_of"]
 
 
 @dataclass(frozen=True)
@@ -95,11 +95,25 @@ def detect_static(x: np.ndarray, fs: float, *, window_s: float = 0.5, min_durati
     still = var <= thr
     # Runs of still window centres: each centre's whole window is still, so the
     # run itself stays half a window clear of the moving segments.
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(np.int8), [0]])))
-    starts, stops = edges[0::2], edges[1::2]
+    starts, stops = true_runs(still)
     keep = (stops - starts) >= max(int(round(min_duration_s * fs)), 2)
-    starts, stops = starts[keep], stops[keep]
+    return intervals_of(x, starts[keep], stops[keep], thr, ref)
+
+
+def true_runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Start and stop indices (stop exclusive) of the runs of True in a boolean vector."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], np.asarray(mask).astype(np.int8), [0]])))
+    return edges[0::2], edges[1::2]
+
+
+def intervals_of(x: np.ndarray, starts, stops, threshold: float, noise_variance: float) -> StaticIntervals:
+    """The still intervals ``[starts, stops)`` of ``x`` (3, N) with their means, standard deviations and counts.
+
+    ``threshold`` and ``noise_variance`` (sensor units squared) are recorded as the detector's.
+    """
+    starts = np.asarray(starts, int)
+    stops = np.asarray(stops, int)
     means = np.array([x[:, a:b].mean(axis=1) for a, b in zip(starts, stops)]).T.reshape(3, -1)
     stds = np.array([x[:, a:b].std(axis=1, ddof=1) for a, b in zip(starts, stops)]).T.reshape(3, -1)
     return StaticIntervals(starts=starts, stops=stops, means=means, stds=stds, counts=stops - starts,
-                           threshold=thr, noise_variance=ref)
+                           threshold=threshold, noise_variance=noise_variance)
