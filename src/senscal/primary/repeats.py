@@ -28,12 +28,6 @@ REPEAT_ALPHA = 0.01
 _VARYING = ("displacement_fit", "output_fit", "unmodelled_slices", "heydemann", "frequency", "other")
 
 
-def _chi2(values: np.ndarray, u: np.ndarray) -> float:
-    w = 1.0 / (u * u)
-    mean = float(np.sum(w * values) / np.sum(w))
-    return float(np.sum(w * (values - mean) ** 2))
-
-
 def repeat_warnings(points, rel_tol: float = 1e-6) -> tuple[str, ...]:
     """Named warnings for points repeated at one frequency that disagree beyond their varying u.
 
@@ -51,7 +45,7 @@ def repeat_warnings(points, rel_tol: float = 1e-6) -> tuple[str, ...]:
         (magnitude relative to their weighted mean, phase in deg; each at ``REPEAT_ALPHA / 2``, ``k - 1``
         degrees of freedom) with the u of the components that vary between mountings (:data:`_VARYING`).
     """
-    from scipy.stats import chi2
+    from senscal.consistency import block_consistency
 
     pts = sorted(points, key=lambda p: p.frequency_hz)
     groups: list[list] = []
@@ -73,11 +67,15 @@ def repeat_warnings(points, rel_tol: float = 1e-6) -> tuple[str, ...]:
         if not (np.all(u_rel > 0) and np.all(u_ph > 0) and np.all(np.isfinite(s)) and np.all(s != 0)):
             continue
         ref = float(np.mean(s))
-        lim = float(chi2.ppf(1.0 - REPEAT_ALPHA / 2, k - 1))
-        c_s = _chi2(s / ref, u_rel)
-        # phases of one frequency sit within a degree of each other; unwrap about the first
-        c_p = _chi2(g[0].phase_deg + ((ph - g[0].phase_deg + 180.0) % 360.0 - 180.0), u_ph)
-        if c_s > lim or c_p > lim:
+        # The weighted-mean chi-square test of the block refits, each repeat a block (magnitude relative to
+        # the mean; phase in rad, unwrapped about the first), at REPEAT_ALPHA over the two quantities.
+        rad = np.radians(ph)
+        test = block_consistency(lambda i: {"magnitude": (s[i[0]] / ref, u_rel[i[0]]),
+                                            "phase": (rad[i[0]], math.radians(u_ph[i[0]]))},
+                                 [np.array([i]) for i in range(k)], alpha=REPEAT_ALPHA, circular=("phase",))
+        chi = {q.name: q.chi2 for q in test.quantities}
+        c_s, c_p = chi.get("magnitude", math.nan), chi.get("phase", math.nan)
+        if not test.consistent:
             spread_rel = float(np.std(s, ddof=1) / abs(ref))
             spread_ph = float(np.std(ph, ddof=1))
             out.append(named("mounting-repeats-disagree", (
