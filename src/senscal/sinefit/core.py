@@ -449,6 +449,21 @@ def _check_rank(s: np.ndarray) -> None:
         )
 
 
+def _design_rows(n: int, dt: float, tau0: float, w: float, harmonics: int, drift: bool) -> np.ndarray:
+    """The uniform fit's design as rows, shape (2K + 1 + drift, n): sin and cos of each harmonic (the
+    compiled rotation), the constant, and with ``drift`` the centred time ``tau0 + i dt`` [s]."""
+    from senscal.sinefit import _kernels as kern
+
+    nb_ = 2 * harmonics
+    rows = np.empty((nb_ + 1 + int(drift), n))
+    kern.harmonic_basis(n, w * dt, w * tau0, harmonics, out=rows)
+    rows[nb_] = 1.0
+    if drift:
+        np.multiply(np.arange(n), dt, out=rows[nb_ + 1])
+        rows[nb_ + 1] += tau0
+    return rows
+
+
 def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harmonics: int, drift: bool):
     """Known frequency, uniform time, no weights: the one-pass path (compiled for large records)."""
     from senscal.sinefit import _kernels as kern
@@ -464,14 +479,9 @@ def _fast_uniform(y2: np.ndarray, n: int, dt: float, tau0: float, w: float, harm
         gram = kern.gram_rotated(n, w * dt, w * tau0)
     else:
         # The design's rows (basis, constant, centred time) in one array, returned for the residual tests.
-        rows = np.empty((p, n))
-        basis = kern.harmonic_basis(n, w * dt, w * tau0, harmonics, out=rows)[:nb_]
-        rows[nb_] = 1.0
-        tau = np.empty(0)
-        if drift:
-            tau = rows[nb_ + 1]
-            np.multiply(np.arange(n), dt, out=tau)
-            tau += tau0
+        rows = _design_rows(n, dt, tau0, w, harmonics, drift)
+        basis = rows[:nb_]
+        tau = rows[nb_ + 1] if drift else np.empty(0)
         gram = np.empty((p, p))
         gram[:nb_, :nb_] = basis @ basis.T
         gram[:nb_, nb_] = gram[nb_, :nb_] = basis.sum(axis=1)
@@ -944,14 +954,9 @@ def fit_sine(y, t=None, *, fs: float | None = None, freq: float | None = None, h
             def fast_rows():
                 """The design as contiguous rows (p, N), from the pass's own basis: no second set of sines."""
                 if not a_fast:
-                    from senscal.sinefit import _kernels as kern
-
-                    rows = fast_design
-                    if rows is None:  # the fundamental's pass generated its basis on the fly
-                        rows = np.empty((p, n))
-                        kern.harmonic_basis(n, w * dt, w * tau0, harmonics, out=rows)
-                        rows[2 * harmonics] = 1.0
-                    a_fast.append(rows)
+                    # the fundamental's pass generated its basis on the fly: built here once
+                    a_fast.append(fast_design if fast_design is not None else
+                                  _design_rows(n, dt, tau0, w, harmonics, drift))
                 return a_fast[0]
 
             def explicit(i):
