@@ -147,3 +147,15 @@ def test_rotation_tail_dropped_unnamed():
     gs = split_by_gyro(a, g, st, 100.0)
     assert gs.short and not gs.unsplit
     assert gs.static.n_poses == st.n_poses - len(gs.short)
+
+
+@pytest.mark.parametrize("args, text", [
+    (["--yaw-poses", "99"], "--yaw-poses must lie in 0..--poses"),
+    (["--yaw-poses", "2", "--yaw-deg", "nan"], "--yaw-deg be finite"),
+    (["--yaw-poses", "2", "--yaw-hold", "-1"], "--yaw-hold a positive number"),
+    (["--table-temperature-end", "30"], "--table-temperature-end needs --rate-table and --temperature"),
+])
+def test_simulator_departure_options_refused_in_one_line(cli, tmp_path, args, text):
+    r = cli("simulate", "imu", "--out", tmp_path / "sim", *args)
+    assert r.code == 2 and len(r.err.strip().splitlines()) == 1 and text in r.err and "Traceback" not in r.err, r.err
+    assert not (tmp_path / "sim").exists() or not any((tmp_path / "sim").iterdir())
